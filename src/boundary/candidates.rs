@@ -1,0 +1,115 @@
+//! Per-cell candidate colliders, from rapier's broad-phase BVH.
+
+use crate::math::{Real, Vector};
+use crate::neighbors::NeighborGrid;
+use parry3d::bounding_volume::{Aabb, BoundingVolume};
+use parry3d::partitioning::{Bvh, BvhNode};
+use rapier3d::geometry::{ColliderHandle, ColliderSet, InteractionGroups};
+#[cfg(feature = "parallel")]
+use rayon::prelude::*;
+
+/// Cells per work item when looking up candidates.
+const CELL_CHUNK: usize = 64;
+
+#[derive(Clone, Debug, Default)]
+struct Chunk {
+    offsets: Vec<u32>,
+    handles: Vec<ColliderHandle>,
+}
+
+/// For each occupied cell, the colliders its particles may touch during the step.
+#[derive(Clone, Debug, Default)]
+pub struct ContactWorkspace {
+    chunks: Vec<Chunk>,
+    any: bool,
+}
+
+impl ContactWorkspace {
+    /// Finds the candidate colliders of every cell of `grid`. `previous` and `positions` are
+    /// the particles' positions at the start and end of the step; `radius` the contact radius.
+    #[allow(clippy::too_many_arguments)]
+    pub fn gather(
+        &mut self,
+        grid: &NeighborGrid,
+        previous: &[Vector],
+        positions: &[Vector],
+        radius: Real,
+        bvh: &Bvh,
+        colliders: &ColliderSet,
+        groups: InteractionGroups,
+    ) {
+        let n_cells = grid.num_cells();
+        self.chunks
+            .resize_with(n_cells.div_ceil(CELL_CHUNK), Chunk::default);
+        let margin = radius * 1.01 + 1e-6;
+        let found = crate::par_iter_mut!(self.chunks)
+            .enumerate()
+            .map(|(c, chunk)| {
+                chunk.offsets.clear();
+                chunk.handles.clear();
+                chunk.offsets.push(0);
+                let start = c * CELL_CHUNK;
+                let end = (start + CELL_CHUNK).min(n_cells);
+                for cell in start..end {
+                    let (s, e) = grid.cell_range(cell as u32);
+                    let mut mins = Vector::splat(Real::MAX);
+                    let mut maxs = Vector::splat(Real::MIN);
+                    for i in s as usize..e as usize {
+                        mins = mins.min(previous[i]).min(positions[i]);
+                        maxs = maxs.max(previous[i]).max(positions[i]);
+                    }
+                    // Non-finite particles give a NaN box: it overlaps nothing, and those
+                    // particles are counted and reported by the particle update.
+                    let aabb = Aabb::new(mins, maxs).loosened(margin);
+                    for leaf in bvh.leaves(|node: &BvhNode| node.aabb().intersects(&aabb)) {
+                        if let Some((co, handle)) = colliders.get_unknown_gen(leaf)
+                            && co.is_enabled()
+                            && !co.is_sensor()
+                            && groups.test(co.collision_groups())
+                        {
+                            chunk.handles.push(handle);
+                        }
+                    }
+                    chunk.offsets.push(chunk.handles.len() as u32);
+                }
+                !chunk.handles.is_empty()
+            });
+        #[cfg(feature = "parallel")]
+        let any = rayon::iter::ParallelIterator::reduce(found, || false, |a, b| a || b);
+        #[cfg(not(feature = "parallel"))]
+        let any = found.fold(false, |a, b| a || b);
+        self.any = any;
+    }
+
+    /// Forgets every candidate (a scene with no collider).
+    pub fn clear(&mut self) {
+        self.chunks.clear();
+        self.any = false;
+    }
+
+    /// `true` when at least one cell has a candidate collider.
+    pub fn any(&self) -> bool {
+        self.any
+    }
+
+    /// Candidate colliders of cell `cell`.
+    #[inline]
+    pub fn of_cell(&self, cell: u32) -> &[ColliderHandle] {
+        let cell = cell as usize;
+        let chunk = &self.chunks[cell / CELL_CHUNK];
+        let k = cell % CELL_CHUNK;
+        &chunk.handles[chunk.offsets[k] as usize..chunk.offsets[k + 1] as usize]
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        self.chunks
+            .iter()
+            .map(|c| {
+                c.offsets.capacity() * 4
+                    + c.handles.capacity() * std::mem::size_of::<ColliderHandle>()
+            })
+            .sum::<usize>()
+            + self.chunks.capacity() * std::mem::size_of::<Chunk>()
+    }
+}

@@ -1,0 +1,72 @@
+//! Typed errors. The library never panics on user input: every bad value is reported here.
+
+use std::fmt;
+
+/// Everything that can go wrong when building parameters, adding particles or stepping.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum SphError {
+    /// A parameter is NaN, infinite, out of range, or inconsistent with another one.
+    InvalidParameter {
+        /// The parameter's field name, e.g. `"smoothing_length"`.
+        field: &'static str,
+        /// The offending value, as given.
+        value: f64,
+        /// Why it was refused.
+        reason: &'static str,
+    },
+    /// A particle given to the library has a non-finite position or velocity.
+    InvalidParticle {
+        /// The index of the particle in the slice that was given.
+        index: usize,
+        /// Why it was refused.
+        reason: &'static str,
+    },
+    /// The time step is NaN, infinite, zero or negative.
+    InvalidTimeStep {
+        /// The time step that was given.
+        dt: f64,
+    },
+    /// A handle does not name a live fluid of this set.
+    UnknownFluid,
+    /// The rapier broad-phase holds no collider although the collider set is not empty.
+    ///
+    /// Collider contact finds colliders through rapier's broad-phase BVH, which rapier fills
+    /// when it steps. Step the rapier world (or `FluidWorld`, which does it for you) at least
+    /// once after inserting colliders, before stepping the fluid.
+    BroadPhaseNotUpdated {
+        /// Number of colliders in the `ColliderSet`.
+        colliders: usize,
+    },
+}
+
+impl fmt::Display for SphError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SphError::InvalidParameter {
+                field,
+                value,
+                reason,
+            } => {
+                write!(f, "invalid parameter `{field}` = {value}: {reason}")
+            }
+            SphError::InvalidParticle { index, reason } => {
+                write!(f, "invalid particle #{index}: {reason}")
+            }
+            SphError::InvalidTimeStep { dt } => {
+                write!(f, "invalid time step {dt}: it must be finite and positive")
+            }
+            SphError::UnknownFluid => write!(f, "the fluid handle does not name a live fluid"),
+            SphError::BroadPhaseNotUpdated { colliders } => write!(
+                f,
+                "the rapier broad-phase is empty but the collider set holds {colliders} colliders: \
+                 step the rapier world once after inserting colliders"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for SphError {}
+
+/// Shorthand for results of this crate.
+pub type SphResult<T> = Result<T, SphError>;

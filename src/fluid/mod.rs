@@ -1,0 +1,306 @@
+//! Fluids: particles stored as structure of arrays, and the set that holds several fluids.
+
+mod fluid_set;
+
+pub use fluid_set::{FluidHandle, FluidSet};
+
+use crate::boundary::ContactWorkspace;
+use crate::error::{SphError, SphResult};
+use crate::math::{Real, Vector, is_finite};
+use crate::neighbors::{NeighborGrid, NeighborLists};
+use crate::params::FluidParams;
+
+/// Scratch state a fluid keeps between steps so that the step never allocates once warm.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Workspace {
+    pub grid: NeighborGrid,
+    pub neighbors: NeighborLists,
+    pub contact: ContactWorkspace,
+    /// Positions at the start of the current step (written by the particle update, swept
+    /// from by collider contact).
+    pub previous_positions: Vec<Vector>,
+    pub scratch_vectors: Vec<Vector>,
+    pub scratch_ids: Vec<u32>,
+    /// Per-chunk partial sums for diagnostics (summed serially, so results are deterministic).
+    pub partials: Vec<(f64, Real)>,
+}
+
+/// One fluid: its parameters and its particles, one `Vec` per attribute.
+///
+/// Particles are re-sorted by grid cell at every step, so a particle's index changes from
+/// step to step; [`Fluid::ids`] gives each particle a stable identifier. All attribute
+/// slices share the same order.
+#[derive(Clone, Debug)]
+pub struct Fluid {
+    params: FluidParams,
+    pub(crate) positions: Vec<Vector>,
+    pub(crate) velocities: Vec<Vector>,
+    pub(crate) accelerations: Vec<Vector>,
+    pub(crate) densities: Vec<Real>,
+    pub(crate) pressures: Vec<Real>,
+    pub(crate) ids: Vec<u32>,
+    next_id: u32,
+    /// Set when particles were added: the next contact stage first pushes particles that
+    /// start inside a solid out through its nearest surface.
+    pub(crate) needs_depenetration: bool,
+    pub(crate) workspace: Workspace,
+}
+
+impl Fluid {
+    /// An empty fluid. The parameters are validated again here.
+    pub fn new(params: FluidParams) -> SphResult<Self> {
+        params.validate()?;
+        Ok(Self {
+            params,
+            positions: Vec::new(),
+            velocities: Vec::new(),
+            accelerations: Vec::new(),
+            densities: Vec::new(),
+            pressures: Vec::new(),
+            ids: Vec::new(),
+            next_id: 0,
+            needs_depenetration: false,
+            workspace: Workspace::default(),
+        })
+    }
+
+    /// The fluid's parameters.
+    pub fn params(&self) -> &FluidParams {
+        &self.params
+    }
+
+    /// Replaces the parameters (validated), e.g. to change the rest density mid-run as the
+    /// paper's Figure 8 does.
+    pub fn set_params(&mut self, params: FluidParams) -> SphResult<()> {
+        params.validate()?;
+        self.params = params;
+        Ok(())
+    }
+
+    /// Adds particles at rest. Returns the range of their ids. Refuses non-finite positions
+    /// with [`SphError::InvalidParticle`] (and then adds nothing).
+    pub fn add_particles(&mut self, positions: &[Vector]) -> SphResult<std::ops::Range<u32>> {
+        self.add_particles_with_velocities(positions, None)
+    }
+
+    /// Adds particles with initial velocities (`velocities.len()` must equal
+    /// `positions.len()`). Returns the range of their ids.
+    pub fn add_particles_with_velocities(
+        &mut self,
+        positions: &[Vector],
+        velocities: Option<&[Vector]>,
+    ) -> SphResult<std::ops::Range<u32>> {
+        if let Some(v) = velocities
+            && v.len() != positions.len()
+        {
+            return Err(SphError::InvalidParticle {
+                index: v.len().min(positions.len()),
+                reason: "positions and velocities differ in length",
+            });
+        }
+        for (index, p) in positions.iter().enumerate() {
+            if !is_finite(*p) {
+                return Err(SphError::InvalidParticle {
+                    index,
+                    reason: "position is not finite",
+                });
+            }
+            if p.abs().max_element() > 1.0e7 {
+                return Err(SphError::InvalidParticle {
+                    index,
+                    reason: "position beyond 10,000 km: single precision cannot resolve particle spacing there",
+                });
+            }
+        }
+        if let Some(v) = velocities {
+            for (index, v) in v.iter().enumerate() {
+                if !is_finite(*v) {
+                    return Err(SphError::InvalidParticle {
+                        index,
+                        reason: "velocity is not finite",
+                    });
+                }
+            }
+        }
+        let count = positions.len() as u32;
+        let Some(end) = self.next_id.checked_add(count) else {
+            return Err(SphError::InvalidParticle {
+                index: 0,
+                reason: "more than 2^32 particles added over the fluid's life",
+            });
+        };
+        let start = self.next_id;
+        self.positions.extend_from_slice(positions);
+        match velocities {
+            Some(v) => self.velocities.extend_from_slice(v),
+            None => self.velocities.resize(self.positions.len(), Vector::ZERO),
+        }
+        self.ids.extend(start..end);
+        self.next_id = end;
+        let n = self.positions.len();
+        self.accelerations.resize(n, Vector::ZERO);
+        self.densities.resize(n, self.params.rest_density);
+        self.pressures.resize(n, 0.0);
+        self.needs_depenetration = true;
+        Ok(start..end)
+    }
+
+    /// Fills the box `[min, min + size)` with particles on a cubic lattice at the fluid's
+    /// particle spacing (the first particle half a spacing inside `min`). Returns the ids.
+    pub fn add_block(&mut self, min: Vector, size: Vector) -> SphResult<std::ops::Range<u32>> {
+        if !is_finite(min) || !is_finite(size) || size.min_element() <= 0.0 {
+            return Err(SphError::InvalidParameter {
+                field: "size",
+                value: size.min_element() as f64,
+                reason: "a block needs a finite origin and positive finite size",
+            });
+        }
+        let s = self.params.particle_spacing;
+        let counts = (size / s).floor().max(Vector::ONE);
+        let points = lattice(
+            min + Vector::splat(0.5 * s),
+            counts.x as usize,
+            counts.y as usize,
+            counts.z as usize,
+            s,
+        );
+        self.add_particles(&points)
+    }
+
+    /// Removes every particle for which `remove(position, velocity, id)` is true. Returns how
+    /// many were removed. (Sinks use this; nothing else removes particles.)
+    pub fn remove_particles_where(
+        &mut self,
+        mut remove: impl FnMut(Vector, Vector, u32) -> bool,
+    ) -> usize {
+        let n = self.positions.len();
+        let mut w = 0;
+        for r in 0..n {
+            if !remove(self.positions[r], self.velocities[r], self.ids[r]) {
+                self.positions[w] = self.positions[r];
+                self.velocities[w] = self.velocities[r];
+                self.ids[w] = self.ids[r];
+                self.accelerations[w] = self.accelerations[r];
+                self.densities[w] = self.densities[r];
+                self.pressures[w] = self.pressures[r];
+                w += 1;
+            }
+        }
+        for v in [
+            &mut self.positions,
+            &mut self.velocities,
+            &mut self.accelerations,
+        ] {
+            v.truncate(w);
+        }
+        self.ids.truncate(w);
+        self.densities.truncate(w);
+        self.pressures.truncate(w);
+        n - w
+    }
+
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// `true` when the fluid has no particle.
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// Particle positions (m).
+    pub fn positions(&self) -> &[Vector] {
+        &self.positions
+    }
+
+    /// Particle velocities (m/s).
+    pub fn velocities(&self) -> &[Vector] {
+        &self.velocities
+    }
+
+    /// Mutable velocities, to kick particles from game code.
+    pub fn velocities_mut(&mut self) -> &mut [Vector] {
+        &mut self.velocities
+    }
+
+    /// Densities computed by the last step (kg/m³).
+    pub fn densities(&self) -> &[Real] {
+        &self.densities
+    }
+
+    /// Pressures computed by the last step (Pa).
+    pub fn pressures(&self) -> &[Real] {
+        &self.pressures
+    }
+
+    /// Accelerations of the last step (m/s²), all forces included.
+    pub fn accelerations(&self) -> &[Vector] {
+        &self.accelerations
+    }
+
+    /// Stable particle identifiers (the order of every attribute slice changes each step).
+    pub fn ids(&self) -> &[u32] {
+        &self.ids
+    }
+
+    /// Neighbour lists of the last step (indices into the current order).
+    pub fn neighbor_lists(&self) -> &NeighborLists {
+        &self.workspace.neighbors
+    }
+
+    /// Total mass (kg): particle count times particle mass.
+    pub fn total_mass(&self) -> Real {
+        self.len() as Real * self.params.particle_mass
+    }
+
+    /// Total linear momentum (kg·m/s), summed in f64.
+    pub fn linear_momentum(&self) -> [f64; 3] {
+        let m = self.params.particle_mass as f64;
+        let mut p = [0.0f64; 3];
+        for v in &self.velocities {
+            p[0] += m * v.x as f64;
+            p[1] += m * v.y as f64;
+            p[2] += m * v.z as f64;
+        }
+        p
+    }
+
+    /// Total kinetic energy (J), summed in f64.
+    pub fn kinetic_energy(&self) -> f64 {
+        let m = self.params.particle_mass as f64;
+        self.velocities
+            .iter()
+            .map(|v| 0.5 * m * v.length_squared() as f64)
+            .sum()
+    }
+
+    /// Heap bytes held by the fluid's particle arrays and workspace.
+    pub fn heap_bytes(&self) -> usize {
+        let v = std::mem::size_of::<Vector>();
+        let ws = &self.workspace;
+        (self.positions.capacity() + self.velocities.capacity() + self.accelerations.capacity()) * v
+            + (self.densities.capacity() + self.pressures.capacity()) * 4
+            + self.ids.capacity() * 4
+            + ws.grid.heap_bytes()
+            + ws.neighbors.heap_bytes()
+            + ws.contact.heap_bytes()
+            + (ws.previous_positions.capacity() + ws.scratch_vectors.capacity()) * v
+            + ws.scratch_ids.capacity() * 4
+            + ws.partials.capacity() * std::mem::size_of::<(f64, Real)>()
+    }
+}
+
+/// Points of an `nx × ny × nz` cubic lattice with spacing `s` starting at `origin`,
+/// x fastest.
+pub fn lattice(origin: Vector, nx: usize, ny: usize, nz: usize, s: Real) -> Vec<Vector> {
+    let mut out = Vec::with_capacity(nx * ny * nz);
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                out.push(origin + Vector::new(i as Real, j as Real, k as Real) * s);
+            }
+        }
+    }
+    out
+}

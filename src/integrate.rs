@@ -1,0 +1,61 @@
+//! Stage 7: symplectic Euler (the Unity paper's eqs. 7–8): velocity first, then position with
+//! the new velocity. The positions at the start of the step are kept for collider contact,
+//! which sweeps every particle's motion.
+
+use crate::math::{Real, Vector, is_finite};
+use crate::par::CHUNK;
+#[cfg(feature = "parallel")]
+use rayon::prelude::*;
+
+/// `v += a·dt`, `previous = x`, `x += v·dt`. Returns the number of particles whose new state
+/// is not finite, and the largest speed.
+pub fn symplectic_euler(
+    dt: Real,
+    accelerations: &[Vector],
+    velocities: &mut [Vector],
+    positions: &mut [Vector],
+    previous: &mut [Vector],
+) -> (usize, Real) {
+    let chunks = crate::par_chunks_mut!(positions, CHUNK)
+        .zip(crate::par_chunks_mut!(velocities, CHUNK))
+        .zip(crate::par_chunks_mut!(previous, CHUNK))
+        .enumerate()
+        .map(|(c, ((x, v), prev))| {
+            let base = c * CHUNK;
+            let mut bad = 0usize;
+            let mut vmax2: Real = 0.0;
+            for k in 0..x.len() {
+                prev[k] = x[k];
+                v[k] += accelerations[base + k] * dt;
+                x[k] += v[k] * dt;
+                if !is_finite(x[k]) || !is_finite(v[k]) {
+                    bad += 1;
+                } else {
+                    vmax2 = vmax2.max(v[k].length_squared());
+                }
+            }
+            (bad, vmax2)
+        });
+    let (bad, vmax2) = chunks.reduce_with_identity();
+    (bad, vmax2.sqrt())
+}
+
+/// Reduces `(count, max)` pairs; both operations are exact, so the result does not depend on
+/// the order of reduction.
+trait ReduceCountMax {
+    fn reduce_with_identity(self) -> (usize, Real);
+}
+
+#[cfg(feature = "parallel")]
+impl<I: rayon::iter::ParallelIterator<Item = (usize, Real)>> ReduceCountMax for I {
+    fn reduce_with_identity(self) -> (usize, Real) {
+        self.reduce(|| (0, 0.0), |a, b| (a.0 + b.0, a.1.max(b.1)))
+    }
+}
+
+#[cfg(not(feature = "parallel"))]
+impl<I: Iterator<Item = (usize, Real)>> ReduceCountMax for I {
+    fn reduce_with_identity(self) -> (usize, Real) {
+        self.fold((0, 0.0), |a, b| (a.0 + b.0, a.1.max(b.1)))
+    }
+}

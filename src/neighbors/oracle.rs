@@ -1,0 +1,21 @@
+//! The brute-force O(n²) neighbour search, kept as the reference the grid is tested against.
+
+use crate::math::{Real, Vector};
+
+/// For every particle, the sorted indices of the other particles closer than `h`
+/// (same distance test as the grid: `|x_i − x_j|² < h²` in `Real`).
+pub fn brute_force_neighbors(positions: &[Vector], h: Real) -> Vec<Vec<u32>> {
+    let h2 = h * h;
+    positions
+        .iter()
+        .enumerate()
+        .map(|(i, &xi)| {
+            positions
+                .iter()
+                .enumerate()
+                .filter(|&(j, &xj)| j != i && (xi - xj).length_squared() < h2)
+                .map(|(j, _)| j as u32)
+                .collect()
+        })
+        .collect()
+}

@@ -1,0 +1,443 @@
+//! Fluid parameters: physical constants, kernels and contact response, with units and defaults.
+//!
+//! Build them with [`FluidParamsBuilder`]; [`FluidParamsBuilder::build`] validates every field
+//! and returns a typed [`SphError`] naming the field at fault. Two presets exist:
+//!
+//! - [`FluidParamsBuilder::water`]: SI water (1000 kg/m³) at a particle spacing you choose.
+//! - [`FluidParamsBuilder::paper`]: the Unity paper's unit-mass setup (mass 1, ρ0 = 8, k = 3,
+//!   ε = 0.02, h = 0.4, particle size 0.2) with its tuned density kernel, to reproduce its scenes.
+
+use crate::error::{SphError, SphResult};
+use crate::kernel::KernelKind;
+use crate::math::Real;
+use rapier3d::geometry::InteractionGroups;
+
+/// The equation of state: how pressure follows from density.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub enum EquationOfState {
+    /// `p = k·(ρ − ρ0)` (Desbrun & Gascuel 1996; the Unity paper's eq. 11).
+    ///
+    /// `stiffness` `k` is in Pa per (kg/m³), i.e. m²/s²: it is the square of the
+    /// speed of sound.
+    Linear {
+        /// `k` (m²/s²). Larger is less compressible and needs a smaller time step.
+        stiffness: Real,
+    },
+    /// Tait's equation `p = B·((ρ/ρ0)^γ − 1)` with `B = ρ0·c²/γ` (Monaghan 1994; Becker &
+    /// Teschner 2007). The usual weakly-compressible choice: density errors of about
+    /// `(v_max/c)²`.
+    Tait {
+        /// Numerical speed of sound `c` (m/s); pick about 10× the fastest expected flow speed.
+        speed_of_sound: Real,
+        /// Exponent `γ` (7 for water).
+        exponent: Real,
+    },
+}
+
+impl EquationOfState {
+    /// The speed of sound this equation of state implies at rest density (m/s), used to
+    /// choose stable time steps.
+    pub fn speed_of_sound(&self, rest_density: Real) -> Real {
+        let _ = rest_density;
+        match *self {
+            EquationOfState::Linear { stiffness } => stiffness.sqrt(),
+            EquationOfState::Tait { speed_of_sound, .. } => speed_of_sound,
+        }
+    }
+}
+
+/// Parameters of one fluid. Fields are documented with their unit and default; build them
+/// through [`FluidParamsBuilder`] so they are validated.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FluidParams {
+    /// Rest density `ρ0` (kg/m³). Water preset: 1000. Paper preset: 8.
+    pub rest_density: Real,
+    /// Spacing of the lattice particles are seeded on (m). Water preset: the value given.
+    /// Paper preset: 0.2.
+    pub particle_spacing: Real,
+    /// Contact radius (m): collider contact keeps particle centres this far from every
+    /// collider surface. Default: half the spacing (paper preset: 0.2).
+    pub particle_radius: Real,
+    /// Mass of every particle of this fluid (kg). Default: `rest_density · spacing³`
+    /// (paper preset: 1).
+    pub particle_mass: Real,
+    /// Kernel support radius `h` (m): particles closer than `h` interact. Default: twice the
+    /// spacing (about 33 neighbours). Paper preset: 0.4. Must be at least the spacing.
+    pub smoothing_length: Real,
+    /// How pressure follows from density. Water preset: Tait, c = 30 m/s, γ = 7.
+    /// Paper preset: linear, k = 3.
+    pub equation_of_state: EquationOfState,
+    /// Clamp negative pressures to zero (default: true; paper preset: false). Negative
+    /// pressure at the free surface makes particles clump (the tensile instability).
+    pub clamp_negative_pressure: bool,
+    /// Viscosity constant `ε` of the Müller/Unity viscosity force (Pa·s), 0 switches the
+    /// viscosity stage off entirely. Water preset: 0.5 (a numerical viscosity that keeps
+    /// weakly-compressible SPH calm at game resolutions, far above water's 0.001).
+    /// Paper preset: 0.02.
+    pub viscosity: Real,
+    /// Kernel for density. Water preset: cubic spline. Paper preset: the paper's tuned poly6.
+    pub density_kernel: KernelKind,
+    /// Kernel whose gradient drives the pressure force. Water preset: cubic spline.
+    /// Paper preset: spiky.
+    pub pressure_kernel: KernelKind,
+    /// Restitution `e` of collider contact, in `[0, 1]`: the normal velocity into a surface
+    /// is reflected as `−e·v_n`. Default 0 (water does not bounce off walls); paper preset 0.5.
+    pub restitution: Real,
+    /// Coulomb friction `μ ≥ 0` of collider contact: the tangential speed is reduced by
+    /// `μ` times the normal speed change. Default 0 (free slip).
+    pub friction: Real,
+    /// Which colliders the particles touch (rapier's collision groups; sensors are always
+    /// ignored). Default: all.
+    pub collision_groups: InteractionGroups,
+}
+
+impl FluidParams {
+    /// Checks every field; returns the first problem found.
+    pub fn validate(&self) -> SphResult<()> {
+        fn positive(field: &'static str, v: Real) -> SphResult<()> {
+            if !v.is_finite() {
+                Err(SphError::InvalidParameter {
+                    field,
+                    value: v as f64,
+                    reason: "must be finite",
+                })
+            } else if v <= 0.0 {
+                Err(SphError::InvalidParameter {
+                    field,
+                    value: v as f64,
+                    reason: "must be positive",
+                })
+            } else {
+                Ok(())
+            }
+        }
+        fn non_negative(field: &'static str, v: Real) -> SphResult<()> {
+            if !v.is_finite() || v < 0.0 {
+                Err(SphError::InvalidParameter {
+                    field,
+                    value: v as f64,
+                    reason: "must be finite and non-negative",
+                })
+            } else {
+                Ok(())
+            }
+        }
+        positive("rest_density", self.rest_density)?;
+        positive("particle_spacing", self.particle_spacing)?;
+        positive("particle_radius", self.particle_radius)?;
+        positive("particle_mass", self.particle_mass)?;
+        positive("smoothing_length", self.smoothing_length)?;
+        if self.smoothing_length < self.particle_spacing {
+            return Err(SphError::InvalidParameter {
+                field: "smoothing_length",
+                value: self.smoothing_length as f64,
+                reason: "must be at least the particle spacing (particles would have no neighbours)",
+            });
+        }
+        if self.smoothing_length > 6.0 * self.particle_spacing {
+            return Err(SphError::InvalidParameter {
+                field: "smoothing_length",
+                value: self.smoothing_length as f64,
+                reason: "more than 6 particle spacings (over 900 neighbours per particle)",
+            });
+        }
+        match self.equation_of_state {
+            EquationOfState::Linear { stiffness } => positive("stiffness", stiffness)?,
+            EquationOfState::Tait {
+                speed_of_sound,
+                exponent,
+            } => {
+                positive("speed_of_sound", speed_of_sound)?;
+                positive("exponent", exponent)?;
+                if exponent < 1.0 {
+                    return Err(SphError::InvalidParameter {
+                        field: "exponent",
+                        value: exponent as f64,
+                        reason: "Tait's exponent must be at least 1",
+                    });
+                }
+            }
+        }
+        non_negative("viscosity", self.viscosity)?;
+        non_negative("restitution", self.restitution)?;
+        if self.restitution > 1.0 {
+            return Err(SphError::InvalidParameter {
+                field: "restitution",
+                value: self.restitution as f64,
+                reason: "must be at most 1 (contact must not add energy)",
+            });
+        }
+        non_negative("friction", self.friction)?;
+        Ok(())
+    }
+
+    /// Number of neighbours a particle has inside a uniform lattice (`≈ 4/3·π·(h/spacing)³`).
+    pub fn expected_neighbours(&self) -> Real {
+        let q = self.smoothing_length / self.particle_spacing;
+        4.0 / 3.0 * std::f32::consts::PI * q * q * q
+    }
+
+    /// A time step that satisfies the acoustic CFL condition `dt ≤ 0.4·h/c`, for fixed-step
+    /// weakly-compressible runs.
+    pub fn acoustic_time_step(&self) -> Real {
+        0.4 * self.smoothing_length / self.equation_of_state.speed_of_sound(self.rest_density)
+    }
+}
+
+/// Builds validated [`FluidParams`].
+///
+/// ```
+/// use rapier_sph::{FluidParamsBuilder, EquationOfState};
+/// let water = FluidParamsBuilder::water(0.05).viscosity(0.2).build().unwrap();
+/// assert_eq!(water.smoothing_length, 0.1);
+/// let bad = FluidParamsBuilder::water(0.05).smoothing_length(0.01).build();
+/// assert!(bad.is_err()); // h below the spacing: a typed error naming the field
+/// ```
+#[derive(Clone, Debug)]
+pub struct FluidParamsBuilder {
+    params: FluidParams,
+    mass_given: bool,
+}
+
+impl FluidParamsBuilder {
+    /// SI water at the given particle spacing (m): ρ0 = 1000 kg/m³, mass ρ0·s³, h = 2s,
+    /// radius s/2, Tait equation of state with c = 30 m/s, cubic-spline kernels, clamped
+    /// negative pressure, numerical viscosity 0.5 Pa·s, free-slip walls with no bounce.
+    pub fn water(spacing: Real) -> Self {
+        Self {
+            params: FluidParams {
+                rest_density: 1000.0,
+                particle_spacing: spacing,
+                particle_radius: 0.5 * spacing,
+                particle_mass: 1000.0 * spacing * spacing * spacing,
+                smoothing_length: 2.0 * spacing,
+                equation_of_state: EquationOfState::Tait {
+                    speed_of_sound: 30.0,
+                    exponent: 7.0,
+                },
+                clamp_negative_pressure: true,
+                viscosity: 0.5,
+                density_kernel: KernelKind::CubicSpline,
+                pressure_kernel: KernelKind::CubicSpline,
+                restitution: 0.0,
+                friction: 0.0,
+                collision_groups: InteractionGroups::all(),
+            },
+            mass_given: false,
+        }
+    }
+
+    /// The Unity paper's setup (its section 4.3): particle mass 1, rest density 8, linear
+    /// equation of state with k = 3, viscosity ε = 0.02, h = 0.4, particle size 0.2, the
+    /// paper's tuned density kernel and the spiky pressure gradient, no pressure clamping.
+    /// The paper reflects and damps particles at walls without giving numbers; this preset
+    /// uses restitution 0.5 and no friction.
+    pub fn paper() -> Self {
+        Self {
+            params: FluidParams {
+                rest_density: 8.0,
+                particle_spacing: 0.2,
+                particle_radius: 0.2,
+                particle_mass: 1.0,
+                smoothing_length: 0.4,
+                equation_of_state: EquationOfState::Linear { stiffness: 3.0 },
+                clamp_negative_pressure: false,
+                viscosity: 0.02,
+                density_kernel: KernelKind::PaperPoly6,
+                pressure_kernel: KernelKind::Spiky,
+                restitution: 0.5,
+                friction: 0.0,
+                collision_groups: InteractionGroups::all(),
+            },
+            mass_given: true,
+        }
+    }
+
+    /// Rest density (kg/m³). Unless a mass was set explicitly, the mass follows.
+    pub fn rest_density(mut self, v: Real) -> Self {
+        self.params.rest_density = v;
+        self
+    }
+    /// Particle spacing (m). Unless set explicitly, mass, radius and h keep their ratios.
+    pub fn particle_spacing(mut self, v: Real) -> Self {
+        let old = self.params.particle_spacing;
+        let ratio_h = self.params.smoothing_length / old;
+        let ratio_r = self.params.particle_radius / old;
+        self.params.particle_spacing = v;
+        self.params.smoothing_length = ratio_h * v;
+        self.params.particle_radius = ratio_r * v;
+        self
+    }
+    /// Contact radius (m).
+    pub fn particle_radius(mut self, v: Real) -> Self {
+        self.params.particle_radius = v;
+        self
+    }
+    /// Particle mass (kg); by default it follows from spacing and rest density.
+    pub fn particle_mass(mut self, v: Real) -> Self {
+        self.params.particle_mass = v;
+        self.mass_given = true;
+        self
+    }
+    /// Kernel support radius `h` (m).
+    pub fn smoothing_length(mut self, v: Real) -> Self {
+        self.params.smoothing_length = v;
+        self
+    }
+    /// Equation of state.
+    pub fn equation_of_state(mut self, eos: EquationOfState) -> Self {
+        self.params.equation_of_state = eos;
+        self
+    }
+    /// Linear equation of state `p = k(ρ − ρ0)` with this stiffness (m²/s²).
+    pub fn stiffness(self, k: Real) -> Self {
+        self.equation_of_state(EquationOfState::Linear { stiffness: k })
+    }
+    /// Clamp negative pressures to zero.
+    pub fn clamp_negative_pressure(mut self, v: bool) -> Self {
+        self.params.clamp_negative_pressure = v;
+        self
+    }
+    /// Viscosity constant ε (Pa·s); 0 switches the viscosity stage off.
+    pub fn viscosity(mut self, v: Real) -> Self {
+        self.params.viscosity = v;
+        self
+    }
+    /// Density kernel.
+    pub fn density_kernel(mut self, k: KernelKind) -> Self {
+        self.params.density_kernel = k;
+        self
+    }
+    /// Pressure-gradient kernel.
+    pub fn pressure_kernel(mut self, k: KernelKind) -> Self {
+        self.params.pressure_kernel = k;
+        self
+    }
+    /// Contact restitution in `[0, 1]`.
+    pub fn restitution(mut self, v: Real) -> Self {
+        self.params.restitution = v;
+        self
+    }
+    /// Contact friction `μ ≥ 0`.
+    pub fn friction(mut self, v: Real) -> Self {
+        self.params.friction = v;
+        self
+    }
+    /// Collision groups against rapier colliders.
+    pub fn collision_groups(mut self, g: InteractionGroups) -> Self {
+        self.params.collision_groups = g;
+        self
+    }
+
+    /// Validates and returns the parameters.
+    pub fn build(mut self) -> SphResult<FluidParams> {
+        if !self.mass_given {
+            let s = self.params.particle_spacing;
+            self.params.particle_mass = self.params.rest_density * s * s * s;
+        }
+        self.params.validate()?;
+        Ok(self.params)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn field_of(r: SphResult<FluidParams>) -> &'static str {
+        match r {
+            Err(SphError::InvalidParameter { field, .. }) => field,
+            other => panic!("expected an invalid parameter, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn presets_are_valid() {
+        let w = FluidParamsBuilder::water(0.05).build().unwrap();
+        assert!((w.particle_mass - 0.125).abs() < 1e-6);
+        let p = FluidParamsBuilder::paper().build().unwrap();
+        assert_eq!(p.particle_mass, 1.0);
+        assert_eq!(p.rest_density, 8.0);
+        assert_eq!(p.smoothing_length, 0.4);
+    }
+
+    #[test]
+    fn bad_values_name_their_field() {
+        assert_eq!(
+            field_of(FluidParamsBuilder::water(Real::NAN).build()),
+            "particle_spacing"
+        );
+        assert_eq!(
+            field_of(FluidParamsBuilder::water(-0.1).build()),
+            "particle_spacing"
+        );
+        assert_eq!(
+            field_of(FluidParamsBuilder::water(0.0).build()),
+            "particle_spacing"
+        );
+        assert_eq!(
+            field_of(FluidParamsBuilder::water(Real::INFINITY).build()),
+            "particle_spacing"
+        );
+        assert_eq!(
+            field_of(FluidParamsBuilder::water(0.1).particle_mass(0.0).build()),
+            "particle_mass"
+        );
+        assert_eq!(
+            field_of(
+                FluidParamsBuilder::water(0.1)
+                    .particle_mass(Real::NAN)
+                    .build()
+            ),
+            "particle_mass"
+        );
+        assert_eq!(
+            field_of(FluidParamsBuilder::water(0.1).rest_density(-1.0).build()),
+            "rest_density"
+        );
+        assert_eq!(
+            field_of(
+                FluidParamsBuilder::water(0.1)
+                    .smoothing_length(0.05)
+                    .build()
+            ),
+            "smoothing_length"
+        );
+        assert_eq!(
+            field_of(FluidParamsBuilder::water(0.1).smoothing_length(1.0).build()),
+            "smoothing_length"
+        );
+        assert_eq!(
+            field_of(FluidParamsBuilder::water(0.1).stiffness(0.0).build()),
+            "stiffness"
+        );
+        assert_eq!(
+            field_of(FluidParamsBuilder::water(0.1).viscosity(-1.0).build()),
+            "viscosity"
+        );
+        assert_eq!(
+            field_of(FluidParamsBuilder::water(0.1).restitution(1.5).build()),
+            "restitution"
+        );
+        assert_eq!(
+            field_of(FluidParamsBuilder::water(0.1).friction(Real::NAN).build()),
+            "friction"
+        );
+        assert_eq!(
+            field_of(FluidParamsBuilder::water(0.1).particle_radius(0.0).build()),
+            "particle_radius"
+        );
+        let tait = EquationOfState::Tait {
+            speed_of_sound: 10.0,
+            exponent: 0.5,
+        };
+        assert_eq!(
+            field_of(
+                FluidParamsBuilder::water(0.1)
+                    .equation_of_state(tait)
+                    .build()
+            ),
+            "exponent"
+        );
+    }
+}
