@@ -1,1 +1,138 @@
-fn main() {}
+//! Step benchmark: the dam break at 2,500, 20,000 and 100,000 particles on 1 and 2 threads,
+//! whole step and per stage. A small harness of our own (no criterion): each case is warmed
+//! up, then timed over a fixed number of steps, and the figures are printed as a Markdown
+//! table (the README's figures come from here).
+//!
+//! ```text
+//! cargo bench --bench step                 # all cases
+//! cargo bench --bench step -- --quick      # 2,500 and 20,000 only, fewer steps
+//! cargo bench --bench step -- --preset paper
+//! ```
+
+use rapier_sph::scenes::{DamBreakConfig, dam_break};
+use rapier_sph::{FluidParamsBuilder, Stage, StageTimings};
+use std::time::Instant;
+
+struct Case {
+    particles: usize,
+    warmup: usize,
+    steps: usize,
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let quick = args.iter().any(|a| a == "--quick");
+    let paper = args
+        .windows(2)
+        .any(|w| w[0] == "--preset" && w[1] == "paper");
+    let mut cases = vec![
+        Case {
+            particles: 2_500,
+            warmup: 50,
+            steps: if quick { 200 } else { 1000 },
+        },
+        Case {
+            particles: 20_000,
+            warmup: 10,
+            steps: if quick { 30 } else { 100 },
+        },
+    ];
+    if !quick {
+        cases.push(Case {
+            particles: 100_000,
+            warmup: 5,
+            steps: 30,
+        });
+    }
+    let threads = [1usize, 2];
+    println!(
+        "dam break, {} preset, fluid pipeline only (rapier's own step excluded), {}",
+        if paper {
+            "paper"
+        } else {
+            "water (spacing 0.02 m)"
+        },
+        std::env::consts::ARCH
+    );
+    println!();
+    print!(
+        "| particles | threads | steps/s | M particle-steps/s | ns/particle-step | neighbours |"
+    );
+    for s in Stage::ALL {
+        print!(" {} (µs) |", s.name());
+    }
+    println!();
+    print!("|---|---|---|---|---|---|");
+    for _ in Stage::ALL {
+        print!("---|");
+    }
+    println!();
+    for case in &cases {
+        for &t in &threads {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .unwrap();
+            pool.install(|| run(case, t, paper));
+        }
+    }
+}
+
+fn run(case: &Case, threads: usize, paper: bool) {
+    let params = if paper {
+        FluidParamsBuilder::paper().build().unwrap()
+    } else {
+        FluidParamsBuilder::water(0.02).build().unwrap()
+    };
+    let config = DamBreakConfig::tower(params.clone(), DamBreakConfig::scale_for(case.particles));
+    let mut scene = dam_break(&config).unwrap();
+    let dt = params.acoustic_time_step().min(0.005);
+    scene.world.physics.integration_parameters.dt = dt;
+    scene.world.physics.step(); // fills rapier's broad-phase once; the tank is static
+    let w = &mut scene.world;
+    let n = w.fluids.num_particles();
+    let mut step = |w: &mut rapier_sph::FluidWorld| {
+        let p = &mut w.physics;
+        w.pipeline
+            .step(
+                p.gravity,
+                dt,
+                &mut w.fluids,
+                &mut p.bodies,
+                &p.colliders,
+                &p.broad_phase,
+            )
+            .unwrap()
+            .clone()
+    };
+    for _ in 0..case.warmup {
+        step(w);
+    }
+    let mut timings = StageTimings::default();
+    let mut pairs = 0usize;
+    let t0 = Instant::now();
+    for _ in 0..case.steps {
+        let r = step(w);
+        timings.accumulate(&r.timings);
+        pairs += r.neighbour_pairs;
+    }
+    let wall = t0.elapsed().as_secs_f64();
+    let sps = case.steps as f64 / wall;
+    print!(
+        "| {} | {} | {:.1} | {:.2} | {:.0} | {:.1} |",
+        n,
+        threads,
+        sps,
+        sps * n as f64 / 1e6,
+        1e9 / (sps * n as f64),
+        pairs as f64 / (case.steps * n) as f64
+    );
+    for s in Stage::ALL {
+        print!(
+            " {:.0} |",
+            timings.get(s).as_secs_f64() * 1e6 / case.steps as f64
+        );
+    }
+    println!();
+    assert_eq!(w.fluids.num_particles(), n, "particle count changed");
+}

@@ -8,21 +8,24 @@ use crate::par::CHUNK;
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
-/// Computes `densities[i]` for every particle.
+/// Computes `densities[i]` for every particle, and `inv_densities[i] = 1/ρ_i` (the force
+/// stages multiply by it instead of dividing once per pair).
 pub fn compute<K: Kernel>(
     positions: &[Vector],
     neighbors: &NeighborLists,
     mass: Real,
     h: Real,
     densities: &mut [Real],
+    inv_densities: &mut [Real],
 ) {
     let kernel = K::new(h);
     let self_term = mass * kernel.w(0.0);
     crate::par_chunks_mut!(densities, CHUNK)
+        .zip(crate::par_chunks_mut!(inv_densities, CHUNK))
         .enumerate()
-        .for_each(|(c, out)| {
+        .for_each(|(c, (out, inv_out))| {
             let base = c * CHUNK;
-            for (k, rho) in out.iter_mut().enumerate() {
+            for (k, (rho, inv)) in out.iter_mut().zip(inv_out.iter_mut()).enumerate() {
                 let i = base + k;
                 let xi = positions[i];
                 let mut sum = 0.0;
@@ -30,6 +33,7 @@ pub fn compute<K: Kernel>(
                     sum += kernel.w((xi - positions[j as usize]).length());
                 }
                 *rho = self_term + mass * sum;
+                *inv = 1.0 / *rho;
             }
         });
 }

@@ -158,8 +158,10 @@ fn step_fluid(
     report.neighbour_pairs += ws.neighbors.total_pairs();
 
     // 2. Density.
+    ws.inv_densities.resize(n, 0.0);
     timed(report, Stage::Density, || {
-        crate::with_kernel!(p.density_kernel, K => density::compute::<K>(positions, &ws.neighbors, p.particle_mass, h, densities));
+        crate::with_kernel!(p.density_kernel, K => density::compute::<K>(
+            positions, &ws.neighbors, p.particle_mass, h, densities, &mut ws.inv_densities));
     });
     let (max_err, mean_err) = density::density_error(densities, p.rest_density, &mut ws.partials);
     report.max_density_error = report.max_density_error.max(max_err);
@@ -179,7 +181,7 @@ fn step_fluid(
     // 4. Pressure force (overwrites the accelerations).
     timed(report, Stage::PressureForce, || {
         crate::with_kernel!(p.pressure_kernel, K => pressure::wcsph::pressure_accelerations::<K>(
-            positions, densities, pressures, &ws.neighbors, p.particle_mass, h, accelerations));
+            positions, &ws.inv_densities, pressures, &ws.neighbors, p.particle_mass, h, accelerations));
     });
 
     // 5. Viscosity force.
@@ -188,7 +190,7 @@ fn step_fluid(
             forces::viscosity::add_accelerations(
                 positions,
                 velocities,
-                densities,
+                &ws.inv_densities,
                 &ws.neighbors,
                 p.particle_mass,
                 p.viscosity,

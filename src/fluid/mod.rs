@@ -20,6 +20,8 @@ pub(crate) struct Workspace {
     /// from by collider contact).
     pub previous_positions: Vec<Vector>,
     pub scratch_vectors: Vec<Vector>,
+    /// `1/ρ` of every particle, written by the density stage.
+    pub inv_densities: Vec<Real>,
     pub scratch_ids: Vec<u32>,
     /// Per-chunk partial sums for diagnostics (summed serially, so results are deterministic).
     pub partials: Vec<(f64, Real)>,
@@ -287,6 +289,7 @@ impl Fluid {
             + ws.contact.heap_bytes()
             + (ws.previous_positions.capacity() + ws.scratch_vectors.capacity()) * v
             + ws.scratch_ids.capacity() * 4
+            + ws.inv_densities.capacity() * 4
             + ws.partials.capacity() * std::mem::size_of::<(f64, Real)>()
     }
 }

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 pub fn add_accelerations(
     positions: &[Vector],
     velocities: &[Vector],
-    densities: &[Real],
+    inv_densities: &[Real],
     neighbors: &NeighborLists,
     mass: Real,
     viscosity: Real,
@@ -38,9 +38,9 @@ pub fn add_accelerations(
                 for &j in neighbors.of(i) {
                     let ju = j as usize;
                     let d = (xi - positions[ju]).length();
-                    f += (velocities[ju] - vi) * (lap.laplacian(d) / densities[ju]);
+                    f += (velocities[ju] - vi) * (lap.laplacian(d) * inv_densities[ju]);
                 }
-                *a += f * (em / densities[i]);
+                *a += f * (em * inv_densities[i]);
             }
         });
 }

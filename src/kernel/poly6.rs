@@ -27,18 +27,12 @@ impl Kernel for Poly6 {
     }
     #[inline(always)]
     fn w(&self, d: Real) -> Real {
-        if d >= self.h {
-            return 0.0;
-        }
-        let x = self.h2 - d * d;
+        let x = (self.h2 - d * d).max(0.0);
         self.coef * x * x * x
     }
     #[inline(always)]
     fn dw(&self, d: Real) -> Real {
-        if d >= self.h {
-            return 0.0;
-        }
-        let x = self.h2 - d * d;
+        let x = (self.h2 - d * d).max(0.0);
         -6.0 * self.coef * d * x * x
     }
 }

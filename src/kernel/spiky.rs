@@ -28,18 +28,12 @@ impl Kernel for Spiky {
     }
     #[inline(always)]
     fn w(&self, d: Real) -> Real {
-        if d >= self.h {
-            return 0.0;
-        }
-        let x = self.h - d;
+        let x = (self.h - d).max(0.0);
         self.coef * x * x * x
     }
     #[inline(always)]
     fn dw(&self, d: Real) -> Real {
-        if d >= self.h {
-            return 0.0;
-        }
-        let x = self.h - d;
+        let x = (self.h - d).max(0.0);
         -3.0 * self.coef * x * x
     }
 }

@@ -28,20 +28,14 @@ impl Kernel for WendlandC2 {
     #[inline(always)]
     fn w(&self, d: Real) -> Real {
         let q = d * self.inv_h;
-        if q >= 1.0 {
-            return 0.0;
-        }
-        let x = 1.0 - q;
+        let x = (1.0 - q).max(0.0);
         let x2 = x * x;
         self.k * x2 * x2 * (1.0 + 4.0 * q)
     }
     #[inline(always)]
     fn dw(&self, d: Real) -> Real {
         let q = d * self.inv_h;
-        if q >= 1.0 {
-            return 0.0;
-        }
-        let x = 1.0 - q;
+        let x = (1.0 - q).max(0.0);
         -20.0 * self.k * self.inv_h * q * x * x * x
     }
 }

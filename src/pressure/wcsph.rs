@@ -14,7 +14,7 @@ use rayon::prelude::*;
 /// Overwrites `accelerations[i]` with the pressure acceleration of particle `i`.
 pub fn pressure_accelerations<K: Kernel>(
     positions: &[Vector],
-    densities: &[Real],
+    inv_densities: &[Real],
     pressures: &[Real],
     neighbors: &NeighborLists,
     mass: Real,
@@ -37,9 +37,9 @@ pub fn pressure_accelerations<K: Kernel>(
                     let r = xi - positions[ju];
                     let d = r.length();
                     let grad = kernel.gradient(r, d, i as u32, j);
-                    f -= grad * ((pi + pressures[ju]) / densities[ju]);
+                    f -= grad * ((pi + pressures[ju]) * inv_densities[ju]);
                 }
-                *a = f * (half_m / densities[i]);
+                *a = f * (half_m * inv_densities[i]);
             }
         });
 }
