@@ -62,7 +62,7 @@ fn main() {
         print!(" {} (µs) |", s.name());
     }
     println!();
-    print!("|---|---|---|---|---|---|");
+    print!("|---|---|---|---|---|---|---|");
     for _ in Stage::ALL {
         print!("---|");
     }
@@ -91,7 +91,7 @@ fn run(case: &Case, threads: usize, paper: bool) {
     scene.world.physics.step(); // fills rapier's broad-phase once; the tank is static
     let w = &mut scene.world;
     let n = w.fluids.num_particles();
-    let mut step = |w: &mut rapier_sph::FluidWorld| {
+    let step = |w: &mut rapier_sph::FluidWorld| {
         let p = &mut w.physics;
         w.pipeline
             .step(
@@ -119,13 +119,14 @@ fn run(case: &Case, threads: usize, paper: bool) {
     let wall = t0.elapsed().as_secs_f64();
     let sps = case.steps as f64 / wall;
     print!(
-        "| {} | {} | {:.1} | {:.2} | {:.0} | {:.1} |",
+        "| {} | {} | {:.1} | {:.2} | {:.0} | {:.1} | {:.0} |",
         n,
         threads,
         sps,
         sps * n as f64 / 1e6,
         1e9 / (sps * n as f64),
-        pairs as f64 / (case.steps * n) as f64
+        pairs as f64 / (case.steps * n) as f64,
+        w.fluids.iter().map(|(_, f)| f.heap_bytes()).sum::<usize>() as f64 / n as f64
     );
     for s in Stage::ALL {
         print!(

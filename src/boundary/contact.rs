@@ -6,7 +6,7 @@ use crate::math::{Real, Vector};
 use crate::neighbors::NeighborGrid;
 use crate::par::CHUNK;
 use parry3d::query::Ray;
-use rapier3d::geometry::{Collider, ColliderHandle, ColliderSet};
+use rapier3d::geometry::{ColliderHandle, ColliderSet};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
@@ -110,15 +110,86 @@ fn segment_is_free(
     })
 }
 
-/// Moves `start` out of `co` if it is inside: to the nearest surface point plus `radius` along
-/// the outward direction. Returns the outward normal when it did.
-fn depenetrate(co: &Collider, start: Vector, radius: Real) -> Option<(Vector, Vector)> {
-    if !co.shape().contains_point(co.position(), start) {
+/// `true` when `p` is inside any solid candidate.
+fn inside_any(colliders: &ColliderSet, candidates: &[ColliderHandle], p: Vector) -> bool {
+    candidates.iter().any(|&h| {
+        colliders
+            .get(h)
+            .is_some_and(|co| co.shape().contains_point(co.position(), p))
+    })
+}
+
+/// The 26 directions of a cube's faces, edges and corners, for the depenetration search.
+fn directions() -> impl Iterator<Item = Vector> {
+    (-1i32..=1).flat_map(|x| {
+        (-1i32..=1).flat_map(move |y| {
+            (-1i32..=1)
+                .filter(move |&z| (x, y, z) != (0, 0, 0))
+                .map(move |z| Vector::new(x as Real, y as Real, z as Real).normalize())
+        })
+    })
+}
+
+/// From `start`, inside some solids, the nearest point found outside every candidate, one
+/// `radius` off the surface it leaves through, with the outward normal there.
+///
+/// First the cheap answer: the nearest surface point of each solid containing the particle.
+/// It fails where solids overlap (the nearest surface of one lies inside the other, which
+/// also happens inside a compound), so then it marches along 26 directions, crossing solid
+/// after solid with ray casts, and keeps the shortest way out.
+fn depenetrate(
+    colliders: &ColliderSet,
+    candidates: &[ColliderHandle],
+    start: Vector,
+    radius: Real,
+) -> Option<(Vector, Vector)> {
+    if !inside_any(colliders, candidates, start) {
         return None;
     }
-    let proj = co.shape().project_point(co.position(), start, false);
-    let n = (proj.point - start).normalize_or(Vector::Y);
-    Some((proj.point + n * radius, n))
+    for &h in candidates {
+        let Some(co) = colliders.get(h) else { continue };
+        if !co.shape().contains_point(co.position(), start) {
+            continue;
+        }
+        let proj = co.shape().project_point(co.position(), start, false);
+        let out = proj.point - start;
+        if crate::math::is_finite(proj.point) && out.length() > Real::EPSILON * radius {
+            let n = out.normalize();
+            let p = proj.point + n * radius;
+            if crate::math::is_finite(p) && !inside_any(colliders, candidates, p) {
+                return Some((p, n));
+            }
+        }
+    }
+    let mut best: Option<(Real, Vector, Vector)> = None;
+    for dir in directions() {
+        let mut p = start;
+        let mut travelled: Real = 0.0;
+        let mut escaped = false;
+        for _ in 0..16 {
+            // Exit of every solid containing `p` along `dir`; step to the farthest one.
+            let ray = Ray::new(p, dir);
+            let mut exit: Real = 0.0;
+            for &h in candidates {
+                let Some(co) = colliders.get(h) else { continue };
+                if co.shape().contains_point(co.position(), p)
+                    && let Some(t) = co.shape().cast_ray(co.position(), &ray, Real::MAX, false)
+                {
+                    exit = exit.max(t);
+                }
+            }
+            p += dir * (exit + radius);
+            travelled += exit + radius;
+            if !inside_any(colliders, candidates, p) {
+                escaped = true;
+                break;
+            }
+        }
+        if escaped && crate::math::is_finite(p) && best.is_none_or(|b| travelled < b.0) {
+            best = Some((travelled, p, dir));
+        }
+    }
+    best.map(|(_, p, n)| (p, n))
 }
 
 /// Resolves contact for every particle of a sorted fluid. `previous` holds the start-of-step
@@ -155,17 +226,11 @@ pub fn resolve(
                 let motion = xs[k] - start;
                 let mut touched = false;
 
-                if depenetrate_first {
-                    for &h in cands {
-                        if let Some(co) = colliders.get(h)
-                            && let Some((p, n)) = depenetrate(co, start, r)
-                        {
-                            start = p;
-                            v = reflect(v, n, 0.0, 0.0);
-                            counts.depenetrated += 1;
-                            touched = true;
-                        }
-                    }
+                if depenetrate_first && let Some((p, n)) = depenetrate(colliders, cands, start, r) {
+                    start = p;
+                    v = reflect(v, n, 0.0, 0.0);
+                    counts.depenetrated += 1;
+                    touched = true;
                 }
 
                 // 1. Sweep the motion: the centre never crosses a surface.
@@ -222,10 +287,12 @@ pub fn resolve(
                     }
                 }
 
-                // 3. Verify: the corrected motion must still cross no surface.
+                // 3. Verify: the corrected motion must still cross no surface, and a parry
+                // query must not have produced a non-finite point.
                 if touched {
                     counts.contacts += 1;
-                    if !segment_is_free(colliders, cands, start, target) {
+                    let finite = crate::math::is_finite(target) && crate::math::is_finite(v);
+                    if !finite || !segment_is_free(colliders, cands, start, target) {
                         target = start;
                         v = Vector::ZERO;
                         counts.fallbacks += 1;

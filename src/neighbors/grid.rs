@@ -14,12 +14,18 @@ fn pack(cx: u64, cy: u64, cz: u64) -> u64 {
     ((cz & MASK) << (2 * BITS)) | ((cy & MASK) << BITS) | (cx & MASK)
 }
 
+/// Cells are this much larger than `h` (relatively), so that two particles closer than `h`
+/// (as the f32 distance test sees it) always fall in the same or adjacent cells.
+const CELL_MARGIN: f64 = 1e-5;
+
 #[inline(always)]
-fn cell_key(p: Vector, inv_cell: Real) -> u64 {
-    // `as i64` saturates (and maps NaN to 0), so any input gives a valid key.
-    let cx = (p.x * inv_cell).floor() as i64 as u64;
-    let cy = (p.y * inv_cell).floor() as i64 as u64;
-    let cz = (p.z * inv_cell).floor() as i64 as u64;
+fn cell_key(p: Vector, inv_cell: f64) -> u64 {
+    // In f64: `floor(x / cell)` is then exact to ~1e-16 relative at any f32 coordinate, far
+    // inside the 1e-5 margin; in f32 a coordinate within 1e-7·h of a cell border could land
+    // two cells away from a neighbour. `as i64` saturates (NaN gives 0): any input is a key.
+    let cx = (p.x as f64 * inv_cell).floor() as i64 as u64;
+    let cy = (p.y as f64 * inv_cell).floor() as i64 as u64;
+    let cz = (p.z as f64 * inv_cell).floor() as i64 as u64;
     pack(cx, cy, cz)
 }
 
@@ -41,7 +47,7 @@ impl CellRanges {
 /// An unbounded uniform grid over sorted particles. See the [module docs](super).
 #[derive(Clone, Debug, Default)]
 pub struct NeighborGrid {
-    inv_cell: Real,
+    inv_cell: f64,
     cell_size: Real,
     /// `(cell key, index before sorting)` for every particle, sorted by key after [`Self::sort`].
     sort_keys: Vec<(u64, u32)>,
@@ -61,7 +67,7 @@ impl NeighborGrid {
     /// changed; then [`Self::permutation`] tells where each particle goes.
     pub fn sort(&mut self, positions: &[Vector], cell_size: Real) -> bool {
         self.cell_size = cell_size;
-        self.inv_cell = 1.0 / cell_size;
+        self.inv_cell = 1.0 / (cell_size as f64 * (1.0 + CELL_MARGIN));
         let inv = self.inv_cell;
         self.sort_keys.resize(positions.len(), (0, 0));
         crate::par_chunks_mut!(self.sort_keys, CHUNK)

@@ -1,0 +1,152 @@
+//! Bitwise parity across thread counts, and between the parallel and the serial build.
+//!
+//! The crate promises (src/par.rs) that the result of a step does not depend on the number
+//! of threads, nor on the `parallel` feature: every per-particle loop is a gather over
+//! fixed-size chunks and no float is accumulated across threads. So the comparison is
+//! bitwise (`to_bits`), with no tolerance.
+//!
+//! Serial vs parallel build: the serial build (`--no-default-features`) is compared by
+//! running this same test binary twice with `RAPIER_SPH_PARITY_FILE` pointing at the same
+//! file, once per build (the CI script does this):
+//!
+//! ```text
+//! rm -f /tmp/parity.txt
+//! RAPIER_SPH_PARITY_FILE=/tmp/parity.txt cargo test --release --test parallel_parity
+//! RAPIER_SPH_PARITY_FILE=/tmp/parity.txt cargo test --release --no-default-features --test parallel_parity
+//! ```
+//!
+//! The first run writes the hash of the final state, the second compares its own with it.
+
+use rapier_sph::math::{Real, Vector};
+use rapier_sph::scenes::{DamBreakConfig, dam_break};
+use rapier_sph::{FluidParamsBuilder, StepReport};
+
+const STEPS: usize = 100;
+
+/// Final positions, velocities and ids after `STEPS` steps of a small dam break
+/// (8 × 20 × 8 = 1,280 particles, five 256-particle chunks), and the last report.
+fn run() -> (Vec<Vector>, Vec<Vector>, Vec<u32>, StepReport) {
+    let params = FluidParamsBuilder::water(0.04).build().unwrap();
+    let dt = params.acoustic_time_step();
+    let mut scene = dam_break(&DamBreakConfig::tower(params, 0.8)).unwrap();
+    scene.world.physics.integration_parameters.dt = dt;
+    let mut report = StepReport::default();
+    for _ in 0..STEPS {
+        report = scene.world.step().unwrap().clone();
+    }
+    let f = &scene.world.fluids[scene.fluid];
+    assert_eq!(f.len(), 1280);
+    (
+        f.positions().to_vec(),
+        f.velocities().to_vec(),
+        f.ids().to_vec(),
+        report,
+    )
+}
+
+fn bits(v: &[Vector]) -> Vec<[u32; 3]> {
+    v.iter()
+        .map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
+        .collect()
+}
+
+/// 64-bit FNV-1a over the bits of ids, positions and velocities, in order.
+fn fnv(pos: &[Vector], vel: &[Vector], ids: &[u32]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |w: u32| {
+        for b in w.to_le_bytes() {
+            h ^= b as u64;
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    };
+    for ((p, v), &id) in pos.iter().zip(vel).zip(ids) {
+        eat(id);
+        for c in [p.x, p.y, p.z, v.x, v.y, v.z] {
+            eat(Real::to_bits(c));
+        }
+    }
+    h
+}
+
+#[test]
+fn thread_counts_give_bitwise_identical_results() {
+    let mut results = Vec::new();
+    for threads in [1, 2, 3] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        results.push((threads, pool.install(run)));
+    }
+    let (_, (p1, v1, i1, r1)) = &results[0];
+    // The run did something: particles moved and touched the tank.
+    assert!(r1.max_speed > 0.1 && r1.contacts > 0, "{r1:?}");
+    for (threads, (p, v, i, r)) in &results[1..] {
+        assert_eq!(
+            i, i1,
+            "{threads} threads: particle order differs from 1 thread"
+        );
+        assert!(
+            bits(p) == bits(p1),
+            "{threads} threads: positions differ from 1 thread"
+        );
+        assert!(
+            bits(v) == bits(v1),
+            "{threads} threads: velocities differ from 1 thread"
+        );
+        // Counts and reductions of the report too (timings excluded).
+        assert_eq!(
+            (
+                r.particles,
+                r.neighbour_pairs,
+                r.contacts,
+                r.contact_fallbacks
+            ),
+            (
+                r1.particles,
+                r1.neighbour_pairs,
+                r1.contacts,
+                r1.contact_fallbacks
+            ),
+            "{threads} threads: report counts differ"
+        );
+        assert_eq!(r.max_speed.to_bits(), r1.max_speed.to_bits());
+        assert_eq!(
+            r.max_density_error.to_bits(),
+            r1.max_density_error.to_bits()
+        );
+        assert_eq!(
+            r.mean_density_error.to_bits(),
+            r1.mean_density_error.to_bits()
+        );
+    }
+
+    // Serial vs parallel build, through a file shared by two runs (see the module docs).
+    let hash = fnv(p1, v1, i1);
+    let build = if cfg!(feature = "parallel") {
+        "parallel"
+    } else {
+        "serial"
+    };
+    if let Some(path) = std::env::var_os("RAPIER_SPH_PARITY_FILE") {
+        match std::fs::read_to_string(&path) {
+            Ok(text) => {
+                let mut parts = text.split_whitespace();
+                let recorded = parts.next().expect("empty parity file");
+                let recorded_by = parts.next().unwrap_or("?");
+                assert_eq!(
+                    recorded,
+                    format!("{hash:016x}"),
+                    "the {build} build's final state differs from the {recorded_by} build's \
+                     (recorded in {path:?})"
+                );
+                eprintln!("parity: {build} build matches the {recorded_by} build ({hash:016x})");
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                std::fs::write(&path, format!("{hash:016x} {build}\n")).unwrap();
+                eprintln!("parity: {build} build wrote {hash:016x} to {path:?}");
+            }
+            Err(e) => panic!("cannot read {path:?}: {e}"),
+        }
+    }
+}
