@@ -56,7 +56,7 @@ fn main() {
     );
     println!();
     print!(
-        "| particles | threads | steps/s | M particle-steps/s | ns/particle-step | neighbours |"
+        "| particles | threads | steps/s | M particle-steps/s | ns/particle-step | neighbours | bytes/particle |"
     );
     for s in Stage::ALL {
         print!(" {} (µs) |", s.name());
