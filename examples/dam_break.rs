@@ -45,6 +45,12 @@ struct Args {
     /// Rayon threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
+    /// Override the preset's viscosity ε (0 switches the viscosity stage off).
+    #[arg(long)]
+    viscosity: Option<f32>,
+    /// Switch gravity off (the external-forces stage is then skipped).
+    #[arg(long)]
+    no_gravity: bool,
     /// Print a line every this many steps (0: never).
     #[arg(long, default_value_t = 100)]
     every: usize,
@@ -57,10 +63,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .num_threads(t)
             .build_global()?;
     }
-    let params = match args.preset {
-        Preset::Paper => FluidParamsBuilder::paper().build()?,
-        Preset::Water => FluidParamsBuilder::water(args.spacing).build()?,
+    let mut builder = match args.preset {
+        Preset::Paper => FluidParamsBuilder::paper(),
+        Preset::Water => FluidParamsBuilder::water(args.spacing),
     };
+    if let Some(eps) = args.viscosity {
+        builder = builder.viscosity(eps);
+    }
+    let params = builder.build()?;
     let scale = args
         .particles
         .map(DamBreakConfig::scale_for)
@@ -77,6 +87,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .min(1.0 / 200.0)
     });
     scene.world.physics.integration_parameters.dt = dt;
+    if args.no_gravity {
+        scene.world.physics.gravity = rapier_sph::math::Vector::ZERO;
+    }
     let n = scene.world.fluids.num_particles();
     println!(
         "dam break: {:?} preset, {} particles ({}×{}×{}), tank {:.2}×{:.2}×{:.2} m, dt = {:.5} s, {} steps, {} threads",
