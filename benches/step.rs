@@ -91,28 +91,14 @@ fn run(case: &Case, threads: usize, paper: bool) {
     scene.world.physics.step(); // fills rapier's broad-phase once; the tank is static
     let w = &mut scene.world;
     let n = w.fluids.num_particles();
-    let step = |w: &mut rapier_sph::FluidWorld| {
-        let p = &mut w.physics;
-        w.pipeline
-            .step(
-                p.gravity,
-                dt,
-                &mut w.fluids,
-                &mut p.bodies,
-                &p.colliders,
-                &p.broad_phase,
-            )
-            .unwrap()
-            .clone()
-    };
     for _ in 0..case.warmup {
-        step(w);
+        w.step_fluids().unwrap();
     }
     let mut timings = StageTimings::default();
     let mut pairs = 0usize;
     let t0 = Instant::now();
     for _ in 0..case.steps {
-        let r = step(w);
+        let r = w.step_fluids().unwrap().clone();
         timings.accumulate(&r.timings);
         pairs += r.neighbour_pairs;
     }

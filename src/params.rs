@@ -37,8 +37,7 @@ pub enum EquationOfState {
 impl EquationOfState {
     /// The speed of sound this equation of state implies at rest density (m/s), used to
     /// choose stable time steps.
-    pub fn speed_of_sound(&self, rest_density: Real) -> Real {
-        let _ = rest_density;
+    pub fn speed_of_sound(&self) -> Real {
         match *self {
             EquationOfState::Linear { stiffness } => stiffness.sqrt(),
             EquationOfState::Tait { speed_of_sound, .. } => speed_of_sound,
@@ -180,7 +179,7 @@ impl FluidParams {
     /// A time step that satisfies the acoustic CFL condition `dt ≤ 0.4·h/c`, for fixed-step
     /// weakly-compressible runs.
     pub fn acoustic_time_step(&self) -> Real {
-        0.4 * self.smoothing_length / self.equation_of_state.speed_of_sound(self.rest_density)
+        0.4 * self.smoothing_length / self.equation_of_state.speed_of_sound()
     }
 }
 

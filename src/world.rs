@@ -29,6 +29,13 @@ impl FluidWorld {
     /// Steps rapier, then the fluids, by `physics.integration_parameters.dt`.
     pub fn step(&mut self) -> SphResult<&StepReport> {
         self.physics.step();
+        self.step_fluids()
+    }
+
+    /// Steps only the fluids, with the world's gravity and time step, against the rapier
+    /// world as it is (for a world stepped elsewhere, or static geometry after rapier has
+    /// stepped once).
+    pub fn step_fluids(&mut self) -> SphResult<&StepReport> {
         let p = &mut self.physics;
         self.pipeline.step(
             p.gravity,

@@ -49,25 +49,12 @@ fn a_warm_step_allocates_nothing() {
         .unwrap();
     pool.install(|| {
         let w = &mut scene.world;
-        let mut step = || {
-            let p = &mut w.physics;
-            w.pipeline
-                .step(
-                    p.gravity,
-                    dt,
-                    &mut w.fluids,
-                    &mut p.bodies,
-                    &p.colliders,
-                    &p.broad_phase,
-                )
-                .unwrap();
-        };
         for _ in 0..300 {
-            step();
+            w.step_fluids().unwrap();
         }
         COUNTING.store(true, Ordering::SeqCst);
         for _ in 0..50 {
-            step();
+            w.step_fluids().unwrap();
         }
         COUNTING.store(false, Ordering::SeqCst);
     });
