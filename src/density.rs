@@ -4,7 +4,7 @@
 use crate::kernel::Kernel;
 use crate::math::{Real, Vector};
 use crate::neighbors::NeighborLists;
-use crate::par::CHUNK;
+use crate::par::{CHUNK, LANES, lane_sum};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
@@ -28,8 +28,22 @@ pub fn compute<K: Kernel>(
             for (k, (rho, inv)) in out.iter_mut().zip(inv_out.iter_mut()).enumerate() {
                 let i = base + k;
                 let xi = positions[i];
-                let mut sum = 0.0;
-                for &j in neighbors.of(i) {
+                let nb = neighbors.of(i);
+                // LANES neighbours per iteration, each stage a loop over plain lane arrays:
+                // LLVM turns the square roots and kernel polynomials into packed SIMD.
+                let mut acc = [0.0; LANES];
+                let mut blocks = nb.chunks_exact(LANES);
+                for block in &mut blocks {
+                    let mut d = [0.0; LANES];
+                    for l in 0..LANES {
+                        d[l] = (xi - positions[block[l] as usize]).length_squared();
+                    }
+                    for l in 0..LANES {
+                        acc[l] += kernel.w(d[l].sqrt());
+                    }
+                }
+                let mut sum = lane_sum(acc);
+                for &j in blocks.remainder() {
                     sum += kernel.w((xi - positions[j as usize]).length());
                 }
                 *rho = self_term + mass * sum;

@@ -12,6 +12,15 @@ use rayon::prelude::*;
 /// Particles per work item. Fixed, so chunk boundaries never depend on the thread count.
 pub const CHUNK: usize = 256;
 
+/// Neighbours processed together by the pair loops (see `density::compute`).
+pub const LANES: usize = 8;
+
+/// Sum of lane accumulators in a fixed order (so results never depend on anything but the data).
+#[inline(always)]
+pub fn lane_sum<T: Copy + std::ops::Add<Output = T>>(a: [T; LANES]) -> T {
+    ((a[0] + a[4]) + (a[1] + a[5])) + ((a[2] + a[6]) + (a[3] + a[7]))
+}
+
 /// `slice.par_chunks_mut(n)` with the `parallel` feature, `slice.chunks_mut(n)` without.
 #[doc(hidden)]
 #[macro_export]

@@ -49,6 +49,9 @@ use crate::math::{Real, Vector, coincident_direction};
 pub trait Kernel: Copy + Send + Sync + 'static {
     /// Human-readable name.
     const NAME: &'static str;
+    /// Below `COINCIDENT_FRACTION · h` two particles count as coincident: the gradient's
+    /// direction then comes from [`coincident_direction`] instead of the separation.
+    const COINCIDENT_FRACTION: Real = Real::EPSILON;
     /// Builds the kernel for support radius `h` (> 0).
     fn new(h: Real) -> Self;
     /// Support radius `h`.
@@ -66,7 +69,7 @@ pub trait Kernel: Copy + Send + Sync + 'static {
     #[inline(always)]
     fn gradient(&self, r: Vector, d: Real, i: u32, j: u32) -> Vector {
         let dw = self.dw(d);
-        if d > Real::EPSILON * self.support() {
+        if d > Self::COINCIDENT_FRACTION * self.support() {
             r * (dw / d)
         } else {
             coincident_direction(i, j) * dw
