@@ -261,35 +261,6 @@ fn convex_polyhedron() {
     );
 }
 
-/// A closed box mesh of half extents `h`, triangles wound counter-clockwise seen from
-/// outside (outward normals).
-fn box_mesh(h: Vector) -> (Vec<Vector>, Vec<[u32; 3]>) {
-    let v = (0..8)
-        .map(|i| {
-            Vector::new(
-                if i & 1 != 0 { h.x } else { -h.x },
-                if i & 2 != 0 { h.y } else { -h.y },
-                if i & 4 != 0 { h.z } else { -h.z },
-            )
-        })
-        .collect();
-    let idx = vec![
-        [0, 2, 3],
-        [0, 3, 1], // -z
-        [4, 5, 7],
-        [4, 7, 6], // +z
-        [0, 4, 6],
-        [0, 6, 2], // -x
-        [1, 3, 7],
-        [1, 7, 5], // +x
-        [0, 1, 5],
-        [0, 5, 4], // -y
-        [2, 6, 7],
-        [2, 7, 3], // +y
-    ];
-    (v, idx)
-}
-
 #[test]
 fn box_mesh_is_wound_outward() {
     // The oriented-trimesh test relies on outward winding: check it once.

@@ -300,29 +300,7 @@ fn spawned_inside_an_overlapping_compound_are_pushed_out() {
 #[test]
 fn spawned_inside_an_oriented_trimesh_are_pushed_out() {
     let h = Vector::new(0.3, 0.2, 0.25);
-    let v: Vec<Vector> = (0..8)
-        .map(|i| {
-            Vector::new(
-                if i & 1 != 0 { h.x } else { -h.x },
-                if i & 2 != 0 { h.y } else { -h.y },
-                if i & 4 != 0 { h.z } else { -h.z },
-            )
-        })
-        .collect();
-    let idx = vec![
-        [0, 2, 3],
-        [0, 3, 1],
-        [4, 5, 7],
-        [4, 7, 6],
-        [0, 4, 6],
-        [0, 6, 2],
-        [1, 3, 7],
-        [1, 7, 5],
-        [0, 1, 5],
-        [0, 5, 4],
-        [2, 6, 7],
-        [2, 7, 3],
-    ];
+    let (v, idx) = box_mesh(h);
     depenetration(
         "oriented trimesh",
         ColliderBuilder::trimesh_with_flags(v, idx, TriMeshFlags::ORIENTED)
