@@ -15,6 +15,9 @@ pub const CHUNK: usize = 256;
 /// Neighbours processed together by the pair loops (see `density::compute`).
 pub const LANES: usize = 8;
 
+// `lane_sum` below is written out for eight lanes: changing LANES must change it too.
+const _: () = assert!(LANES == 8, "lane_sum is written for 8 lanes");
+
 /// Sum of lane accumulators in a fixed order (so results never depend on anything but the data).
 #[inline(always)]
 pub fn lane_sum<T: Copy + std::ops::Add<Output = T>>(a: [T; LANES]) -> T {
