@@ -87,8 +87,17 @@ pub mod error;
 pub mod fluid;
 pub mod forces;
 pub mod integrate;
+#[cfg(feature = "io")]
+pub mod io;
 pub mod kernel;
 pub mod math;
+#[cfg(any(
+    feature = "io",
+    feature = "render",
+    feature = "scene",
+    feature = "surface"
+))]
+pub mod mesh;
 pub mod neighbors;
 pub mod par;
 pub mod params;
