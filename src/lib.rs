@@ -103,6 +103,8 @@ pub mod par;
 pub mod params;
 pub mod pipeline;
 pub mod pressure;
+#[cfg(feature = "render")]
+pub mod render;
 pub mod scenes;
 pub mod world;
 
