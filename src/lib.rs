@@ -105,6 +105,8 @@ pub mod pipeline;
 pub mod pressure;
 #[cfg(feature = "render")]
 pub mod render;
+#[cfg(feature = "scene")]
+pub mod scene_file;
 pub mod scenes;
 pub mod world;
 

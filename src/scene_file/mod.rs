@@ -1,0 +1,697 @@
+//! Scene files (feature `scene`): fluids, rapier bodies and colliders, camera and duration in
+//! one [RON](https://github.com/ron-rs/ron) file, loaded with serde.
+//!
+//! RON is the one format: it reads like Rust (struct and enum names, comments, trailing
+//! commas). Optional fields may be left out; `Some(..)` around optional values may be
+//! left out too (the `implicit_some` extension is on). A complete example with every field,
+//! which the tests load, is `scenes/reference.ron`; the shipped scenes are `scenes/*.ron`.
+//!
+//! ```ron
+//! Scene(
+//!     description: "A block of water dropped into a box",
+//!     duration: 1.0,            // simulated seconds
+//!     frame_rate: 30.0,         // frames per second for pictures and exports
+//!     // dt: 0.0005,            // time step (s); default: the acoustic limit 0.4·h/c, ≤ 1/200 s
+//!     gravity: (0.0, -9.81, 0.0),
+//!     fluids: [
+//!         Fluid(
+//!             name: "water",
+//!             preset: Water(spacing: 0.05),   // or Paper
+//!             viscosity: 0.2,                 // any parameter of FluidParams may be overridden
+//!             blocks: [Block(min: (-0.25, 0.1, -0.25), size: (0.5, 0.5, 0.5))],
+//!         ),
+//!     ],
+//!     bodies: [
+//!         Body(kind: Fixed, colliders: [
+//!             Collider(shape: Cuboid(half_extents: (1.0, 0.1, 1.0))),
+//!             Collider(shape: TriMeshFile(path: "bowl.obj", scale: (1.0, 1.0, 1.0)), position: (0.0, 0.5, 0.0)),
+//!         ]),
+//!     ],
+//!     camera: Orbit(target: (0.0, 0.3, 0.0), distance: 3.0, azimuth: 30.0, elevation: 25.0),
+//! )
+//! ```
+//!
+//! Errors name the file, the line and column, and the field (`fluids[0].blocks[1].size`):
+//! unknown fields are refused (`deny_unknown_fields`), numbers are checked while they are read
+//! (a radius must be positive and finite, a position finite), and each fluid's parameters are
+//! validated as a whole when its entry ends. Emitters and sinks are not part of the format
+//! yet: the crate does not provide them (they come with issue 5).
+
+mod shapes;
+mod values;
+
+pub use shapes::{CompoundPart, ShapeDesc};
+pub use values::{Finite, NonNegative, Positive, PositiveVec3, Vec3};
+
+use crate::error::SphError;
+use crate::fluid::{Fluid, FluidHandle};
+use crate::kernel::KernelKind;
+use crate::math::{Real, Rotation, Vector};
+use crate::params::{EquationOfState, FluidParams, FluidParamsBuilder};
+use crate::world::FluidWorld;
+use rapier3d::prelude::{ColliderBuilder, RigidBodyBuilder, RigidBodyHandle};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// A whole scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Scene")]
+pub struct SceneFile {
+    /// Free text shown by `rapier-sph validate`.
+    #[serde(default)]
+    pub description: String,
+    /// Simulated time (s).
+    pub duration: Positive,
+    /// Time step (s) of rapier and the fluids. Default: the smallest acoustic limit
+    /// `0.4·h/c` of the fluids, at most 1/200 s; rounded down so a frame holds a whole number
+    /// of steps.
+    #[serde(default)]
+    pub dt: Option<Positive>,
+    /// Frames per second for pictures and exports. Default 30.
+    #[serde(default = "default_frame_rate")]
+    pub frame_rate: Positive,
+    /// Gravity (m/s²). Default `(0, -9.81, 0)`.
+    #[serde(default = "default_gravity")]
+    pub gravity: Vec3,
+    /// The fluids.
+    #[serde(default, deserialize_with = "values::checked_vec")]
+    pub fluids: Vec<FluidDesc>,
+    /// Rapier bodies with their colliders.
+    #[serde(default)]
+    pub bodies: Vec<BodyDesc>,
+    /// The camera for pictures. Default: [`CameraDesc::Auto`] from 30° azimuth, 25° elevation.
+    #[serde(default)]
+    pub camera: Option<CameraDesc>,
+}
+
+fn default_frame_rate() -> Positive {
+    Positive(30.0)
+}
+fn default_gravity() -> Vec3 {
+    Vec3([0.0, -9.81, 0.0])
+}
+
+/// The parameter preset a fluid starts from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum Preset {
+    /// SI water at this particle spacing (m) ([`FluidParamsBuilder::water`]).
+    Water {
+        /// Particle spacing (m).
+        spacing: Positive,
+    },
+    /// The Unity paper's unit-mass setup ([`FluidParamsBuilder::paper`]).
+    Paper,
+}
+
+/// The equation of state, as in [`EquationOfState`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum EosDesc {
+    /// `p = k(ρ − ρ0)`.
+    Linear {
+        /// `k` (m²/s²).
+        stiffness: Positive,
+    },
+    /// Tait's equation.
+    Tait {
+        /// Speed of sound (m/s).
+        speed_of_sound: Positive,
+        /// Exponent γ (7 for water).
+        exponent: Positive,
+    },
+}
+
+/// A kernel, as in [`KernelKind`].
+#[derive(Copy, Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[allow(missing_docs)]
+pub enum KernelDesc {
+    Poly6,
+    PaperPoly6,
+    Spiky,
+    CubicSpline,
+    WendlandC2,
+}
+
+impl From<KernelDesc> for KernelKind {
+    fn from(k: KernelDesc) -> Self {
+        match k {
+            KernelDesc::Poly6 => KernelKind::Poly6,
+            KernelDesc::PaperPoly6 => KernelKind::PaperPoly6,
+            KernelDesc::Spiky => KernelKind::Spiky,
+            KernelDesc::CubicSpline => KernelKind::CubicSpline,
+            KernelDesc::WendlandC2 => KernelKind::WendlandC2,
+        }
+    }
+}
+
+/// One fluid: a preset, optional overrides of its parameters, and its particles.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Fluid")]
+pub struct FluidDesc {
+    /// A name for messages.
+    #[serde(default)]
+    pub name: String,
+    /// The preset the parameters start from.
+    pub preset: Preset,
+    /// Rest density (kg/m³).
+    #[serde(default)]
+    pub rest_density: Option<Positive>,
+    /// Particle spacing (m); h and the radius keep their ratios to it.
+    #[serde(default)]
+    pub particle_spacing: Option<Positive>,
+    /// Contact radius (m).
+    #[serde(default)]
+    pub particle_radius: Option<Positive>,
+    /// Particle mass (kg).
+    #[serde(default)]
+    pub particle_mass: Option<Positive>,
+    /// Kernel support radius h (m).
+    #[serde(default)]
+    pub smoothing_length: Option<Positive>,
+    /// Equation of state.
+    #[serde(default)]
+    pub equation_of_state: Option<EosDesc>,
+    /// Clamp negative pressures to zero.
+    #[serde(default)]
+    pub clamp_negative_pressure: Option<bool>,
+    /// Viscosity ε (Pa·s).
+    #[serde(default)]
+    pub viscosity: Option<NonNegative>,
+    /// Density kernel.
+    #[serde(default)]
+    pub density_kernel: Option<KernelDesc>,
+    /// Pressure-gradient kernel.
+    #[serde(default)]
+    pub pressure_kernel: Option<KernelDesc>,
+    /// Contact restitution in `[0, 1]`.
+    #[serde(default)]
+    pub restitution: Option<NonNegative>,
+    /// Contact friction μ.
+    #[serde(default)]
+    pub friction: Option<NonNegative>,
+    /// Boxes filled with particles at the fluid's spacing ([`Fluid::add_block`]).
+    #[serde(default)]
+    pub blocks: Vec<BlockDesc>,
+    /// Single particles (positions, m), at rest.
+    #[serde(default)]
+    pub particles: Vec<Vec3>,
+}
+
+impl FluidDesc {
+    /// The validated parameters: the preset with the overrides applied.
+    pub fn params(&self) -> Result<FluidParams, SphError> {
+        let mut b = match &self.preset {
+            Preset::Water { spacing } => FluidParamsBuilder::water(spacing.0),
+            Preset::Paper => FluidParamsBuilder::paper(),
+        };
+        if let Some(v) = self.particle_spacing {
+            b = b.particle_spacing(v.0);
+        }
+        if let Some(v) = self.rest_density {
+            b = b.rest_density(v.0);
+        }
+        if let Some(v) = self.particle_radius {
+            b = b.particle_radius(v.0);
+        }
+        if let Some(v) = self.particle_mass {
+            b = b.particle_mass(v.0);
+        }
+        if let Some(v) = self.smoothing_length {
+            b = b.smoothing_length(v.0);
+        }
+        if let Some(e) = &self.equation_of_state {
+            b = b.equation_of_state(match e {
+                EosDesc::Linear { stiffness } => EquationOfState::Linear {
+                    stiffness: stiffness.0,
+                },
+                EosDesc::Tait {
+                    speed_of_sound,
+                    exponent,
+                } => EquationOfState::Tait {
+                    speed_of_sound: speed_of_sound.0,
+                    exponent: exponent.0,
+                },
+            });
+        }
+        if let Some(v) = self.clamp_negative_pressure {
+            b = b.clamp_negative_pressure(v);
+        }
+        if let Some(v) = self.viscosity {
+            b = b.viscosity(v.0);
+        }
+        if let Some(k) = self.density_kernel {
+            b = b.density_kernel(k.into());
+        }
+        if let Some(k) = self.pressure_kernel {
+            b = b.pressure_kernel(k.into());
+        }
+        if let Some(v) = self.restitution {
+            b = b.restitution(v.0);
+        }
+        if let Some(v) = self.friction {
+            b = b.friction(v.0);
+        }
+        b.build()
+    }
+}
+
+impl values::Validate for FluidDesc {
+    fn validate(&self) -> Result<(), String> {
+        self.params().map(|_| ()).map_err(|e| e.to_string())
+    }
+}
+
+/// A box `[min, min + size)` filled with particles.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Block")]
+pub struct BlockDesc {
+    /// Lower corner (m).
+    pub min: Vec3,
+    /// Size (m), every component positive.
+    pub size: PositiveVec3,
+}
+
+/// A rapier body's type.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub enum BodyKind {
+    /// Never moves (the default).
+    #[default]
+    Fixed,
+    /// Moved by forces and contacts.
+    Dynamic,
+    /// Moved by setting its next position.
+    KinematicPositionBased,
+    /// Moved by its velocity.
+    KinematicVelocityBased,
+}
+
+/// A rapier rigid body and its colliders.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Body")]
+pub struct BodyDesc {
+    /// The body type. Default `Fixed`.
+    #[serde(default)]
+    pub kind: BodyKind,
+    /// Position (m).
+    #[serde(default)]
+    pub position: Vec3,
+    /// Orientation as a rotation vector (axis × angle in radians), as rapier's builders take.
+    #[serde(default)]
+    pub rotation: Vec3,
+    /// Initial linear velocity (m/s).
+    #[serde(default)]
+    pub linvel: Vec3,
+    /// Initial angular velocity (rad/s).
+    #[serde(default)]
+    pub angvel: Vec3,
+    /// The colliders attached to the body.
+    #[serde(default)]
+    pub colliders: Vec<ColliderDesc>,
+}
+
+/// A rapier collider.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Collider")]
+pub struct ColliderDesc {
+    /// The shape (every parry shape; see [`ShapeDesc`]).
+    pub shape: ShapeDesc,
+    /// Position relative to the body (m).
+    #[serde(default)]
+    pub position: Vec3,
+    /// Rotation relative to the body (rotation vector, rad).
+    #[serde(default)]
+    pub rotation: Vec3,
+    /// Density (kg/m³) for the body's mass. Default: rapier's (1).
+    #[serde(default)]
+    pub density: Option<Positive>,
+    /// Friction coefficient between rigid bodies. Default: rapier's (0.5).
+    #[serde(default)]
+    pub friction: Option<NonNegative>,
+    /// Restitution between rigid bodies. Default: rapier's (0).
+    #[serde(default)]
+    pub restitution: Option<NonNegative>,
+    /// A sensor: detects, does not collide (the fluid ignores sensors).
+    #[serde(default)]
+    pub sensor: bool,
+}
+
+/// The camera for pictures.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum CameraDesc {
+    /// Frames the whole scene (colliders and particles, infinite shapes left out) from this
+    /// azimuth and elevation (degrees).
+    Auto {
+        /// Degrees about +y (0 looks along −z).
+        #[serde(default = "default_azimuth")]
+        azimuth: Finite,
+        /// Degrees above the horizon.
+        #[serde(default = "default_elevation")]
+        elevation: Finite,
+        /// Degrees the camera turns per simulated second (0: fixed).
+        #[serde(default)]
+        degrees_per_second: Finite,
+    },
+    /// From `eye` towards `target`.
+    LookAt {
+        /// Camera position (m).
+        eye: Vec3,
+        /// The point looked at (m).
+        target: Vec3,
+        /// Vertical field of view (degrees). Default 40.
+        #[serde(default = "default_fov")]
+        fov_y_degrees: Positive,
+    },
+    /// On a sphere around `target`.
+    Orbit {
+        /// The point looked at (m).
+        target: Vec3,
+        /// Distance from the target (m).
+        distance: Positive,
+        /// Degrees about +y (0 looks along −z).
+        azimuth: Finite,
+        /// Degrees above the horizon.
+        elevation: Finite,
+        /// Degrees the camera turns per simulated second (0: fixed).
+        #[serde(default)]
+        degrees_per_second: Finite,
+        /// Vertical field of view (degrees). Default 40.
+        #[serde(default = "default_fov")]
+        fov_y_degrees: Positive,
+    },
+}
+
+fn default_azimuth() -> Finite {
+    Finite(30.0)
+}
+fn default_elevation() -> Finite {
+    Finite(25.0)
+}
+fn default_fov() -> Positive {
+    Positive(40.0)
+}
+
+/// Errors of reading, checking and building a scene file.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum SceneError {
+    /// The file could not be read.
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The operating system's error.
+        source: std::io::Error,
+    },
+    /// The file is not a valid scene: bad syntax, an unknown or missing field, a bad value.
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// Line (1-based).
+        line: usize,
+        /// Column (1-based).
+        column: usize,
+        /// The field, as a path such as `bodies[0].colliders[1].shape` (empty at top level).
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The file parsed but the scene cannot be built (a mesh file is missing, a convex hull is
+    /// degenerate, ...).
+    Invalid {
+        /// The scene file.
+        path: PathBuf,
+        /// The field, as a path.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SceneError::Io { path, source } => write!(f, "{}: {source}", path.display()),
+            SceneError::Parse {
+                path,
+                line,
+                column,
+                field,
+                message,
+            } => {
+                write!(f, "{}:{line}:{column}: ", path.display())?;
+                if !field.is_empty() {
+                    write!(f, "field `{field}`: ")?;
+                }
+                write!(f, "{message}")
+            }
+            SceneError::Invalid {
+                path,
+                field,
+                message,
+            } => write!(f, "{}: field `{field}`: {message}", path.display()),
+        }
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+impl SceneFile {
+    /// Reads and checks a scene file.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, SceneError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses and checks scene text; `path` is only used in error messages.
+    pub fn parse(text: &str, path: impl AsRef<Path>) -> Result<Self, SceneError> {
+        let path = path.as_ref();
+        let options = ron::Options::default()
+            .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
+        let spanned = |e: ron::error::SpannedError, field: String| SceneError::Parse {
+            path: path.to_path_buf(),
+            line: e.span.start.line,
+            column: e.span.start.col,
+            field,
+            message: e.code.to_string(),
+        };
+        let mut de = ron::Deserializer::from_str_with_options(text, &options)
+            .map_err(|e| spanned(e, String::new()))?;
+        let scene: SceneFile = match serde_path_to_error::deserialize(&mut de) {
+            Ok(s) => s,
+            Err(e) => {
+                let field = e.path().to_string();
+                let field = if field == "." { String::new() } else { field };
+                let code = e.into_inner();
+                return Err(spanned(de.span_error(code), field));
+            }
+        };
+        de.end()
+            .map_err(|code| spanned(de.span_error(code), String::new()))?;
+        Ok(scene)
+    }
+
+    /// Writes the scene as RON text (pretty-printed).
+    pub fn to_ron(&self) -> String {
+        let config = ron::ser::PrettyConfig::new().struct_names(true);
+        ron::Options::default()
+            .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
+            .to_string_pretty(self, config)
+            .expect("scene values are plain data")
+    }
+
+    /// The time step the scene runs with: `dt` if given, else the smallest acoustic limit
+    /// of the fluids (at most 1/200 s); in both cases rounded down so that a frame
+    /// (`1/frame_rate`) holds a whole number of steps. Returns `(dt, steps per frame)`.
+    pub fn time_step(&self) -> (Real, usize) {
+        let frame = 1.0 / self.frame_rate.0;
+        let dt = self.dt.map(|d| d.0).unwrap_or_else(|| {
+            self.fluids
+                .iter()
+                .filter_map(|f| f.params().ok())
+                .map(|p| p.acoustic_time_step())
+                .fold(1.0 / 200.0, Real::min)
+        });
+        let steps = (frame / dt).ceil().max(1.0) as usize;
+        (frame / steps as Real, steps)
+    }
+
+    /// Number of frames in `duration`.
+    pub fn frames(&self) -> usize {
+        (self.duration.0 * self.frame_rate.0).round().max(1.0) as usize
+    }
+
+    /// Builds the world. Relative mesh paths are resolved against `base_dir` (the scene
+    /// file's folder); `path` names the scene in errors.
+    pub fn build(&self, path: &Path, base_dir: &Path) -> Result<BuiltScene, SceneError> {
+        let invalid = |field: String, message: String| SceneError::Invalid {
+            path: path.to_path_buf(),
+            field,
+            message,
+        };
+        let mut world = FluidWorld::new();
+        world.physics.gravity = self.gravity.vector();
+        let (dt, steps_per_frame) = self.time_step();
+        world.physics.integration_parameters.dt = dt;
+        let mut bodies = Vec::new();
+        for (bi, b) in self.bodies.iter().enumerate() {
+            let builder = match b.kind {
+                BodyKind::Fixed => RigidBodyBuilder::fixed(),
+                BodyKind::Dynamic => RigidBodyBuilder::dynamic(),
+                BodyKind::KinematicPositionBased => RigidBodyBuilder::kinematic_position_based(),
+                BodyKind::KinematicVelocityBased => RigidBodyBuilder::kinematic_velocity_based(),
+            }
+            .translation(b.position.vector())
+            .rotation(b.rotation.vector())
+            .linvel(b.linvel.vector())
+            .angvel(b.angvel.vector());
+            let handle = world.physics.insert_body(builder);
+            for (ci, c) in b.colliders.iter().enumerate() {
+                let field = format!("bodies[{bi}].colliders[{ci}].shape");
+                let shape = c.shape.build(base_dir).map_err(|m| invalid(field, m))?;
+                let mut cb = ColliderBuilder::new(shape)
+                    .position(crate::math::Pose::from_parts(
+                        c.position.vector(),
+                        Rotation::from_scaled_axis(c.rotation.vector()),
+                    ))
+                    .sensor(c.sensor);
+                if let Some(d) = c.density {
+                    cb = cb.density(d.0);
+                }
+                if let Some(f) = c.friction {
+                    cb = cb.friction(f.0);
+                }
+                if let Some(r) = c.restitution {
+                    cb = cb.restitution(r.0);
+                }
+                world.physics.insert_collider(cb, Some(handle));
+            }
+            bodies.push(handle);
+        }
+        let mut fluids = Vec::new();
+        for (fi, f) in self.fluids.iter().enumerate() {
+            let field = |name: &str| format!("fluids[{fi}]{name}");
+            let params = f.params().map_err(|e| invalid(field(""), e.to_string()))?;
+            let mut fluid = Fluid::new(params).map_err(|e| invalid(field(""), e.to_string()))?;
+            for (k, b) in f.blocks.iter().enumerate() {
+                fluid
+                    .add_block(b.min.vector(), b.size.vector())
+                    .map_err(|e| invalid(field(&format!(".blocks[{k}]")), e.to_string()))?;
+            }
+            let points: Vec<Vector> = f.particles.iter().map(|p| p.vector()).collect();
+            fluid
+                .add_particles(&points)
+                .map_err(|e| invalid(field(".particles"), e.to_string()))?;
+            fluids.push(world.fluids.insert(fluid));
+        }
+        Ok(BuiltScene {
+            world,
+            fluids,
+            bodies,
+            dt,
+            steps_per_frame,
+            frames: self.frames(),
+            camera: self.camera.clone().unwrap_or(CameraDesc::Auto {
+                azimuth: default_azimuth(),
+                elevation: default_elevation(),
+                degrees_per_second: Finite(0.0),
+            }),
+        })
+    }
+
+    /// [`SceneFile::load`] then [`SceneFile::build`], mesh paths relative to the file.
+    pub fn load_and_build(path: impl AsRef<Path>) -> Result<(Self, BuiltScene), SceneError> {
+        let path = path.as_ref();
+        let scene = Self::load(path)?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        let built = scene.build(path, base)?;
+        Ok((scene, built))
+    }
+}
+
+/// A scene ready to run.
+pub struct BuiltScene {
+    /// The world: rapier bodies and colliders, the fluids; gravity and dt set.
+    pub world: FluidWorld,
+    /// Handles of the fluids, in file order.
+    pub fluids: Vec<FluidHandle>,
+    /// Handles of the bodies, in file order.
+    pub bodies: Vec<RigidBodyHandle>,
+    /// The time step (s).
+    pub dt: Real,
+    /// Steps per frame.
+    pub steps_per_frame: usize,
+    /// Frames in the scene's duration.
+    pub frames: usize,
+    /// The camera.
+    pub camera: CameraDesc,
+}
+
+#[cfg(feature = "render")]
+impl CameraDesc {
+    /// The render camera at simulated time `t` (s); `world` is used by [`CameraDesc::Auto`]
+    /// to frame the scene.
+    pub fn camera_at(&self, world: &FluidWorld, t: Real) -> crate::render::Camera {
+        use crate::render::Camera;
+        match self {
+            CameraDesc::Auto {
+                azimuth,
+                elevation,
+                degrees_per_second,
+            } => {
+                let (lo, hi) = scene_bounds(world);
+                Camera::framing(lo, hi, azimuth.0, elevation.0).rotated(degrees_per_second.0 * t)
+            }
+            CameraDesc::LookAt {
+                eye,
+                target,
+                fov_y_degrees,
+            } => Camera {
+                fov_y_degrees: fov_y_degrees.0,
+                ..Camera::look_at(eye.vector(), target.vector())
+            },
+            CameraDesc::Orbit {
+                target,
+                distance,
+                azimuth,
+                elevation,
+                degrees_per_second,
+                fov_y_degrees,
+            } => Camera {
+                fov_y_degrees: fov_y_degrees.0,
+                ..Camera::orbit(target.vector(), distance.0, azimuth.0, elevation.0)
+            }
+            .rotated(degrees_per_second.0 * t),
+        }
+    }
+}
+
+/// Bounding box of the particles and the finite colliders of a world.
+#[cfg(feature = "render")]
+pub fn scene_bounds(world: &FluidWorld) -> (Vector, Vector) {
+    let mut lo = Vector::splat(Real::INFINITY);
+    let mut hi = Vector::splat(Real::NEG_INFINITY);
+    for (_, f) in world.fluids.iter() {
+        for p in f.positions() {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+    }
+    for (_, c) in world.physics.colliders.iter() {
+        if c.shape().as_halfspace().is_some() {
+            continue;
+        }
+        let aabb = c.compute_aabb();
+        lo = lo.min(aabb.mins);
+        hi = hi.max(aabb.maxs);
+    }
+    if !lo.is_finite() {
+        return (Vector::splat(-1.0), Vector::splat(1.0));
+    }
+    (lo, hi)
+}
