@@ -108,6 +108,8 @@ pub mod render;
 #[cfg(feature = "scene")]
 pub mod scene_file;
 pub mod scenes;
+#[cfg(feature = "snapshot")]
+pub mod snapshot;
 pub mod world;
 
 pub use diagnostics::{Stage, StageTimings, StepReport};

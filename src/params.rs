@@ -14,6 +14,7 @@ use rapier3d::geometry::InteractionGroups;
 
 /// The equation of state: how pressure follows from density.
 #[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub enum EquationOfState {
     /// `p = k·(ρ − ρ0)` (Desbrun & Gascuel 1996; the Unity paper's eq. 11).
     ///
@@ -48,6 +49,7 @@ impl EquationOfState {
 /// Parameters of one fluid. Fields are documented with their unit and default; build them
 /// through [`FluidParamsBuilder`] so they are validated.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub struct FluidParams {
     /// Rest density `ρ0` (kg/m³). Water preset: 1000. Paper preset: 8.
     pub rest_density: Real,

@@ -1,6 +1,8 @@
 //! Fluids: particles stored as structure of arrays, and the set that holds several fluids.
 
 mod fluid_set;
+#[cfg(feature = "snapshot")]
+pub(crate) mod snapshot;
 
 pub use fluid_set::{FluidHandle, FluidSet};
 

@@ -79,6 +79,7 @@ pub trait Kernel: Copy + Send + Sync + 'static {
 
 /// Which kernel a stage uses. Chosen per fluid in [`crate::FluidParams`].
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub enum KernelKind {
     /// Müller's poly6 (density).
     Poly6,

@@ -1,0 +1,68 @@
+//! A fluid's complete state as plain serde data (feature `snapshot`): every per-particle
+//! array and counter the step reads. The workspace (grid, neighbour lists, scratch) is
+//! rebuilt from the particles by the next step, so it is not stored.
+
+use super::{Fluid, Workspace};
+use crate::error::SphResult;
+use crate::math::{Real, Vector};
+use crate::params::FluidParams;
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub(crate) struct FluidState {
+    params: FluidParams,
+    positions: Vec<Vector>,
+    velocities: Vec<Vector>,
+    accelerations: Vec<Vector>,
+    densities: Vec<Real>,
+    pressures: Vec<Real>,
+    ids: Vec<u32>,
+    next_id: u32,
+    needs_depenetration: bool,
+}
+
+impl FluidState {
+    pub(crate) fn capture(f: &Fluid) -> Self {
+        Self {
+            params: f.params.clone(),
+            positions: f.positions.clone(),
+            velocities: f.velocities.clone(),
+            accelerations: f.accelerations.clone(),
+            densities: f.densities.clone(),
+            pressures: f.pressures.clone(),
+            ids: f.ids.clone(),
+            next_id: f.next_id,
+            needs_depenetration: f.needs_depenetration,
+        }
+    }
+
+    /// The fluid back, checked: parameters valid, every array of the same length, positions
+    /// and velocities finite.
+    pub(crate) fn restore(self) -> SphResult<Fluid> {
+        let mut f = Fluid::new(self.params)?;
+        let n = self.positions.len();
+        let lens = [
+            self.velocities.len(),
+            self.accelerations.len(),
+            self.densities.len(),
+            self.pressures.len(),
+            self.ids.len(),
+        ];
+        if lens.iter().any(|&l| l != n) {
+            return Err(crate::SphError::InvalidParticle {
+                index: lens.iter().copied().min().unwrap_or(0).min(n),
+                reason: "snapshot arrays differ in length",
+            });
+        }
+        // Reuse the checks of `add_particles` on positions and velocities.
+        f.add_particles_with_velocities(&self.positions, Some(&self.velocities))?;
+        f.accelerations = self.accelerations;
+        f.densities = self.densities;
+        f.pressures = self.pressures;
+        f.ids = self.ids;
+        f.next_id = self.next_id;
+        f.needs_depenetration = self.needs_depenetration;
+        f.workspace = Workspace::default();
+        Ok(f)
+    }
+}
