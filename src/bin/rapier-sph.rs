@@ -1,1 +1,429 @@
-fn main() {}
+//! `rapier-sph`: run and check scene files.
+//!
+//! ```text
+//! rapier-sph run scenes/dam_break.ron --frames 300 --render out/ --export vtk --mesh
+//! rapier-sph validate scenes/*.ron
+//! ```
+//!
+//! Built with `cargo build --release --features cli` (add `surface` for `--mesh`).
+
+use clap::{Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use rapier_sph::io::{self, ParticleData};
+use rapier_sph::mesh::{TessellationOptions, TriangleMesh};
+use rapier_sph::render::{GifWriter, RenderOptions, Renderer};
+use rapier_sph::scene_file::SceneFile;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+#[derive(Parser)]
+#[command(
+    name = "rapier-sph",
+    version,
+    about = "Run and check rapier-sph scene files"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+enum Format {
+    /// VTK legacy (ParaView).
+    Vtk,
+    /// Binary PLY (Blender, Houdini, MeshLab).
+    Ply,
+    /// Wavefront OBJ (meshes only; particles are then written as PLY).
+    Obj,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a scene: step it, and write pictures, exports and a final state as asked.
+    Run {
+        /// The scene file (RON).
+        scene: PathBuf,
+        /// Number of frames (default: the scene's duration × frame rate).
+        #[arg(long)]
+        frames: Option<usize>,
+        /// Write a PNG per frame and `animation.gif` into this folder.
+        #[arg(long, value_name = "DIR")]
+        render: Option<PathBuf>,
+        /// Picture size, WIDTHxHEIGHT.
+        #[arg(long, default_value = "640x360")]
+        size: String,
+        /// Export particles each frame in this format (into --out).
+        #[arg(long, value_enum)]
+        export: Option<Format>,
+        /// Reconstruct the liquid surface each frame (splashsurf): render it instead of the
+        /// particles and, with --export, write it (OBJ, PLY or VTK). Needs the `surface` feature.
+        #[arg(long)]
+        mesh: bool,
+        /// Folder for exports. Default: `out`.
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        /// Start from a state saved by --save-state instead of the scene's initial particles
+        /// (the scene still gives camera, time step and frame count).
+        #[arg(long, value_name = "FILE")]
+        resume: Option<PathBuf>,
+        /// Save the final state (fluids + rapier world) to this file.
+        #[arg(long, value_name = "FILE")]
+        save_state: Option<PathBuf>,
+        /// No progress bar.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Check scene files: parse them, build them, print what they hold.
+    Validate {
+        /// The scene files.
+        #[arg(required = true)]
+        scenes: Vec<PathBuf>,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Validate { scenes } => validate(&scenes),
+        Command::Run {
+            scene,
+            frames,
+            render,
+            size,
+            export,
+            mesh,
+            out,
+            resume,
+            save_state,
+            quiet,
+        } => run(RunArgs {
+            scene,
+            frames,
+            render,
+            size,
+            export,
+            mesh,
+            out,
+            resume,
+            save_state,
+            quiet,
+        }),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
+
+fn validate(scenes: &[PathBuf]) -> Result<()> {
+    let mut failed = 0;
+    for path in scenes {
+        match SceneFile::load_and_build(path) {
+            Ok((scene, built)) => {
+                let w = &built.world;
+                println!("{}: ok", path.display());
+                if !scene.description.is_empty() {
+                    println!("  {}", scene.description);
+                }
+                for (k, h) in built.fluids.iter().enumerate() {
+                    let f = &w.fluids[*h];
+                    let name = &scene.fluids[k].name;
+                    println!(
+                        "  fluid {k} {name:?}: {} particles, spacing {} m, h {} m, ρ0 {} kg/m³",
+                        f.len(),
+                        f.params().particle_spacing,
+                        f.params().smoothing_length,
+                        f.params().rest_density
+                    );
+                }
+                println!(
+                    "  {} bodies, {} colliders; {} s at {} frames/s = {} frames of {} steps, dt = {:.6} s",
+                    w.physics.bodies.len(),
+                    w.physics.colliders.len(),
+                    scene.duration.0,
+                    scene.frame_rate.0,
+                    built.frames,
+                    built.steps_per_frame,
+                    built.dt
+                );
+            }
+            Err(e) => {
+                eprintln!("{e}");
+                failed += 1;
+            }
+        }
+    }
+    if failed > 0 {
+        return Err(format!("{failed} of {} scene files are invalid", scenes.len()).into());
+    }
+    Ok(())
+}
+
+struct RunArgs {
+    scene: PathBuf,
+    frames: Option<usize>,
+    render: Option<PathBuf>,
+    size: String,
+    export: Option<Format>,
+    mesh: bool,
+    out: PathBuf,
+    resume: Option<PathBuf>,
+    save_state: Option<PathBuf>,
+    quiet: bool,
+}
+
+#[derive(Default)]
+struct Clock {
+    simulate: Duration,
+    surface: Duration,
+    render: Duration,
+    export: Duration,
+}
+
+fn timed<T>(acc: &mut Duration, f: impl FnOnce() -> T) -> T {
+    let t = Instant::now();
+    let r = f();
+    *acc += t.elapsed();
+    r
+}
+
+fn run(a: RunArgs) -> Result<()> {
+    let (scene, mut built) = SceneFile::load_and_build(&a.scene)?;
+    if let Some(state) = &a.resume {
+        let mut world = rapier_sph::snapshot::load(state)?;
+        world.physics.integration_parameters.dt = built.dt;
+        built.world = world;
+    }
+    if a.mesh && !cfg!(feature = "surface") {
+        return Err(
+            "--mesh needs the `surface` feature: cargo build --release --features cli,surface"
+                .into(),
+        );
+    }
+    let frames = a.frames.unwrap_or(built.frames);
+    let world = &mut built.world;
+    let n0 = world.fluids.num_particles();
+
+    let (w, h) = a
+        .size
+        .split_once('x')
+        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+        .filter(|(w, h)| *w > 0 && *h > 0)
+        .ok_or("--size must look like 640x360")?;
+    let mut pictures = match &a.render {
+        Some(dir) => {
+            std::fs::create_dir_all(dir)?;
+            let options = RenderOptions {
+                width: w,
+                height: h,
+                draw_particles: !a.mesh,
+                ..RenderOptions::default()
+            };
+            Some((
+                Renderer::new(options),
+                GifWriter::create(
+                    dir.join("animation.gif"),
+                    w,
+                    h,
+                    (100.0 / scene.frame_rate.0).round().max(2.0) as u16,
+                )?,
+            ))
+        }
+        None => None,
+    };
+    if a.export.is_some() {
+        std::fs::create_dir_all(&a.out)?;
+        // The colliders once, for the 3D tools (static geometry at its initial pose).
+        let mut colliders = TriangleMesh::default();
+        for (_, m) in
+            TriangleMesh::from_colliders(&world.physics.colliders, &TessellationOptions::default())
+        {
+            colliders.append_transformed(&m, &rapier_sph::math::Pose::IDENTITY);
+        }
+        io::write_mesh_obj(a.out.join("colliders.obj"), &colliders)?;
+    }
+
+    let bar = if a.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(frames as u64)
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{bar:40.cyan/blue} {pos}/{len} frames  {msg}  [{elapsed_precise} < {eta_precise}]",
+        )?
+        .progress_chars("=> "),
+    );
+
+    // The camera frames the initial scene once, then only turns.
+    let base_camera = built.camera.camera_at(world, 0.0);
+    let degrees_per_second = built.camera.degrees_per_second();
+    let mut clock = Clock::default();
+    let mut bytes_written = 0u64;
+    let mut files = 0usize;
+    let mut max_err: f32 = 0.0;
+    let mut non_finite = 0usize;
+    let mut steps = 0usize;
+    let t0 = Instant::now();
+    let mut write_frame =
+        |frame: usize, world: &rapier_sph::FluidWorld, clock: &mut Clock| -> Result<()> {
+            let surface = if a.mesh {
+                Some(timed(&mut clock.surface, || surface_mesh(world))?)
+            } else {
+                None
+            };
+            if let Some((renderer, gif)) = &mut pictures {
+                let t = frame as f32 / scene.frame_rate.0;
+                let camera = base_camera.rotated(degrees_per_second * t);
+                let dir = a.render.as_ref().expect("render dir");
+                let path = dir.join(format!("frame_{frame:04}.png"));
+                timed(&mut clock.render, || -> Result<()> {
+                    let image = renderer.render_world(&camera, world, surface.as_ref());
+                    image.save_png(&path)?;
+                    gif.add_frame(&image)?;
+                    Ok(())
+                })?;
+                bytes_written += std::fs::metadata(&path)?.len();
+                files += 1;
+            }
+            if let Some(format) = a.export {
+                timed(&mut clock.export, || -> Result<()> {
+                    let data = ParticleData::from_fluids(&world.fluids);
+                    let p = match format {
+                        Format::Vtk => {
+                            let p = a.out.join(format!("particles_{frame:04}.vtk"));
+                            io::write_particles_vtk(&p, &data)?;
+                            p
+                        }
+                        Format::Ply | Format::Obj => {
+                            let p = a.out.join(format!("particles_{frame:04}.ply"));
+                            io::write_particles_ply(&p, &data)?;
+                            p
+                        }
+                    };
+                    bytes_written += std::fs::metadata(&p)?.len();
+                    files += 1;
+                    if let Some(mesh) = &surface {
+                        let p = match format {
+                            Format::Vtk => {
+                                let p = a.out.join(format!("surface_{frame:04}.vtk"));
+                                io::write_mesh_vtk(&p, mesh)?;
+                                p
+                            }
+                            Format::Ply => {
+                                let p = a.out.join(format!("surface_{frame:04}.ply"));
+                                io::write_mesh_ply(&p, mesh)?;
+                                p
+                            }
+                            Format::Obj => {
+                                let p = a.out.join(format!("surface_{frame:04}.obj"));
+                                io::write_mesh_obj(&p, mesh)?;
+                                p
+                            }
+                        };
+                        bytes_written += std::fs::metadata(&p)?.len();
+                        files += 1;
+                    }
+                    Ok(())
+                })?;
+            }
+            Ok(())
+        };
+
+    write_frame(0, world, &mut clock)?;
+    for frame in 1..=frames {
+        timed(&mut clock.simulate, || -> Result<()> {
+            for _ in 0..built.steps_per_frame {
+                let r = world.step()?;
+                max_err = max_err.max(r.max_density_error);
+                non_finite += r.non_finite;
+                steps += 1;
+            }
+            Ok(())
+        })?;
+        write_frame(frame, world, &mut clock)?;
+        bar.set_position(frame as u64);
+        bar.set_message(format!(
+            "t = {:.2} s, max |v| {:.2} m/s",
+            frame as f32 / scene.frame_rate.0,
+            world.pipeline.report().max_speed
+        ));
+    }
+    bar.finish_and_clear();
+    let wall = t0.elapsed().as_secs_f64();
+    if let Some((_, gif)) = pictures {
+        gif.finish()?;
+        let p = a.render.as_ref().expect("render dir").join("animation.gif");
+        bytes_written += std::fs::metadata(&p)?.len();
+        files += 1;
+    }
+    if let Some(path) = &a.save_state {
+        rapier_sph::snapshot::save(world, path)?;
+        bytes_written += std::fs::metadata(path)?.len();
+        files += 1;
+    }
+
+    let n = world.fluids.num_particles();
+    let sim = clock.simulate.as_secs_f64();
+    println!(
+        "{}: {frames} frames, {steps} steps of {:.6} s = {:.3} s simulated",
+        a.scene.display(),
+        built.dt,
+        steps as f64 * built.dt as f64
+    );
+    println!(
+        "particles            {n} (start {n0}), {} NaN/inf, max density error {:.2} %",
+        non_finite,
+        100.0 * max_err
+    );
+    println!(
+        "wall time            {wall:.2} s: simulation {sim:.2} s ({:.1} steps/s, {:.2} M particle-steps/s), surface {:.2} s, rendering {:.2} s, export {:.2} s",
+        steps as f64 / sim.max(1e-9),
+        steps as f64 * n as f64 / sim.max(1e-9) / 1e6,
+        clock.surface.as_secs_f64(),
+        clock.render.as_secs_f64(),
+        clock.export.as_secs_f64()
+    );
+    if files > 0 {
+        println!(
+            "files written        {files}, {:.1} MB",
+            bytes_written as f64 / 1e6
+        );
+    }
+    if let Some(d) = &a.render {
+        println!(
+            "pictures             {}/frame_*.png, {}/animation.gif",
+            d.display(),
+            d.display()
+        );
+    }
+    if a.export.is_some() {
+        println!("exports              {}/", a.out.display());
+    }
+    if let Some(p) = &a.save_state {
+        println!("state saved          {}", p.display());
+    }
+    if non_finite > 0 {
+        return Err("particles became non-finite".into());
+    }
+    Ok(())
+}
+
+#[cfg(feature = "surface")]
+fn surface_mesh(world: &rapier_sph::FluidWorld) -> Result<TriangleMesh> {
+    Ok(rapier_sph::surface::reconstruct_fluids(
+        &world.fluids,
+        &rapier_sph::surface::SurfaceOptions::default(),
+    )?)
+}
+
+#[cfg(not(feature = "surface"))]
+fn surface_mesh(_: &rapier_sph::FluidWorld) -> Result<TriangleMesh> {
+    Err("--mesh needs the `surface` feature".into())
+}

@@ -632,10 +632,26 @@ pub struct BuiltScene {
     pub camera: CameraDesc,
 }
 
+impl CameraDesc {
+    /// Degrees the camera turns per simulated second.
+    pub fn degrees_per_second(&self) -> Real {
+        match self {
+            CameraDesc::Auto {
+                degrees_per_second, ..
+            }
+            | CameraDesc::Orbit {
+                degrees_per_second, ..
+            } => degrees_per_second.0,
+            CameraDesc::LookAt { .. } => 0.0,
+        }
+    }
+}
+
 #[cfg(feature = "render")]
 impl CameraDesc {
     /// The render camera at simulated time `t` (s); `world` is used by [`CameraDesc::Auto`]
-    /// to frame the scene.
+    /// to frame the scene (call it once on the initial world and turn the result with
+    /// [`crate::render::Camera::rotated`] so the framing does not follow splashes).
     pub fn camera_at(&self, world: &FluidWorld, t: Real) -> crate::render::Camera {
         use crate::render::Camera;
         match self {
