@@ -110,6 +110,8 @@ pub mod scene_file;
 pub mod scenes;
 #[cfg(feature = "snapshot")]
 pub mod snapshot;
+#[cfg(feature = "surface")]
+pub mod surface;
 pub mod world;
 
 pub use diagnostics::{Stage, StageTimings, StepReport};
