@@ -1,5 +1,5 @@
 //! Save and restore the whole simulation (feature `snapshot`): every fluid's particles and
-//! parameters, and the rapier [`PhysicsWorld`](rapier3d::pipeline::PhysicsWorld) through
+//! parameters, and the rapier `PhysicsWorld` through
 //! rapier's own `serde-serialize` support, in one binary file (postcard).
 //!
 //! Restoring and stepping on gives bitwise the same state as never having stopped (tested
