@@ -67,6 +67,15 @@
 //! | feature | default | what it does |
 //! |---|---|---|
 //! | `parallel` | yes | runs every per-particle stage on rayon; the serial build gives bitwise the same results |
+//! | `io` | no | `io`: particles to VTK/PLY, meshes to OBJ/PLY/VTK, and readers (vtkio, ply-rs-bw, tobj) |
+//! | `render` | no | `render`: headless PNG frames and GIFs, own software rasteriser (png, gif) |
+//! | `scene` | no | `scene_file`: RON scene files with file:line errors (serde, ron, tobj) |
+//! | `snapshot` | no | `snapshot`: save/restore fluids + rapier world, bitwise continuation (postcard) |
+//! | `surface` | no | `surface`: liquid surface meshes (splashsurf_lib) |
+//! | `cli` | no | the `rapier-sph` binary: `run` and `validate` scene files (clap, indicatif) |
+//!
+//! None of the optional features changes the simulation; the default build pulls none of
+//! their dependencies.
 //!
 //! ## FAQ
 //!
