@@ -72,6 +72,7 @@
 //! | `scene` | no | `scene_file`: RON scene files with file:line errors (serde, ron, tobj) |
 //! | `snapshot` | no | `snapshot`: save/restore fluids + rapier world, bitwise continuation (postcard) |
 //! | `surface` | no | `surface`: liquid surface meshes (splashsurf_lib) |
+//! | `viewer` | no | `examples/viewer.rs`: a kiss3d window for scene files |
 //! | `cli` | no | the `rapier-sph` binary: `run` and `validate` scene files (clap, indicatif) |
 //!
 //! None of the optional features changes the simulation; the default build pulls none of
