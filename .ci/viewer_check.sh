@@ -11,7 +11,7 @@ if ! command -v xvfb-run >/dev/null 2>&1; then
   DEBIAN_FRONTEND=noninteractive apt-get install -y -qq xvfb xauth mesa-vulkan-drivers libgl1-mesa-dri
 fi
 cargo build --release --locked --features viewer --example viewer
-xvfb-run -a -s "-screen 0 1280x800x24" ./target/release/examples/viewer scenes/dam_break.ron \
+xvfb-run -a -s "-screen 0 1280x800x24" "${CARGO_TARGET_DIR:-target}/release/examples/viewer" scenes/dam_break.ron \
   --frames 30 --screenshot "$out"
 test -s "$out"
 echo "viewer drew 30 frames under Xvfb; screenshot: $out"
