@@ -79,6 +79,7 @@ struct Pictures {
     orbit: f32,
     frames: usize,
     seconds: f64,
+    render_seconds: f64,
 }
 
 #[cfg(feature = "render")]
@@ -110,6 +111,7 @@ impl Pictures {
             orbit,
             frames: 0,
             seconds: 0.0,
+            render_seconds: 0.0,
         })
     }
 
@@ -117,6 +119,7 @@ impl Pictures {
         let t = Instant::now();
         let camera = self.camera.rotated(self.orbit * self.frames as f32);
         let image = self.renderer.render_world(&camera, world, None);
+        self.render_seconds += t.elapsed().as_secs_f64();
         image.save_png(self.dir.join(format!("frame_{:04}.png", self.frames)))?;
         self.gif.add_frame(&image)?;
         self.frames += 1;
@@ -242,10 +245,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(p) = pictures {
         wall -= p.seconds;
         println!(
-            "rendered {} frames to {} ({:.1} ms per frame incl. PNG + GIF encoding; not counted below)",
+            "rendered {} frames to {}: {:.1} ms per frame, of which drawing {:.1} ms and PNG + GIF encoding the rest (not counted below)",
             p.frames,
             p.dir.display(),
-            1e3 * p.seconds / p.frames.max(1) as f64
+            1e3 * p.seconds / p.frames.max(1) as f64,
+            1e3 * p.render_seconds / p.frames.max(1) as f64
         );
         p.gif.finish()?;
     }
