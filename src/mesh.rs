@@ -256,6 +256,7 @@ mod tests {
             &TessellationOptions::default(),
         )
         .unwrap();
+        assert!(m.is_closed());
         assert!((m.signed_volume() - 48.0).abs() < 1e-4);
     }
 
