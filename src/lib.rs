@@ -95,6 +95,7 @@ pub mod params;
 pub mod pipeline;
 pub mod pressure;
 pub mod scenes;
+pub mod solver;
 pub mod world;
 
 pub use diagnostics::{Stage, StageTimings, StepReport};
@@ -102,7 +103,8 @@ pub use error::{SphError, SphResult};
 pub use fluid::{Fluid, FluidHandle, FluidSet};
 pub use kernel::KernelKind;
 pub use params::{EquationOfState, FluidParams, FluidParamsBuilder};
-pub use pipeline::FluidPipeline;
+pub use pipeline::{FluidPipeline, TimeStepping};
+pub use solver::{Dfsph, Solver};
 pub use world::FluidWorld;
 
 /// Re-export of the rapier version this crate is built on.
