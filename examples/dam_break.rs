@@ -59,6 +59,9 @@ struct Args {
     /// Pressure solver (default: the preset's: DFSPH for water, WCSPH for paper).
     #[arg(long, value_enum)]
     solver: Option<SolverArg>,
+    /// Walls count in the density (`FluidParams::wall_density`).
+    #[arg(long)]
+    walls: bool,
     /// One substep per frame of exactly --dt (default: adaptive CFL substeps within each frame).
     #[arg(long)]
     fixed: bool,
@@ -85,6 +88,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(SolverArg::Wcsph) => builder = builder.solver(Solver::Wcsph),
         Some(SolverArg::Dfsph) => builder = builder.solver(Solver::dfsph()),
         None => {}
+    }
+    if args.walls {
+        builder = builder.wall_density(true);
     }
     if let Some(eps) = args.viscosity {
         builder = builder.viscosity(eps);
