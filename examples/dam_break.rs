@@ -6,6 +6,7 @@
 //! cargo run --release --example dam_break                       # paper preset, 2,500 particles
 //! cargo run --release --example dam_break -- --preset water --particles 20000
 //! cargo run --release --example dam_break -- --help
+//! cargo run --release --example dam_break --features render -- --render out/   # PNG frames + GIF
 //! ```
 
 use clap::{Parser, ValueEnum};
@@ -71,6 +72,74 @@ struct Args {
     /// Print a line every this many steps (0: never).
     #[arg(long, default_value_t = 100)]
     every: usize,
+    /// Write a PNG frame every --frame-every steps into this folder, and `dam_break.gif`
+    /// (needs the `render` feature).
+    #[arg(long, value_name = "DIR")]
+    render: Option<std::path::PathBuf>,
+    /// Steps between rendered frames (default: about 60 frames over the run).
+    #[arg(long)]
+    frame_every: Option<usize>,
+    /// Frame size in pixels, WIDTHxHEIGHT.
+    #[arg(long, default_value = "640x360")]
+    size: String,
+    /// Turn the camera by this many degrees per frame (0: fixed camera).
+    #[arg(long, default_value_t = 0.0)]
+    orbit: f32,
+}
+
+#[cfg(feature = "render")]
+struct Pictures {
+    dir: std::path::PathBuf,
+    renderer: rapier_sph::render::Renderer,
+    camera: rapier_sph::render::Camera,
+    gif: rapier_sph::render::GifWriter,
+    orbit: f32,
+    frames: usize,
+    seconds: f64,
+}
+
+#[cfg(feature = "render")]
+impl Pictures {
+    fn new(
+        dir: &std::path::Path,
+        size: &str,
+        orbit: f32,
+        scene: &rapier_sph::scenes::DamBreak,
+        max_speed: f32,
+    ) -> Result<Self, Box<dyn std::error::Error>> {
+        use rapier_sph::render::{Camera, GifWriter, RenderOptions, Renderer};
+        let (w, h) = size
+            .split_once('x')
+            .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
+            .ok_or("--size must look like 640x360")?;
+        std::fs::create_dir_all(dir)?;
+        let options = RenderOptions {
+            width: w,
+            height: h,
+            speed_range: Some((0.0, max_speed)),
+            ..RenderOptions::default()
+        };
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            renderer: Renderer::new(options),
+            camera: Camera::framing(scene.tank_min, scene.tank_max, 30.0, 28.0),
+            gif: GifWriter::create(dir.join("dam_break.gif"), w, h, 5)?,
+            orbit,
+            frames: 0,
+            seconds: 0.0,
+        })
+    }
+
+    fn frame(&mut self, world: &rapier_sph::FluidWorld) -> Result<(), Box<dyn std::error::Error>> {
+        let t = Instant::now();
+        let camera = self.camera.rotated(self.orbit * self.frames as f32);
+        let image = self.renderer.render_world(&camera, world, None);
+        image.save_png(self.dir.join(format!("frame_{:04}.png", self.frames)))?;
+        self.gif.add_frame(&image)?;
+        self.frames += 1;
+        self.seconds += t.elapsed().as_secs_f64();
+        Ok(())
+    }
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -147,6 +216,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "iters d/v"
     );
 
+    #[cfg(feature = "render")]
+    let mut pictures = match &args.render {
+        Some(dir) => Some(Pictures::new(
+            dir,
+            &args.size,
+            args.orbit,
+            &scene,
+            (2.0 * 9.81 * scene.column_height).sqrt(),
+        )?),
+        None => None,
+    };
+    #[cfg(not(feature = "render"))]
+    if args.render.is_some() {
+        return Err("--render needs the `render` feature: cargo run --release --example dam_break --features render -- --render DIR".into());
+    }
+    let frame_every = args.frame_every.unwrap_or((args.steps / 60).max(1)).max(1);
+    let _ = frame_every;
+    #[cfg(feature = "render")]
+    if let Some(p) = &mut pictures {
+        p.frame(&scene.world)?;
+    }
+
     let mut timings = StageTimings::default();
     let mut max_err: f32 = 0.0;
     let mut mean_err_sum = 0.0f64;
@@ -164,6 +255,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         substeps += report.substeps as u64;
         iterations += report.solver_iterations as u64;
         div_iterations += report.divergence_iterations as u64;
+        #[cfg(feature = "render")]
+        if step % frame_every == 0
+            && let Some(p) = &mut pictures
+        {
+            p.frame(&scene.world)?;
+        }
         if args.every > 0 && (step % args.every == 0 || step == args.steps) {
             let r = scene.world.pipeline.report();
             let f = &scene.world.fluids[scene.fluid];
@@ -183,7 +280,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             );
         }
     }
-    let wall = t0.elapsed().as_secs_f64();
+    #[allow(unused_mut)]
+    let mut wall = t0.elapsed().as_secs_f64();
+    #[cfg(feature = "render")]
+    if let Some(p) = pictures {
+        wall -= p.seconds;
+        println!(
+            "rendered {} frames to {} ({:.1} ms per frame incl. PNG + GIF encoding; not counted below)",
+            p.frames,
+            p.dir.display(),
+            1e3 * p.seconds / p.frames.max(1) as f64
+        );
+        p.gif.finish()?;
+    }
     let steps_per_s = args.steps as f64 / wall;
     println!();
     println!(

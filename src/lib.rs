@@ -91,13 +91,24 @@ pub mod error;
 pub mod fluid;
 pub mod forces;
 pub mod integrate;
+#[cfg(feature = "io")]
+pub mod io;
 pub mod kernel;
 pub mod math;
+#[cfg(any(
+    feature = "io",
+    feature = "render",
+    feature = "scene",
+    feature = "surface"
+))]
+pub mod mesh;
 pub mod neighbors;
 pub mod par;
 pub mod params;
 pub mod pipeline;
 pub mod pressure;
+#[cfg(feature = "render")]
+pub mod render;
 pub mod scenes;
 pub mod solver;
 pub mod world;

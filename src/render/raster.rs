@@ -1,0 +1,210 @@
+//! A small z-buffered software rasteriser: triangles (flat or per-vertex colours, clipped at
+//! the near plane), sphere impostors (exact per-pixel sphere depth and normal), translucent
+//! triangles blended over the opaque image. Depth is stored as `1/d` (d the distance along
+//! the view axis), which is linear in screen space.
+
+use crate::math::{Real, Vector};
+
+/// Colour in linear-ish RGB, each channel in `[0, 1]`.
+pub type Rgb = [Real; 3];
+
+pub(crate) struct Target {
+    pub width: usize,
+    pub height: usize,
+    pub color: Vec<Rgb>,
+    /// `1/d` of the nearest opaque surface so far (0: nothing).
+    pub inv_depth: Vec<Real>,
+    /// Focal length in pixels.
+    pub focal: Real,
+}
+
+pub(crate) const NEAR: Real = 1e-3;
+
+impl Target {
+    pub fn new() -> Self {
+        Self {
+            width: 0,
+            height: 0,
+            color: Vec::new(),
+            inv_depth: Vec::new(),
+            focal: 1.0,
+        }
+    }
+
+    pub fn reset(&mut self, width: usize, height: usize, focal: Real, top: Rgb, bottom: Rgb) {
+        self.width = width;
+        self.height = height;
+        self.focal = focal;
+        self.color.clear();
+        for y in 0..height {
+            let t = y as Real / (height.max(2) - 1) as Real;
+            let c = lerp3(top, bottom, t);
+            self.color.extend(std::iter::repeat_n(c, width));
+        }
+        self.inv_depth.clear();
+        self.inv_depth.resize(width * height, 0.0);
+    }
+
+    /// Screen position (pixels) and `1/d` of a view-space point with `d = -z > 0`.
+    #[inline]
+    fn project(&self, p: Vector) -> (Real, Real, Real) {
+        let d = -p.z;
+        let inv = 1.0 / d;
+        (
+            0.5 * self.width as Real + p.x * self.focal * inv,
+            0.5 * self.height as Real - p.y * self.focal * inv,
+            inv,
+        )
+    }
+
+    /// Draws a sphere of view-space centre `c` and radius `r`; `shade(normal, d)` gives the
+    /// colour of a visible point from its view-space normal and depth.
+    pub fn sphere(&mut self, c: Vector, r: Real, mut shade: impl FnMut(Vector, Real) -> Rgb) {
+        let d = -c.z;
+        if d - r < NEAR {
+            return;
+        }
+        let (sx, sy, _) = self.project(c);
+        let rs = r * self.focal / d;
+        let x0 = ((sx - rs).floor().max(0.0)) as usize;
+        let y0 = ((sy - rs).floor().max(0.0)) as usize;
+        let x1 = ((sx + rs).ceil().min(self.width as Real)).max(0.0) as usize;
+        let y1 = ((sy + rs).ceil().min(self.height as Real)).max(0.0) as usize;
+        let inv_rs = 1.0 / rs;
+        for py in y0..y1 {
+            let v = (py as Real + 0.5 - sy) * inv_rs;
+            for px in x0..x1 {
+                let u = (px as Real + 0.5 - sx) * inv_rs;
+                let q = u * u + v * v;
+                if q >= 1.0 {
+                    continue;
+                }
+                let nz = (1.0 - q).sqrt();
+                let depth = d - r * nz;
+                let inv = 1.0 / depth;
+                let k = py * self.width + px;
+                if inv > self.inv_depth[k] {
+                    self.inv_depth[k] = inv;
+                    self.color[k] = shade(Vector::new(u, -v, nz), depth);
+                }
+            }
+        }
+    }
+
+    /// Draws a triangle given in view space with per-vertex colours. With `alpha < 1` the
+    /// triangle is blended over what is there (depth-tested, depth not written).
+    pub fn triangle(&mut self, p: [Vector; 3], c: [Rgb; 3], alpha: Real) {
+        // Clip against the near plane (Sutherland–Hodgman on one plane).
+        let inside = |v: &Vector| -v.z >= NEAR;
+        if p.iter().all(inside) {
+            self.raster(p, c, alpha);
+            return;
+        }
+        if !p.iter().any(inside) {
+            return;
+        }
+        let mut poly: Vec<(Vector, Rgb)> = Vec::with_capacity(4);
+        for i in 0..3 {
+            let (a, ca) = (p[i], c[i]);
+            let (b, cb) = (p[(i + 1) % 3], c[(i + 1) % 3]);
+            if inside(&a) {
+                poly.push((a, ca));
+            }
+            if inside(&a) != inside(&b) {
+                let t = (-a.z - NEAR) / ((-a.z) - (-b.z));
+                poly.push((a + (b - a) * t, lerp3(ca, cb, t)));
+            }
+        }
+        for k in 1..poly.len().saturating_sub(1) {
+            self.raster(
+                [poly[0].0, poly[k].0, poly[k + 1].0],
+                [poly[0].1, poly[k].1, poly[k + 1].1],
+                alpha,
+            );
+        }
+    }
+
+    fn raster(&mut self, p: [Vector; 3], c: [Rgb; 3], alpha: Real) {
+        let s = p.map(|v| self.project(v));
+        let area = (s[1].0 - s[0].0) * (s[2].1 - s[0].1) - (s[2].0 - s[0].0) * (s[1].1 - s[0].1);
+        if area.abs() < 1e-12 || !area.is_finite() {
+            return;
+        }
+        let inv_area = 1.0 / area;
+        let xmin = s.iter().map(|v| v.0).fold(Real::INFINITY, Real::min);
+        let xmax = s.iter().map(|v| v.0).fold(Real::NEG_INFINITY, Real::max);
+        let ymin = s.iter().map(|v| v.1).fold(Real::INFINITY, Real::min);
+        let ymax = s.iter().map(|v| v.1).fold(Real::NEG_INFINITY, Real::max);
+        let x0 = xmin.floor().max(0.0) as usize;
+        let y0 = ymin.floor().max(0.0) as usize;
+        let x1 = (xmax.ceil().min(self.width as Real)).max(0.0) as usize;
+        let y1 = (ymax.ceil().min(self.height as Real)).max(0.0) as usize;
+        let flat = c[0] == c[1] && c[1] == c[2];
+        for py in y0..y1 {
+            let y = py as Real + 0.5;
+            for px in x0..x1 {
+                let x = px as Real + 0.5;
+                let w0 = ((s[1].0 - x) * (s[2].1 - y) - (s[2].0 - x) * (s[1].1 - y)) * inv_area;
+                let w1 = ((s[2].0 - x) * (s[0].1 - y) - (s[0].0 - x) * (s[2].1 - y)) * inv_area;
+                let w2 = 1.0 - w0 - w1;
+                if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
+                    continue;
+                }
+                let inv = w0 * s[0].2 + w1 * s[1].2 + w2 * s[2].2;
+                let k = py * self.width + px;
+                if inv <= self.inv_depth[k] {
+                    continue;
+                }
+                let col = if flat {
+                    c[0]
+                } else {
+                    [0, 1, 2].map(|ch| w0 * c[0][ch] + w1 * c[1][ch] + w2 * c[2][ch])
+                };
+                if alpha >= 1.0 {
+                    self.inv_depth[k] = inv;
+                    self.color[k] = col;
+                } else {
+                    self.color[k] = lerp3(self.color[k], col, alpha);
+                }
+            }
+        }
+    }
+
+    /// The image, box-filtered down by `factor` along each axis, as 8-bit sRGB-ish RGB.
+    pub fn resolve(&self, factor: usize) -> (usize, usize, Vec<u8>) {
+        let (w, h) = (self.width / factor, self.height / factor);
+        let mut out = Vec::with_capacity(w * h * 3);
+        let norm = 1.0 / (factor * factor) as Real;
+        for y in 0..h {
+            for x in 0..w {
+                let mut acc = [0.0; 3];
+                for dy in 0..factor {
+                    for dx in 0..factor {
+                        let c = self.color[(y * factor + dy) * self.width + x * factor + dx];
+                        for ch in 0..3 {
+                            acc[ch] += c[ch];
+                        }
+                    }
+                }
+                for a in acc {
+                    out.push(
+                        (a * norm)
+                            .clamp(0.0, 1.0)
+                            .powf(1.0 / 2.2)
+                            .mul_add(255.0, 0.5) as u8,
+                    );
+                }
+            }
+        }
+        (w, h, out)
+    }
+}
+
+#[inline]
+pub(crate) fn lerp3(a: Rgb, b: Rgb, t: Real) -> Rgb {
+    [
+        a[0] + (b[0] - a[0]) * t,
+        a[1] + (b[1] - a[1]) * t,
+        a[2] + (b[2] - a[2]) * t,
+    ]
+}

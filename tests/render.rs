@@ -1,0 +1,143 @@
+//! Headless pictures: what is drawn lands where the camera says, colliders and particles
+//! occlude correctly, PNG and GIF files are written and read back.
+#![cfg(feature = "render")]
+
+use rapier_sph::math::Vector;
+use rapier_sph::render::{Camera, GifWriter, Image, RenderOptions, Renderer};
+use rapier_sph::{Fluid, FluidParamsBuilder, FluidWorld};
+use rapier3d::prelude::{ColliderBuilder, RigidBodyBuilder};
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("rapier-sph-render-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn options() -> RenderOptions {
+    RenderOptions {
+        width: 160,
+        height: 120,
+        supersample: 1,
+        fog: 0.0,
+        ..RenderOptions::default()
+    }
+}
+
+fn is_background(c: [u8; 3]) -> bool {
+    // The background is a grey-blue gradient: all channels above 190 after gamma.
+    c.iter().all(|&x| x > 190)
+}
+
+#[test]
+fn an_empty_world_is_background_and_a_ball_shows_in_the_middle() {
+    let camera = Camera::look_at(Vector::new(0.0, 0.0, 5.0), Vector::ZERO);
+    let mut world = FluidWorld::new();
+    let img = Renderer::new(options()).render_world(&camera, &world, None);
+    assert_eq!(
+        (img.width, img.height, img.rgb.len()),
+        (160, 120, 160 * 120 * 3)
+    );
+    assert!((0..160).all(|x| is_background(img.pixel(x, 60))));
+
+    let body = world.physics.insert_body(RigidBodyBuilder::fixed());
+    world
+        .physics
+        .insert_collider(ColliderBuilder::ball(1.0), Some(body));
+    let img = Renderer::new(options()).render_world(&camera, &world, None);
+    // The ball (radius 1 at distance 5, 40° field of view) spans ±41 px around the centre:
+    // tan(11.5°)·60/tan(20°) ≈ 33.5 px, so ±30 px is inside and ±50 px outside.
+    assert!(!is_background(img.pixel(80, 60)));
+    assert!(!is_background(img.pixel(110, 60)));
+    assert!(is_background(img.pixel(80 + 50, 60)));
+    assert!(is_background(img.pixel(80, 60 - 50)));
+}
+
+#[test]
+fn particles_are_drawn_coloured_by_speed_and_hidden_behind_opaque_colliders() {
+    let params = FluidParamsBuilder::water(0.1).build().unwrap();
+    let mut world = FluidWorld::new();
+    let mut fluid = Fluid::new(params).unwrap();
+    // A slow particle on the left and a fast one on the right.
+    fluid
+        .add_particles_with_velocities(
+            &[Vector::new(-1.0, 0.0, 0.0), Vector::new(1.0, 0.0, 0.0)],
+            Some(&[Vector::ZERO, Vector::new(0.0, 0.0, 3.0)]),
+        )
+        .unwrap();
+    world.fluids.insert(fluid);
+    let camera = Camera::look_at(Vector::new(0.0, 0.0, 5.0), Vector::ZERO);
+    let mut renderer = Renderer::new(RenderOptions {
+        particle_scale: 2.0, // radius 0.2 m: about 16 px
+        ..options()
+    });
+    let img = renderer.render_world(&camera, &world, None);
+    // x = ±1 at distance 5 projects to 80 ± 60/tan(20°)/5 ≈ 80 ± 33 px.
+    let slow = img.pixel(80 - 33, 60);
+    let fast = img.pixel(80 + 33, 60);
+    assert!(!is_background(slow) && slow[2] > slow[0], "{slow:?}");
+    // The fast particle is at the white end of the scale: brighter than the slow one.
+    let lum = |c: [u8; 3]| c.iter().map(|&x| x as u32).sum::<u32>();
+    assert!(lum(fast) > lum(slow) + 100, "{fast:?} vs {slow:?}");
+    assert!(is_background(img.pixel(80, 60)));
+
+    // A wall behind the particles (opaque, since it is farther than the fluid) does not
+    // hide them; the same wall in front of them (nearer than the fluid) is translucent.
+    let body = world.physics.insert_body(RigidBodyBuilder::fixed());
+    let behind = world.physics.insert_collider(
+        ColliderBuilder::cuboid(3.0, 3.0, 0.1).translation(Vector::new(0.0, 0.0, -1.0)),
+        Some(body),
+    );
+    let img = renderer.render_world(&camera, &world, None);
+    assert_eq!(img.pixel(80 - 33, 60), slow);
+    assert!(!is_background(img.pixel(80, 60)));
+    world.physics.remove_collider(behind);
+    world.physics.insert_collider(
+        ColliderBuilder::cuboid(3.0, 3.0, 0.1).translation(Vector::new(0.0, 0.0, 1.0)),
+        Some(body),
+    );
+    let img = renderer.render_world(&camera, &world, None);
+    let seen = img.pixel(80 - 33, 60);
+    assert_ne!(seen, slow);
+    assert!(
+        seen[2] > seen[0],
+        "the particle still shows through: {seen:?}"
+    );
+}
+
+#[test]
+fn png_and_gif_files_are_written() {
+    let camera = Camera::orbit(Vector::ZERO, 5.0, 30.0, 20.0);
+    let mut world = FluidWorld::new();
+    let body = world.physics.insert_body(RigidBodyBuilder::fixed());
+    world
+        .physics
+        .insert_collider(ColliderBuilder::cuboid(1.0, 0.5, 1.0), Some(body));
+    let mut renderer = Renderer::new(options());
+    let img = renderer.render_world(&camera, &world, None);
+    let png = tmp("frame.png");
+    img.save_png(&png).unwrap();
+    assert_eq!(Image::load_png(&png).unwrap(), img);
+
+    let gif = tmp("anim.gif");
+    let mut writer = GifWriter::create(&gif, 160, 120, 5).unwrap();
+    for k in 0..3 {
+        let img = renderer.render_world(&camera.rotated(30.0 * k as f32), &world, None);
+        writer.add_frame(&img).unwrap();
+    }
+    let wrong = Image {
+        width: 10,
+        height: 10,
+        rgb: vec![0; 300],
+    };
+    assert!(writer.add_frame(&wrong).is_err());
+    writer.finish().unwrap();
+    let bytes = std::fs::read(&gif).unwrap();
+    assert!(bytes.starts_with(b"GIF89a"));
+    // Three frames: three image descriptors (0x2C) after graphic control extensions.
+    let frames = bytes.windows(2).filter(|w| w == &[0x21, 0xF9]).count();
+    assert_eq!(frames, 3);
+    assert!(matches!(
+        Image::load_png(tmp("missing.png")),
+        Err(rapier_sph::render::RenderError::Io { .. })
+    ));
+}
