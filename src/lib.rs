@@ -70,6 +70,8 @@
 //! | feature | default | what it does |
 //! |---|---|---|
 //! | `parallel` | yes | runs every per-particle stage on rayon; the serial build gives bitwise the same results |
+//! | `io` | no | exports particles and meshes to VTK, PLY and OBJ (`io` module) |
+//! | `render` | no | headless pictures: PNG frames and animated GIFs (`render` module) |
 //!
 //! ## FAQ
 //!
@@ -95,12 +97,7 @@ pub mod integrate;
 pub mod io;
 pub mod kernel;
 pub mod math;
-#[cfg(any(
-    feature = "io",
-    feature = "render",
-    feature = "scene",
-    feature = "surface"
-))]
+#[cfg(any(feature = "io", feature = "render"))]
 pub mod mesh;
 pub mod neighbors;
 pub mod par;
