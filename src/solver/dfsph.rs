@@ -315,14 +315,21 @@ pub struct SolveContext<'a> {
     pub expected_neighbours: Real,
 }
 
-/// Divergence solve (Alg. 2): corrects `velocities` until `Dρ/Dt ≈ 0`. `warm` holds the
-/// previous step's pressure values on entry (used at half weight) and this step's sum on exit.
-pub fn divergence_solve<K: Kernel>(
+/// The Jacobi loop both solves share: warm start at half the previous pressure values
+/// (section 4.4; the increments are never negative, so the whole value could only grow), then
+/// rate pass → error check → velocity update until the average error, `Σ error_i / n` times
+/// `error_scale`, is at most `target` (after at least `min_iterations`), or the cap binds.
+/// `finish(i, Dρ_i/Dt) = (π increment, error_i)`. `warm` ends as this step's summed pressure.
+#[allow(clippy::too_many_arguments)]
+fn jacobi<K: Kernel, F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
     ctx: &SolveContext<'_>,
     settings: &Dfsph,
+    target: Real,
+    error_scale: Real,
     buffers: &mut DfsphBuffers,
     warm: &mut [Real],
     velocities: &mut [Vector],
+    finish: F,
 ) -> SolveStats {
     let n = ctx.positions.len();
     buffers.resize(n);
@@ -331,26 +338,25 @@ pub fn divergence_solve<K: Kernel>(
         pi,
         partials,
     } = buffers;
-    let (dt, rho0) = (ctx.dt, ctx.rest_density);
-    // Warm start at half the previous values (section 4.4).
-    for w in warm.iter_mut() {
-        *w *= 0.5;
-    }
-    if warm.iter().any(|&w| w != 0.0) {
+    let apply = |pi: &[Real], velocities: &mut [Vector]| {
         apply_pressure::<K>(
             ctx.positions,
             ctx.neighbors,
             ctx.mass,
             ctx.h,
             ctx.wall,
-            warm,
-            dt,
+            pi,
+            ctx.dt,
             velocities,
-        );
+        )
+    };
+    for w in warm.iter_mut() {
+        *w *= 0.5;
+    }
+    if warm.iter().any(|&w| w != 0.0) {
+        apply(warm, velocities);
     }
     let alpha: &[Real] = alpha;
-    let coverage = ctx.wall.map(|w| &w.coverage[..]);
-    let expected = ctx.expected_neighbours;
     let mut stats = SolveStats::default();
     loop {
         rate_pass::<K, _>(
@@ -362,42 +368,59 @@ pub fn divergence_solve<K: Kernel>(
             ctx.wall,
             pi,
             partials,
-            |i, rate| {
-                let count =
-                    ctx.neighbors.of(i).len() as Real + coverage.map_or(0.0, |c| c[i] * expected);
-                let r = if count < 0.6 * expected {
-                    0.0
-                } else {
-                    rate.max(0.0)
-                };
-                (r * alpha[i] / dt, r)
-            },
+            |i, rate| finish(alpha, i, rate),
         );
         let (sum, _) = reduce_partials(partials);
-        stats.error = (sum / n as f64) as Real * dt / rho0;
-        let done = stats.error <= settings.max_divergence_error;
+        stats.error = (sum / n as f64) as Real * error_scale;
+        let done = stats.error <= target;
         if (done && stats.iterations >= settings.min_iterations)
             || stats.iterations >= settings.max_iterations
         {
             stats.capped = !done;
             break;
         }
-        apply_pressure::<K>(
-            ctx.positions,
-            ctx.neighbors,
-            ctx.mass,
-            ctx.h,
-            ctx.wall,
-            pi,
-            dt,
-            velocities,
-        );
+        apply(pi, velocities);
         for (w, p) in warm.iter_mut().zip(pi.iter()) {
             *w += p;
         }
         stats.iterations += 1;
     }
     stats
+}
+
+/// Divergence solve (Alg. 2): corrects `velocities` until `Dρ/Dt ≈ 0`. `warm` holds the
+/// previous step's pressure values on entry (used at half weight) and this step's sum on exit.
+pub fn divergence_solve<K: Kernel>(
+    ctx: &SolveContext<'_>,
+    settings: &Dfsph,
+    buffers: &mut DfsphBuffers,
+    warm: &mut [Real],
+    velocities: &mut [Vector],
+) -> SolveStats {
+    let dt = ctx.dt;
+    let coverage = ctx.wall.map(|w| &w.coverage[..]);
+    let expected = ctx.expected_neighbours;
+    jacobi::<K, _>(
+        ctx,
+        settings,
+        settings.max_divergence_error,
+        dt / ctx.rest_density,
+        buffers,
+        warm,
+        velocities,
+        |alpha, i, rate| {
+            // Surface particles (few neighbours, walls counted by their coverage) are left
+            // out: their density deficit is not compression.
+            let count =
+                ctx.neighbors.of(i).len() as Real + coverage.map_or(0.0, |c| c[i] * expected);
+            let r = if count < 0.6 * expected {
+                0.0
+            } else {
+                rate.max(0.0)
+            };
+            (r * alpha[i] / dt, r)
+        },
+    )
 }
 
 /// Constant-density solve (Alg. 3): corrects the predicted `velocities` until the density they
@@ -411,75 +434,21 @@ pub fn density_solve<K: Kernel>(
     warm: &mut [Real],
     velocities: &mut [Vector],
 ) -> SolveStats {
-    let n = ctx.positions.len();
-    buffers.resize(n);
-    let DfsphBuffers {
-        alpha,
-        pi,
-        partials,
-    } = buffers;
-    let (dt, rho0) = (ctx.dt, ctx.rest_density);
-    // Warm start at half the previous values (section 4.4): the increments below are never
-    // negative (only compression is corrected), so the full value could only grow.
-    for w in warm.iter_mut() {
-        *w *= 0.5;
-    }
-    if warm.iter().any(|&w| w != 0.0) {
-        apply_pressure::<K>(
-            ctx.positions,
-            ctx.neighbors,
-            ctx.mass,
-            ctx.h,
-            ctx.wall,
-            warm,
-            dt,
-            velocities,
-        );
-    }
-    let alpha: &[Real] = alpha;
-    let densities = ctx.densities;
+    let (dt, rho0, densities) = (ctx.dt, ctx.rest_density, ctx.densities);
     let inv_dt2 = 1.0 / (dt * dt);
-    let mut stats = SolveStats::default();
-    loop {
-        rate_pass::<K, _>(
-            ctx.positions,
-            velocities,
-            ctx.neighbors,
-            ctx.mass,
-            ctx.h,
-            ctx.wall,
-            pi,
-            partials,
-            |i, rate| {
-                // Predicted density, clamped below at ρ0: only compression is corrected
-                // (a free surface is allowed to be under-dense).
-                let excess = (densities[i] + dt * rate - rho0).max(0.0);
-                (excess * alpha[i] * inv_dt2, excess)
-            },
-        );
-        let (sum, _) = reduce_partials(partials);
-        stats.error = (sum / n as f64) as Real / rho0;
-        let done = stats.error <= settings.max_density_error;
-        if (done && stats.iterations >= settings.min_iterations)
-            || stats.iterations >= settings.max_iterations
-        {
-            stats.capped = !done;
-            break;
-        }
-        apply_pressure::<K>(
-            ctx.positions,
-            ctx.neighbors,
-            ctx.mass,
-            ctx.h,
-            ctx.wall,
-            pi,
-            dt,
-            velocities,
-        );
-        for (w, p) in warm.iter_mut().zip(pi.iter()) {
-            *w += p;
-        }
-        stats.iterations += 1;
-    }
-    stats
+    jacobi::<K, _>(
+        ctx,
+        settings,
+        settings.max_density_error,
+        1.0 / rho0,
+        buffers,
+        warm,
+        velocities,
+        |alpha, i, rate| {
+            // Predicted density, clamped below at ρ0: only compression is corrected (a free
+            // surface is allowed to be under-dense).
+            let excess = (densities[i] + dt * rate - rho0).max(0.0);
+            (excess * alpha[i] * inv_dt2, excess)
+        },
+    )
 }
