@@ -11,7 +11,7 @@
 
 use clap::{Parser, ValueEnum};
 use rapier_sph::scenes::{DamBreakConfig, dam_break};
-use rapier_sph::{FluidParamsBuilder, StageTimings};
+use rapier_sph::{FluidParamsBuilder, Solver, StageTimings, TimeStepping};
 use std::time::Instant;
 
 #[derive(Copy, Clone, Debug, ValueEnum)]
@@ -20,6 +20,14 @@ enum Preset {
     Paper,
     /// SI water (ρ0 = 1000 kg/m³) at --spacing.
     Water,
+}
+
+#[derive(Copy, Clone, Debug, ValueEnum)]
+enum SolverArg {
+    /// Weakly compressible SPH (the paper's method).
+    Wcsph,
+    /// Divergence-free SPH (Bender & Koschier 2017).
+    Dfsph,
 }
 
 #[derive(Parser, Debug)]
@@ -49,6 +57,15 @@ struct Args {
     /// Override the preset's viscosity ε (0 switches the viscosity stage off).
     #[arg(long)]
     viscosity: Option<f32>,
+    /// Pressure solver (default: the preset's: DFSPH for water, WCSPH for paper).
+    #[arg(long, value_enum)]
+    solver: Option<SolverArg>,
+    /// Walls count in the density (`FluidParams::wall_density`).
+    #[arg(long)]
+    walls: bool,
+    /// One substep per frame of exactly --dt (default: adaptive CFL substeps within each frame).
+    #[arg(long)]
+    fixed: bool,
     /// Switch gravity off (the external-forces stage is then skipped).
     #[arg(long)]
     no_gravity: bool,
@@ -139,6 +156,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Preset::Paper => FluidParamsBuilder::paper(),
         Preset::Water => FluidParamsBuilder::water(args.spacing),
     };
+    match args.solver {
+        Some(SolverArg::Wcsph) => builder = builder.solver(Solver::Wcsph),
+        Some(SolverArg::Dfsph) => builder = builder.solver(Solver::dfsph()),
+        None => {}
+    }
+    if args.walls {
+        builder = builder.wall_density(true);
+    }
     if let Some(eps) = args.viscosity {
         builder = builder.viscosity(eps);
     }
@@ -159,6 +184,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .min(1.0 / 200.0)
     });
     scene.world.physics.integration_parameters.dt = dt;
+    if args.fixed {
+        scene.world.pipeline.time_stepping = TimeStepping::Fixed;
+    }
     if args.no_gravity {
         scene.world.physics.gravity = rapier_sph::math::Vector::ZERO;
     }
@@ -178,8 +206,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         rayon::current_num_threads()
     );
     println!(
-        "{:>7} {:>8} {:>10} {:>10} {:>12} {:>9} {:>7} {:>5}",
-        "step", "t (s)", "max err", "mean err", "kinetic (J)", "max |v|", "escaped", "NaN"
+        "{:>7} {:>8} {:>10} {:>10} {:>12} {:>9} {:>7} {:>5} {:>4} {:>9}",
+        "step",
+        "t (s)",
+        "max err",
+        "mean err",
+        "kinetic (J)",
+        "max |v|",
+        "escaped",
+        "NaN",
+        "sub",
+        "iters d/v"
     );
 
     #[cfg(feature = "render")]
@@ -209,6 +246,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut mean_err_sum = 0.0f64;
     let mut non_finite = 0;
     let mut fallbacks = 0;
+    let (mut substeps, mut iterations, mut div_iterations) = (0u64, 0u64, 0u64);
     let t0 = Instant::now();
     for step in 1..=args.steps {
         let report = scene.world.step()?;
@@ -217,6 +255,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         mean_err_sum += report.mean_density_error as f64;
         non_finite += report.non_finite;
         fallbacks += report.contact_fallbacks;
+        substeps += report.substeps as u64;
+        iterations += report.solver_iterations as u64;
+        div_iterations += report.divergence_iterations as u64;
         #[cfg(feature = "render")]
         if step % frame_every == 0
             && let Some(p) = &mut pictures
@@ -227,7 +268,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let r = scene.world.pipeline.report();
             let f = &scene.world.fluids[scene.fluid];
             println!(
-                "{:>7} {:>8.3} {:>9.2}% {:>9.2}% {:>12.4e} {:>9.3} {:>7} {:>5}",
+                "{:>7} {:>8.3} {:>9.2}% {:>9.2}% {:>12.4e} {:>9.3} {:>7} {:>5} {:>4} {:>4}/{:<4}",
                 step,
                 step as f32 * dt,
                 100.0 * r.max_density_error,
@@ -235,7 +276,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 f.kinetic_energy(),
                 r.max_speed,
                 scene.escaped(),
-                r.non_finite
+                r.non_finite,
+                r.substeps,
+                r.solver_iterations,
+                r.divergence_iterations
             );
         }
     }
@@ -267,6 +311,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!(
         "wall s per sim s     {:.2}",
         wall / (args.steps as f64 * dt as f64)
+    );
+    println!(
+        "substeps             {substeps} ({:.2} per frame)",
+        substeps as f64 / args.steps as f64
+    );
+    println!(
+        "solver iterations    {:.2} density + {:.2} divergence per substep",
+        iterations as f64 / substeps as f64,
+        div_iterations as f64 / substeps as f64
     );
     println!("max density error    {:.2} %", 100.0 * max_err);
     println!(

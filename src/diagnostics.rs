@@ -9,16 +9,23 @@ use std::time::Duration;
 pub enum Stage {
     /// Sort particles by cell, build cells and neighbour lists.
     NeighbourSearch,
-    /// Kernel-summed density.
+    /// Density and pressure-gradient contributions of nearby colliders (skipped when no
+    /// collider is near, or when the fluid's `wall_density` is off).
+    WallDensity,
+    /// Kernel-summed density (DFSPH: and its factors).
     Density,
-    /// Pressure from density (equation of state).
+    /// Pressure from density (equation of state; WCSPH only).
     Pressure,
-    /// Symmetric pressure force.
+    /// DFSPH divergence solve.
+    DivergenceSolve,
+    /// Symmetric pressure force (WCSPH only).
     PressureForce,
     /// Viscosity force (skipped when ε = 0).
     ViscosityForce,
     /// Gravity (skipped when zero).
     ExternalForces,
+    /// DFSPH constant-density solve.
+    DensitySolve,
     /// Symplectic Euler: velocity, then position.
     ParticleUpdate,
     /// Collider contact (skipped when no collider is near the fluid).
@@ -27,13 +34,16 @@ pub enum Stage {
 
 impl Stage {
     /// All stages in step order.
-    pub const ALL: [Stage; 8] = [
+    pub const ALL: [Stage; 11] = [
         Stage::NeighbourSearch,
+        Stage::WallDensity,
         Stage::Density,
         Stage::Pressure,
+        Stage::DivergenceSolve,
         Stage::PressureForce,
         Stage::ViscosityForce,
         Stage::ExternalForces,
+        Stage::DensitySolve,
         Stage::ParticleUpdate,
         Stage::Contact,
     ];
@@ -42,11 +52,14 @@ impl Stage {
     pub fn name(self) -> &'static str {
         match self {
             Stage::NeighbourSearch => "neighbour search",
+            Stage::WallDensity => "wall density",
             Stage::Density => "density",
             Stage::Pressure => "pressure calculation",
+            Stage::DivergenceSolve => "divergence solve",
             Stage::PressureForce => "pressure force",
             Stage::ViscosityForce => "viscosity force",
             Stage::ExternalForces => "external forces",
+            Stage::DensitySolve => "density solve",
             Stage::ParticleUpdate => "particle update",
             Stage::Contact => "collider contact",
         }
@@ -56,7 +69,7 @@ impl Stage {
 /// Wall time per stage, summed over fluids (and over steps when accumulated).
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub struct StageTimings {
-    times: [Duration; 8],
+    times: [Duration; Stage::ALL.len()],
 }
 
 impl StageTimings {
@@ -102,10 +115,36 @@ pub struct StepReport {
     pub non_finite: usize,
     /// Largest particle speed after the update (m/s).
     pub max_speed: Real,
-    /// Largest relative density error `|ρ − ρ0|/ρ0` over all particles.
+    /// Largest relative compression `max(ρ − ρ0, 0)/ρ0` over all particles and substeps
+    /// (under-density at a free surface is not an error; see [`crate::density::density_error`]).
     pub max_density_error: Real,
-    /// Mean relative density error over all particles (each fluid weighted by its count).
+    /// Mean relative compression over all particles (each fluid weighted by its count),
+    /// averaged over the substeps.
     pub mean_density_error: Real,
+    /// Substeps the frame was divided into (see [`crate::TimeStepping`]).
+    pub substeps: u32,
+    /// `true` when the substep cap bound: the substeps were longer than the stability
+    /// limit asked for.
+    pub substep_cap_hit: bool,
+    /// Shortest and longest substep (s).
+    pub min_substep: Real,
+    /// Longest substep (s).
+    pub max_substep: Real,
+    /// Pressure-solver iterations over all substeps and fluids (DFSPH: constant-density solve).
+    pub solver_iterations: u32,
+    /// DFSPH divergence-solve iterations over all substeps and fluids.
+    pub divergence_iterations: u32,
+    /// Largest average density error a solver ended a substep with (fraction of `ρ0`).
+    pub solver_density_error: Real,
+    /// Largest average divergence error a divergence solve ended with (`|Dρ/Dt|·dt/ρ0`).
+    pub solver_divergence_error: Real,
+    /// Solves stopped by their iteration cap before reaching their error target.
+    pub solver_capped: u32,
+    /// Particles with a collider within their kernel support (walls counting in density).
+    pub particles_near_walls: usize,
+    /// Particles removed because their position or velocity was no longer finite (they are
+    /// taken out before they can poison their neighbours; see [`crate::Fluid::quarantined`]).
+    pub quarantined: usize,
 }
 
 impl fmt::Display for StageTimings {

@@ -40,6 +40,71 @@ pub fn symplectic_euler(
     (bad, vmax2.sqrt())
 }
 
+/// `previous = x`, `x += v·dt` (solvers that have already set the end-of-step velocity).
+/// Returns the number of particles whose new state is not finite, and the largest speed.
+pub fn advance_positions(
+    dt: Real,
+    velocities: &[Vector],
+    positions: &mut [Vector],
+    previous: &mut [Vector],
+) -> (usize, Real) {
+    let chunks = crate::par_chunks_mut!(positions, CHUNK)
+        .zip(crate::par_chunks_mut!(previous, CHUNK))
+        .enumerate()
+        .map(|(c, (x, prev))| {
+            let base = c * CHUNK;
+            let mut bad = 0usize;
+            let mut vmax2: Real = 0.0;
+            for k in 0..x.len() {
+                let v = velocities[base + k];
+                prev[k] = x[k];
+                x[k] += v * dt;
+                if !is_finite(x[k]) || !is_finite(v) {
+                    bad += 1;
+                } else {
+                    vmax2 = vmax2.max(v.length_squared());
+                }
+            }
+            (bad, vmax2)
+        });
+    let (bad, vmax2) = chunks.reduce_with_identity();
+    (bad, vmax2.sqrt())
+}
+
+/// `v += a·dt` only (the prediction step of the DFSPH solver).
+pub fn add_accelerations(dt: Real, accelerations: &[Vector], velocities: &mut [Vector]) {
+    crate::par_chunks_mut!(velocities, CHUNK)
+        .enumerate()
+        .for_each(|(c, v)| {
+            let base = c * CHUNK;
+            for (k, v) in v.iter_mut().enumerate() {
+                *v += accelerations[base + k] * dt;
+            }
+        });
+}
+
+/// Largest speed, and the number of particles whose position or velocity is not finite.
+pub fn scan(positions: &[Vector], velocities: &[Vector]) -> (usize, Real) {
+    let chunks = crate::par_chunks!(positions, CHUNK)
+        .enumerate()
+        .map(|(c, x)| {
+            let base = c * CHUNK;
+            let mut bad = 0usize;
+            let mut vmax2: Real = 0.0;
+            for k in 0..x.len() {
+                let v = velocities[base + k];
+                if !is_finite(x[k]) || !is_finite(v) {
+                    bad += 1;
+                } else {
+                    vmax2 = vmax2.max(v.length_squared());
+                }
+            }
+            (bad, vmax2)
+        });
+    let (bad, vmax2) = chunks.reduce_with_identity();
+    (bad, vmax2.sqrt())
+}
+
 /// Reduces `(count, max)` pairs; both operations are exact, so the result does not depend on
 /// the order of reduction.
 trait ReduceCountMax {

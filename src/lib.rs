@@ -12,19 +12,23 @@
 //! ## One step
 //!
 //! ```text
-//! particles (FluidSet, one Vec per attribute)
+//! particles (FluidSet, one Vec per attribute)        a frame is split into CFL substeps
 //!   │
 //!   ├─ 1 neighbour search   neighbors/   sort by cell, hashed grid, flat neighbour lists
-//!   ├─ 2 density            density.rs   ρ_i = Σ m W(x_i − x_j)
-//!   ├─ 3 pressure           pressure/eos.rs     p = k(ρ − ρ0)  or Tait
-//!   ├─ 4 pressure force     pressure/wcsph.rs   −Σ m (p_i+p_j)/(2ρ_j) ∇W
-//!   ├─ 5 viscosity force    forces/viscosity.rs ε Σ m (v_j−v_i)/ρ_j ∇²W   (skipped if ε = 0)
-//!   ├─ 6 external forces    forces/external.rs  gravity                  (skipped if g = 0)
-//!   ├─ 7 particle update    integrate.rs  symplectic Euler
-//!   └─ 8 collider contact   boundary/     swept parry queries, reflection + friction
+//!   ├─ 2 wall density       boundary/wall.rs    colliders within h add ρ0·Φ (if enabled)
+//!   ├─ 3 density            density.rs   ρ_i = Σ m W(x_i − x_j) (+ walls)
+//!   │   WCSPH (the paper)                         DFSPH (solver/dfsph.rs)
+//!   ├─ 4 pressure           pressure/eos.rs       divergence solve
+//!   ├─ 5 pressure force     pressure/wcsph.rs     —
+//!   ├─ 6 viscosity force    forces/viscosity.rs ε Σ m (v_j−v_i)/ρ_j ∇²W   (skipped if ε = 0)
+//!   ├─ 7 external forces    forces/external.rs  gravity                  (skipped if g = 0)
+//!   ├─ 8 (DFSPH) density solve                    constant-density solve
+//!   ├─ 9 particle update    integrate.rs  symplectic Euler
+//!   └─ 10 collider contact  boundary/     swept parry queries, reflection + friction
 //! ```
 //!
-//! Each stage is timed ([`StepReport::timings`]); see [`pipeline`].
+//! Each stage is timed ([`StepReport::timings`]); see [`pipeline`]. Particles whose state
+//! becomes NaN or infinite are quarantined (removed and counted in the report).
 //!
 //! ## In a rapier game loop
 //!
@@ -49,11 +53,10 @@
 //! world.integration_parameters.dt = frame_dt;
 //! for _frame in 0..10 {
 //!     world.step(); // rapier first (it fills the broad-phase the fluid queries)
-//!     // Weakly-compressible SPH needs small steps: substep the frame.
-//!     for _ in 0..10 {
-//!         pipeline.step(world.gravity, frame_dt / 10.0, &mut fluids,
-//!                       &mut world.bodies, &world.colliders, &world.broad_phase)?;
-//!     }
+//!     // The pipeline splits the frame into stable substeps (CFL and acoustic limits).
+//!     let report = pipeline.step(world.gravity, frame_dt, &mut fluids,
+//!                                &mut world.bodies, &world.colliders, &world.broad_phase)?;
+//!     assert!(report.substeps >= 1 && !report.substep_cap_hit);
 //! }
 //! // Nothing fell through the floor.
 //! assert!(fluids[water].positions().iter().all(|p| p.y > 0.1));
@@ -84,7 +87,8 @@
 //!   broad-phase, which rapier fills when it steps: step rapier once after adding colliders
 //!   (the step returns [`SphError::BroadPhaseNotUpdated`] if the broad-phase is empty).
 //! - *The fluid explodes.* Weakly-compressible SPH needs `dt ≤ 0.4·h/c`
-//!   ([`FluidParams::acoustic_time_step`]); substep the frame.
+//!   ([`FluidParams::acoustic_time_step`]); the default [`TimeStepping::Adaptive`] substeps
+//!   the frame for you, and the report says when its substep cap bound.
 //! - *Particle order changed.* Particles are sorted by grid cell every step; use
 //!   [`Fluid::ids`] to follow one particle.
 
@@ -101,12 +105,7 @@ pub mod integrate;
 pub mod io;
 pub mod kernel;
 pub mod math;
-#[cfg(any(
-    feature = "io",
-    feature = "render",
-    feature = "scene",
-    feature = "surface"
-))]
+#[cfg(any(feature = "io", feature = "render"))]
 pub mod mesh;
 pub mod neighbors;
 pub mod par;
@@ -120,6 +119,7 @@ pub mod scene_file;
 pub mod scenes;
 #[cfg(feature = "snapshot")]
 pub mod snapshot;
+pub mod solver;
 #[cfg(feature = "surface")]
 pub mod surface;
 pub mod world;
@@ -129,7 +129,8 @@ pub use error::{SphError, SphResult};
 pub use fluid::{Fluid, FluidHandle, FluidSet};
 pub use kernel::KernelKind;
 pub use params::{EquationOfState, FluidParams, FluidParamsBuilder};
-pub use pipeline::FluidPipeline;
+pub use pipeline::{FluidPipeline, TimeStepping};
+pub use solver::{Dfsph, Solver};
 pub use world::FluidWorld;
 
 /// Re-export of the rapier version this crate is built on.

@@ -40,6 +40,22 @@ macro_rules! par_chunks_mut {
     }};
 }
 
+/// `slice.par_chunks(n)` with the `parallel` feature, `slice.chunks(n)` without.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! par_chunks {
+    ($slice:expr, $n:expr) => {{
+        #[cfg(feature = "parallel")]
+        {
+            $slice.par_chunks($n)
+        }
+        #[cfg(not(feature = "parallel"))]
+        {
+            $slice.chunks($n)
+        }
+    }};
+}
+
 /// `slice.par_iter_mut()` with the `parallel` feature, `slice.iter_mut()` without.
 #[doc(hidden)]
 #[macro_export]

@@ -10,6 +10,7 @@
 use crate::error::{SphError, SphResult};
 use crate::kernel::KernelKind;
 use crate::math::Real;
+use crate::solver::Solver;
 use rapier3d::geometry::InteractionGroups;
 
 /// The equation of state: how pressure follows from density.
@@ -90,6 +91,14 @@ pub struct FluidParams {
     /// Which colliders the particles touch (rapier's collision groups; sensors are always
     /// ignored). Default: all.
     pub collision_groups: InteractionGroups,
+    /// The pressure solver. Both presets: WCSPH. DFSPH ([`Solver::dfsph`]) is available but
+    /// not yet the default: see the README's status table.
+    pub solver: Solver,
+    /// Colliders near a particle add their volume's density to it and push with the
+    /// particle's pressure (see [`crate::boundary::wall`]), so particles do not cling to or
+    /// clump along walls. Both presets: off (the paper's walls only reflect); not yet the
+    /// default, see the README's status table.
+    pub wall_density: bool,
 }
 
 impl FluidParams {
@@ -169,6 +178,17 @@ impl FluidParams {
             });
         }
         non_negative("friction", self.friction)?;
+        if let Solver::Dfsph(d) = &self.solver {
+            positive("max_density_error", d.max_density_error)?;
+            positive("max_divergence_error", d.max_divergence_error)?;
+            if d.max_iterations == 0 || d.min_iterations > d.max_iterations {
+                return Err(SphError::InvalidParameter {
+                    field: "max_iterations",
+                    value: d.max_iterations as f64,
+                    reason: "must be at least 1 and at least min_iterations",
+                });
+            }
+        }
         Ok(())
     }
 
@@ -223,6 +243,8 @@ impl FluidParamsBuilder {
                 restitution: 0.0,
                 friction: 0.0,
                 collision_groups: InteractionGroups::all(),
+                solver: Solver::Wcsph,
+                wall_density: false,
             },
             mass_given: false,
         }
@@ -249,11 +271,23 @@ impl FluidParamsBuilder {
                 restitution: 0.5,
                 friction: 0.0,
                 collision_groups: InteractionGroups::all(),
+                solver: Solver::Wcsph,
+                wall_density: false,
             },
             mass_given: true,
         }
     }
 
+    /// The pressure solver.
+    pub fn solver(mut self, solver: Solver) -> Self {
+        self.params.solver = solver;
+        self
+    }
+    /// Whether walls add density (see [`FluidParams::wall_density`]).
+    pub fn wall_density(mut self, on: bool) -> Self {
+        self.params.wall_density = on;
+        self
+    }
     /// Rest density (kg/m³). Unless a mass was set explicitly, the mass follows.
     pub fn rest_density(mut self, v: Real) -> Self {
         self.params.rest_density = v;

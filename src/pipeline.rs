@@ -1,19 +1,23 @@
-//! One step of the fluid, as a flat list of named, timed stages:
+//! One frame of the fluid: divided into substeps (see [`TimeStepping`]), each a flat list of
+//! named, timed stages:
 //!
 //! ```text
-//! particles ─▶ 1 neighbour search ─▶ 2 density ─▶ 3 pressure ─▶ 4 pressure force
-//!           ─▶ 5 viscosity force ─▶ 6 external forces ─▶ 7 particle update ─▶ 8 collider contact
+//! particles ─▶ 1 neighbour search ─▶ 2 wall density ─▶ 3 density
+//!   WCSPH: ─▶ 4 pressure (EOS) ─▶ 5 pressure force ─▶ 6 viscosity ─▶ 7 gravity ─▶ 8 particle update
+//!   DFSPH: ─▶ 4 divergence solve ─▶ 5 viscosity ─▶ 6 gravity ─▶ 7 density solve ─▶ 8 particle update
+//!        ─▶ 9 collider contact
 //! ```
 //!
 //! Each stage is a function of its own module, timed into [`StepReport::timings`]. A stage a
 //! scene does not use is skipped, not run on zeros: no viscosity pass when ε = 0, no gravity
-//! pass when gravity is zero, no contact work when no collider is near the fluid.
+//! pass when gravity is zero, no wall or contact work when no collider is near the fluid.
 
 use crate::boundary::contact::{self, ContactResponse};
 use crate::diagnostics::{Stage, StepReport};
 use crate::error::{SphError, SphResult};
 use crate::fluid::{Fluid, FluidSet};
 use crate::math::{Real, Vector};
+use crate::solver::{Solver, dfsph};
 use crate::{density, forces, integrate, par, pressure};
 use parry3d::query::DefaultQueryDispatcher;
 use rapier3d::dynamics::RigidBodySet;
@@ -21,17 +25,63 @@ use rapier3d::geometry::{BroadPhaseBvh, ColliderSet};
 use rapier3d::pipeline::QueryFilter;
 use std::time::Instant;
 
-/// Steps fluids alongside a rapier world. Holds only the last report; all state lives in the
-/// [`FluidSet`] and the rapier sets, passed explicitly as rapier's own `PhysicsPipeline` does.
+/// How [`FluidPipeline::step`] divides the caller's frame into substeps.
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub enum TimeStepping {
+    /// One substep of exactly the frame's `dt`: the caller is responsible for stability
+    /// (benchmarks and convergence studies use this).
+    Fixed,
+    /// Substeps from the CFL condition, recomputed before each substep from the fluids'
+    /// current maximum speed:
+    ///
+    /// - every solver: `dt ≤ courant · spacing / (v_max + |g|·dt)` (a particle moves at
+    ///   most `courant` spacings per substep), and the explicit viscosity limit
+    ///   `dt ≤ ρ0·h²/(30·ε)`;
+    /// - WCSPH also the acoustic limit `dt ≤ courant · h / (c + v_max)`.
+    ///
+    /// The frame is split into equal substeps that meet the limits; at most `max_substeps`
+    /// of them. When the cap binds the substeps are longer than the limits ask and the report
+    /// says so (`substep_cap_hit`); contact still keeps every particle out of every solid.
+    Adaptive {
+        /// Courant number (default 0.4).
+        courant: Real,
+        /// Cap on substeps per frame (default 256).
+        max_substeps: u32,
+    },
+}
+
+impl Default for TimeStepping {
+    fn default() -> Self {
+        TimeStepping::Adaptive {
+            courant: 0.4,
+            max_substeps: 256,
+        }
+    }
+}
+
+/// Steps fluids alongside a rapier world. Holds its time-stepping policy and the last report;
+/// all state lives in the [`FluidSet`] and the rapier sets, passed explicitly as rapier's own
+/// `PhysicsPipeline` does.
 #[derive(Clone, Debug, Default)]
 pub struct FluidPipeline {
+    /// How frames are divided into substeps (default: adaptive, Courant 0.4).
+    pub time_stepping: TimeStepping,
     report: StepReport,
 }
 
 impl FluidPipeline {
-    /// A new pipeline.
+    /// A new pipeline with adaptive time stepping.
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// A new pipeline with the given time-stepping policy.
+    pub fn with_time_stepping(time_stepping: TimeStepping) -> Self {
+        Self {
+            time_stepping,
+            report: StepReport::default(),
+        }
     }
 
     /// The report of the last step.
@@ -41,7 +91,8 @@ impl FluidPipeline {
 
     /// Advances every fluid of `fluids` by `dt` seconds under `gravity`, with contact against
     /// the colliders of `colliders` found through `broad_phase` (rapier's BVH, filled by
-    /// rapier's own step: call this right after it).
+    /// rapier's own step: call this right after it). The frame is divided into substeps by
+    /// [`FluidPipeline::time_stepping`].
     ///
     /// Bad input (a non-finite or non-positive `dt`, non-finite gravity, an empty broad-phase
     /// beside a non-empty collider set) returns an error and changes nothing.
@@ -56,6 +107,26 @@ impl FluidPipeline {
     ) -> SphResult<&StepReport> {
         if !dt.is_finite() || dt <= 0.0 {
             return Err(SphError::InvalidTimeStep { dt: dt as f64 });
+        }
+        if let TimeStepping::Adaptive {
+            courant,
+            max_substeps,
+        } = self.time_stepping
+        {
+            if !(courant.is_finite() && courant > 0.0) {
+                return Err(SphError::InvalidParameter {
+                    field: "courant",
+                    value: courant as f64,
+                    reason: "must be positive and finite",
+                });
+            }
+            if max_substeps == 0 {
+                return Err(SphError::InvalidParameter {
+                    field: "max_substeps",
+                    value: 0.0,
+                    reason: "must be at least 1",
+                });
+            }
         }
         if !crate::math::is_finite(gravity) {
             return Err(SphError::InvalidParameter {
@@ -79,17 +150,71 @@ impl FluidPipeline {
         let has_colliders = !bvh.is_empty();
 
         let mut report = StepReport::default();
-        let mut weighted_mean_error = 0.0f64;
+        let time_stepping = self.time_stepping;
+        let bodies: &RigidBodySet = bodies;
         let mut run = || {
+            // Quarantine what the caller may have broken since the last frame (a NaN written
+            // through `velocities_mut`), and measure the speeds the first substep starts from.
             for (_, fluid) in fluids.iter_mut() {
-                step_fluid(
-                    fluid,
-                    gravity,
-                    dt,
-                    has_colliders.then_some((bvh, colliders)),
-                    &mut report,
-                    &mut weighted_mean_error,
-                );
+                report.quarantined += fluid.quarantine_non_finite();
+                let (_, vmax) = integrate::scan(&fluid.positions, &fluid.velocities);
+                fluid.workspace.max_speed = vmax;
+            }
+            let mut elapsed: Real = 0.0;
+            let mut weighted_mean_error = 0.0f64;
+            let mut counted = 0usize;
+            report.min_substep = Real::MAX;
+            loop {
+                let remaining = dt - elapsed;
+                let (h, last) = match time_stepping {
+                    TimeStepping::Fixed => (dt, true),
+                    TimeStepping::Adaptive {
+                        courant,
+                        max_substeps,
+                    } => {
+                        let limit = fluids
+                            .iter()
+                            .map(|(_, f)| stable_time_step(f, gravity, courant, remaining))
+                            .fold(Real::MAX, Real::min);
+                        let left = max_substeps.saturating_sub(report.substeps).max(1);
+                        let needed = (remaining / limit).ceil().max(1.0);
+                        if needed > left as Real {
+                            report.substep_cap_hit = true;
+                        }
+                        let count = needed.min(left as Real);
+                        if count <= 1.0 {
+                            (remaining, true)
+                        } else {
+                            (remaining / count, false)
+                        }
+                    }
+                };
+                report.substeps += 1;
+                report.min_substep = report.min_substep.min(h);
+                report.max_substep = report.max_substep.max(h);
+                for (_, fluid) in fluids.iter_mut() {
+                    let n = fluid.len();
+                    let mean = step_fluid(
+                        fluid,
+                        gravity,
+                        h,
+                        has_colliders.then_some((bvh, colliders, bodies)),
+                        &mut report,
+                    );
+                    weighted_mean_error += mean as f64 * n as f64;
+                    counted += n;
+                    if fluid.workspace.non_finite > 0 {
+                        report.quarantined += fluid.quarantine_non_finite();
+                    }
+                }
+                elapsed += h;
+                if last {
+                    break;
+                }
+            }
+            report.particles = fluids.num_particles();
+            if counted > 0 {
+                report.mean_density_error = (weighted_mean_error / counted as f64) as Real;
             }
         };
         // Called from outside rayon's pool, every parallel stage would hand its work to the
@@ -103,12 +228,38 @@ impl FluidPipeline {
         }
         #[cfg(not(feature = "parallel"))]
         run();
-        if report.particles > 0 {
-            report.mean_density_error = (weighted_mean_error / report.particles as f64) as Real;
-        }
         self.report = report;
         Ok(&self.report)
     }
+}
+
+/// The longest stable substep for `fluid` (see [`TimeStepping::Adaptive`]), at most `remaining`.
+fn stable_time_step(fluid: &Fluid, gravity: Vector, courant: Real, remaining: Real) -> Real {
+    if fluid.is_empty() {
+        return remaining;
+    }
+    let p = fluid.params();
+    let v = fluid.workspace.max_speed;
+    let g = gravity.length();
+    let s = p.particle_spacing;
+    // courant·s = v·dt + g·dt², solved for dt.
+    let cs = courant * s;
+    let mut limit = if g > 0.0 {
+        2.0 * cs / (v + (v * v + 4.0 * g * cs).sqrt())
+    } else if v > 0.0 {
+        cs / v
+    } else {
+        remaining
+    };
+    if p.viscosity > 0.0 {
+        let h = p.smoothing_length;
+        limit = limit.min(p.rest_density * h * h / (30.0 * p.viscosity));
+    }
+    if p.solver == Solver::Wcsph {
+        let c = p.equation_of_state.speed_of_sound();
+        limit = limit.min(courant * p.smoothing_length / (c + v));
+    }
+    limit.min(remaining)
 }
 
 fn timed<T>(report: &mut StepReport, stage: Stage, f: impl FnOnce() -> T) -> T {
@@ -118,21 +269,25 @@ fn timed<T>(report: &mut StepReport, stage: Stage, f: impl FnOnce() -> T) -> T {
     out
 }
 
+/// One substep of one fluid. Returns the mean relative density error it measured.
 fn step_fluid(
     fluid: &mut Fluid,
     gravity: Vector,
     dt: Real,
-    colliders: Option<(&parry3d::partitioning::Bvh, &ColliderSet)>,
+    colliders: Option<(&parry3d::partitioning::Bvh, &ColliderSet, &RigidBodySet)>,
     report: &mut StepReport,
-    weighted_mean_error: &mut f64,
-) {
+) -> Real {
     let n = fluid.len();
-    report.particles += n;
+    fluid.workspace.non_finite = 0;
     if n == 0 {
-        return;
+        return 0.0;
     }
     let p = fluid.params().clone();
     let h = p.smoothing_length;
+    let dfsph_settings = match p.solver {
+        Solver::Dfsph(d) => Some(d),
+        Solver::Wcsph => None,
+    };
     let Fluid {
         positions,
         velocities,
@@ -140,6 +295,8 @@ fn step_fluid(
         densities,
         pressures,
         ids,
+        warm_density,
+        warm_divergence,
         workspace: ws,
         ..
     } = fluid;
@@ -151,78 +308,90 @@ fn step_fluid(
             par::permute(positions, &mut ws.scratch_vectors, perm);
             par::permute(velocities, &mut ws.scratch_vectors, perm);
             par::permute(ids, &mut ws.scratch_ids, perm);
+            if dfsph_settings.is_some() {
+                par::permute(warm_density, &mut ws.scratch_reals, perm);
+                par::permute(warm_divergence, &mut ws.scratch_reals, perm);
+            }
         }
         ws.grid.build_cells();
         ws.neighbors.build(&ws.grid, positions, h);
     });
     report.neighbour_pairs += ws.neighbors.total_pairs();
 
-    // 2. Density.
+    // 2. Wall density: colliders within the kernel support count in the density.
+    let force_kernel = if dfsph_settings.is_some() {
+        p.density_kernel
+    } else {
+        p.pressure_kernel
+    };
+    match colliders {
+        Some((bvh, colliders, bodies)) if p.wall_density => {
+            let near = timed(report, Stage::WallDensity, || {
+                ws.wall.update(
+                    &ws.grid,
+                    positions,
+                    p.density_kernel,
+                    force_kernel,
+                    h,
+                    p.particle_spacing,
+                    p.rest_density,
+                    bvh,
+                    colliders,
+                    bodies,
+                    p.collision_groups,
+                )
+            });
+            report.particles_near_walls += near;
+        }
+        _ => ws.wall.clear(),
+    }
+    // Taken out of the workspace for the solver stages (a move, no copy), put back below.
+    let wall_ws = std::mem::take(&mut ws.wall);
+    let wall = wall_ws.any().then_some(&wall_ws);
+
     ws.inv_densities.resize(n, 0.0);
-    timed(report, Stage::Density, || {
-        crate::with_kernel!(p.density_kernel, K => density::compute::<K>(
-            positions, &ws.neighbors, p.particle_mass, h, densities, &mut ws.inv_densities));
-    });
-    let (max_err, mean_err) = density::density_error(densities, p.rest_density, &mut ws.partials);
-    report.max_density_error = report.max_density_error.max(max_err);
-    *weighted_mean_error += mean_err as f64 * n as f64;
-
-    // 3. Pressure.
-    timed(report, Stage::Pressure, || {
-        pressure::eos::compute(
-            densities,
-            p.equation_of_state,
-            p.rest_density,
-            p.clamp_negative_pressure,
-            pressures,
-        );
-    });
-
-    // 4. Pressure force (overwrites the accelerations).
-    timed(report, Stage::PressureForce, || {
-        crate::with_kernel!(p.pressure_kernel, K => pressure::wcsph::pressure_accelerations::<K>(
-            positions, &ws.inv_densities, pressures, &ws.neighbors, p.particle_mass, h, accelerations));
-    });
-
-    // 5. Viscosity force.
-    if p.viscosity > 0.0 {
-        timed(report, Stage::ViscosityForce, || {
-            forces::viscosity::add_accelerations(
-                positions,
-                velocities,
-                &ws.inv_densities,
-                &ws.neighbors,
-                p.particle_mass,
-                p.viscosity,
-                h,
-                accelerations,
-            );
-        });
-    }
-
-    // 6. External forces.
-    if gravity != Vector::ZERO {
-        timed(report, Stage::ExternalForces, || {
-            forces::external::add_gravity(gravity, accelerations)
-        });
-    }
-
-    // 7. Particle update (symplectic Euler).
     ws.previous_positions.resize(n, Vector::ZERO);
-    let (non_finite, max_speed) = timed(report, Stage::ParticleUpdate, || {
-        integrate::symplectic_euler(
+    let (non_finite, max_speed) = match dfsph_settings {
+        None => step_wcsph(
+            &p,
+            gravity,
             dt,
-            accelerations,
-            velocities,
+            wall,
             positions,
-            &mut ws.previous_positions,
-        )
-    });
+            velocities,
+            accelerations,
+            densities,
+            pressures,
+            ws,
+            report,
+        ),
+        Some(settings) => step_dfsph(
+            &p,
+            &settings,
+            gravity,
+            dt,
+            wall,
+            positions,
+            velocities,
+            accelerations,
+            densities,
+            pressures,
+            warm_density,
+            warm_divergence,
+            ws,
+            report,
+        ),
+    };
+    ws.wall = wall_ws;
     report.non_finite += non_finite;
     report.max_speed = report.max_speed.max(max_speed);
+    ws.non_finite = non_finite;
+    ws.max_speed = max_speed;
+    let (max_err, mean_err) = density::density_error(densities, p.rest_density, &mut ws.partials);
+    report.max_density_error = report.max_density_error.max(max_err);
 
-    // 8. Collider contact.
-    if let Some((bvh, colliders)) = colliders {
+    // 9. Collider contact.
+    if let Some((bvh, colliders, _)) = colliders {
         let counts = timed(report, Stage::Contact, || {
             ws.contact.gather(
                 &ws.grid,
@@ -259,4 +428,188 @@ fn step_fluid(
         ws.contact.clear();
     }
     fluid.needs_depenetration = false;
+    mean_err
+}
+
+/// Stages 3–8 of WCSPH (the Unity paper). Returns `(non-finite count, max speed)`.
+#[allow(clippy::too_many_arguments)]
+fn step_wcsph(
+    p: &crate::FluidParams,
+    gravity: Vector,
+    dt: Real,
+    wall: Option<&crate::boundary::WallWorkspace>,
+    positions: &mut [Vector],
+    velocities: &mut [Vector],
+    accelerations: &mut [Vector],
+    densities: &mut [Real],
+    pressures: &mut [Real],
+    ws: &mut crate::fluid::Workspace,
+    report: &mut StepReport,
+) -> (usize, Real) {
+    let h = p.smoothing_length;
+    // 3. Density (fluid sum plus walls).
+    timed(report, Stage::Density, || {
+        crate::with_kernel!(p.density_kernel, K => density::compute::<K>(
+            positions, &ws.neighbors, p.particle_mass, h, wall.map(|w| &w.density[..]),
+            densities, &mut ws.inv_densities));
+    });
+
+    // 4. Pressure.
+    timed(report, Stage::Pressure, || {
+        pressure::eos::compute(
+            densities,
+            p.equation_of_state,
+            p.rest_density,
+            p.clamp_negative_pressure,
+            pressures,
+        );
+    });
+
+    // 5. Pressure force (overwrites the accelerations).
+    timed(report, Stage::PressureForce, || {
+        crate::with_kernel!(p.pressure_kernel, K => pressure::wcsph::pressure_accelerations::<K>(
+            positions, &ws.inv_densities, pressures, &ws.neighbors, p.particle_mass, h,
+            wall.map(|w| &w.gradient[..]), accelerations));
+    });
+
+    // 6. Viscosity force.
+    if p.viscosity > 0.0 {
+        timed(report, Stage::ViscosityForce, || {
+            forces::viscosity::add_accelerations(
+                positions,
+                velocities,
+                &ws.inv_densities,
+                &ws.neighbors,
+                p.particle_mass,
+                p.viscosity,
+                h,
+                accelerations,
+            );
+        });
+    }
+
+    // 7. External forces.
+    if gravity != Vector::ZERO {
+        timed(report, Stage::ExternalForces, || {
+            forces::external::add_gravity(gravity, accelerations)
+        });
+    }
+
+    // 8. Particle update (symplectic Euler).
+    timed(report, Stage::ParticleUpdate, || {
+        integrate::symplectic_euler(
+            dt,
+            accelerations,
+            velocities,
+            positions,
+            &mut ws.previous_positions,
+        )
+    })
+}
+
+/// Stages 3–8 of DFSPH (see [`crate::solver::dfsph`]). Returns `(non-finite count, max speed)`.
+#[allow(clippy::too_many_arguments)]
+fn step_dfsph(
+    p: &crate::FluidParams,
+    settings: &crate::solver::Dfsph,
+    gravity: Vector,
+    dt: Real,
+    wall: Option<&crate::boundary::WallWorkspace>,
+    positions: &mut [Vector],
+    velocities: &mut [Vector],
+    accelerations: &mut [Vector],
+    densities: &mut [Real],
+    pressures: &mut [Real],
+    warm_density: &mut [Real],
+    warm_divergence: &mut [Real],
+    ws: &mut crate::fluid::Workspace,
+    report: &mut StepReport,
+) -> (usize, Real) {
+    let h = p.smoothing_length;
+    let n = positions.len();
+    ws.dfsph.alpha.resize(n, 0.0);
+    // 3. Density and DFSPH factors.
+    timed(report, Stage::Density, || {
+        crate::with_kernel!(p.density_kernel, K => dfsph::density_and_factors::<K>(
+            positions, &ws.neighbors, p.particle_mass, h, wall,
+            densities, &mut ws.inv_densities, &mut ws.dfsph.alpha));
+    });
+    let ctx = dfsph::SolveContext {
+        positions,
+        neighbors: &ws.neighbors,
+        wall,
+        densities,
+        mass: p.particle_mass,
+        h,
+        rest_density: p.rest_density,
+        dt,
+        expected_neighbours: p.expected_neighbours(),
+    };
+
+    // 4. Divergence solve.
+    if settings.divergence_solve {
+        let stats = timed(report, Stage::DivergenceSolve, || {
+            crate::with_kernel!(p.density_kernel, K => dfsph::divergence_solve::<K>(
+                &ctx, settings, &mut ws.dfsph, warm_divergence, velocities))
+        });
+        report.divergence_iterations += stats.iterations;
+        report.solver_divergence_error = report.solver_divergence_error.max(stats.error);
+        report.solver_capped += stats.capped as u32;
+    }
+
+    // 5–6. Non-pressure forces, then the predicted velocity.
+    let mut forces = false;
+    if p.viscosity > 0.0 {
+        forces = true;
+        timed(report, Stage::ViscosityForce, || {
+            accelerations.fill(Vector::ZERO);
+            forces::viscosity::add_accelerations(
+                ctx.positions,
+                velocities,
+                &ws.inv_densities,
+                &ws.neighbors,
+                p.particle_mass,
+                p.viscosity,
+                h,
+                accelerations,
+            );
+        });
+    }
+    if gravity != Vector::ZERO {
+        timed(report, Stage::ExternalForces, || {
+            if forces {
+                forces::external::add_gravity(gravity, accelerations);
+            } else {
+                accelerations.fill(gravity);
+            }
+        });
+        forces = true;
+    }
+    if !forces {
+        accelerations.fill(Vector::ZERO);
+    }
+
+    // 7. Constant-density solve on the predicted velocities.
+    let stats = timed(report, Stage::DensitySolve, || {
+        if forces {
+            integrate::add_accelerations(dt, accelerations, velocities);
+        }
+        crate::with_kernel!(p.density_kernel, K => dfsph::density_solve::<K>(
+            &ctx, settings, &mut ws.dfsph, warm_density, velocities))
+    });
+    report.solver_iterations += stats.iterations;
+    report.solver_density_error = report.solver_density_error.max(stats.error);
+    report.solver_capped += stats.capped as u32;
+    for ((pr, &w), &rho) in pressures
+        .iter_mut()
+        .zip(warm_density.iter())
+        .zip(ctx.densities)
+    {
+        *pr = w * rho * rho;
+    }
+
+    // 8. Particle update: the velocities are final; move.
+    timed(report, Stage::ParticleUpdate, || {
+        integrate::advance_positions(dt, velocities, positions, &mut ws.previous_positions)
+    })
 }

@@ -181,3 +181,94 @@ pub fn dam_break(config: &DamBreakConfig) -> SphResult<DamBreak> {
         column_width: w,
     })
 }
+
+/// A hydrostatic tank: a closed box holding a block of fluid at rest, `counts` particles along
+/// x, y (up) and z, filling the box's floor exactly. Reference: `p = ρ0·g·depth`.
+pub struct HydrostaticTank {
+    /// The world: box colliders and the fluid (gravity −9.81 m/s² along y).
+    pub world: FluidWorld,
+    /// The fluid's handle.
+    pub fluid: FluidHandle,
+    /// Height of the free surface for the fluid's volume at rest density, `N·s³/area` (m).
+    pub fluid_height: Real,
+}
+
+impl HydrostaticTank {
+    /// Builds the tank. The box is twice as tall as the fluid.
+    pub fn new(params: FluidParams, counts: [usize; 3]) -> SphResult<Self> {
+        let [nx, ny, nz] = counts;
+        if nx == 0 || ny == 0 || nz == 0 {
+            return Err(SphError::InvalidParameter {
+                field: "counts",
+                value: 0.0,
+                reason: "every count must be at least 1",
+            });
+        }
+        let s = params.particle_spacing;
+        let size = Vector::new(nx as Real, ny as Real, nz as Real) * s;
+        let mut world = FluidWorld::new();
+        add_closed_box(
+            &mut world,
+            Vector::ZERO,
+            Vector::new(size.x, 2.0 * size.y, size.z),
+            (4.0 * s).max(0.05),
+        );
+        world.physics.step();
+        let mut fluid = Fluid::new(params)?;
+        fluid.add_particles(&lattice(Vector::splat(0.5 * s), nx, ny, nz, s))?;
+        let fluid = world.fluids.insert(fluid);
+        Ok(Self {
+            world,
+            fluid,
+            fluid_height: size.y,
+        })
+    }
+
+    /// Relative error of the pressure of the particles in the bottom layer (centres within one
+    /// spacing of the floor) against `ρ0·g·depth`, depth measured from the free surface at
+    /// [`Self::fluid_height`]: `(mean measured − mean expected)/mean expected`.
+    pub fn bottom_pressure_error(&self) -> Real {
+        let f = &self.world.fluids[self.fluid];
+        let p = f.params();
+        let g = self.world.physics.gravity.length();
+        let (mut measured, mut expected) = (0.0f64, 0.0f64);
+        for (x, pr) in f.positions().iter().zip(f.pressures()) {
+            if x.y < p.particle_spacing {
+                measured += *pr as f64;
+                expected += (p.rest_density * g * (self.fluid_height - x.y)) as f64;
+            }
+        }
+        if expected == 0.0 {
+            return Real::INFINITY;
+        }
+        ((measured - expected) / expected) as Real
+    }
+
+    /// RMS over depth of the relative pressure error, in layers one spacing thick (the top
+    /// layer, where the expected pressure goes to zero, left out).
+    pub fn pressure_profile_rms(&self) -> Real {
+        let f = &self.world.fluids[self.fluid];
+        let p = f.params();
+        let s = p.particle_spacing;
+        let g = self.world.physics.gravity.length();
+        let layers = (self.fluid_height / s).round() as usize;
+        let mut sums = vec![(0.0f64, 0.0f64); layers];
+        for (x, pr) in f.positions().iter().zip(f.pressures()) {
+            let k = (x.y / s).floor();
+            if k >= 0.0 && (k as usize) + 1 < layers {
+                let e = &mut sums[k as usize];
+                e.0 += *pr as f64;
+                e.1 += (p.rest_density * g * (self.fluid_height - x.y)) as f64;
+            }
+        }
+        let errs: Vec<f64> = sums
+            .iter()
+            .filter(|e| e.1 > 0.0)
+            .map(|e| (e.0 - e.1) / e.1)
+            .collect();
+        if errs.is_empty() {
+            return Real::INFINITY;
+        }
+        (errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64).sqrt() as Real
+    }
+}

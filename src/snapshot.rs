@@ -1,5 +1,5 @@
-//! Save and restore the whole simulation (feature `snapshot`): every fluid's particles and
-//! parameters, and the rapier `PhysicsWorld` through
+//! Save and restore the whole simulation (feature `snapshot`): every fluid's particles,
+//! parameters and solver warm-start values, the pipeline's time-stepping policy, and the rapier `PhysicsWorld` through
 //! rapier's own `serde-serialize` support, in one binary file (postcard).
 //!
 //! Restoring and stepping on gives bitwise the same state as never having stopped (tested
@@ -21,6 +21,7 @@
 
 use crate::error::SphError;
 use crate::fluid::snapshot::FluidState;
+use crate::pipeline::{FluidPipeline, TimeStepping};
 use crate::world::FluidWorld;
 use rapier3d::pipeline::PhysicsWorld;
 use serde::{Deserialize, Serialize};
@@ -29,16 +30,18 @@ use std::path::{Path, PathBuf};
 
 const MAGIC: &[u8; 16] = b"rapier-sph snap\0";
 /// The snapshot format's version, stored in every file.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 #[derive(Serialize)]
 struct SnapshotRef<'a> {
+    time_stepping: TimeStepping,
     fluids: Vec<FluidState>,
     physics: &'a PhysicsWorld,
 }
 
 #[derive(Deserialize)]
 struct SnapshotOwned {
+    time_stepping: TimeStepping,
     fluids: Vec<FluidState>,
     physics: PhysicsWorld,
 }
@@ -88,6 +91,7 @@ impl std::error::Error for SnapshotError {}
 /// The whole state as bytes.
 pub fn to_bytes(world: &FluidWorld) -> Result<Vec<u8>, SnapshotError> {
     let data = SnapshotRef {
+        time_stepping: world.pipeline.time_stepping,
         fluids: world
             .fluids
             .iter()
@@ -114,6 +118,7 @@ pub fn from_bytes(bytes: &[u8]) -> Result<FluidWorld, SnapshotError> {
         .map_err(|e| SnapshotError::Encoding(e.to_string()))?;
     let mut world = FluidWorld {
         physics: data.physics,
+        pipeline: FluidPipeline::with_time_stepping(data.time_stepping),
         ..FluidWorld::default()
     };
     for state in data.fluids {

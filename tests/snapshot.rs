@@ -11,7 +11,11 @@ use rapier3d::prelude::{ColliderBuilder, RigidBodyBuilder};
 /// A small water dam break (≈ 540 particles) with a dynamic rapier ball dropped into the
 /// tank, so rapier's own state (contacts, islands, solver warm-start) is part of the test.
 fn scene() -> FluidWorld {
-    let params = FluidParamsBuilder::water(0.05).build().unwrap();
+    scene_with(FluidParamsBuilder::water(0.05))
+}
+
+fn scene_with(builder: FluidParamsBuilder) -> FluidWorld {
+    let params = builder.build().unwrap();
     let mut s = dam_break(&DamBreakConfig::tower(params, 0.6)).unwrap();
     s.world.physics.integration_parameters.dt = 1.0 / 500.0;
     let ball = s
@@ -56,8 +60,28 @@ fn fingerprint(w: &FluidWorld) -> Vec<u32> {
 
 #[test]
 fn restore_and_continue_is_bitwise_the_same_as_never_stopping() {
-    let path = std::env::temp_dir().join(format!("rapier-sph-snapshot-{}.bin", std::process::id()));
-    let mut a = scene();
+    check_restore(scene(), "wcsph");
+}
+
+/// DFSPH keeps warm-start pressures per particle and walls add density: both must survive
+/// the round trip.
+#[test]
+fn restore_and_continue_with_dfsph_and_wall_density() {
+    check_restore(
+        scene_with(
+            FluidParamsBuilder::water(0.05)
+                .solver(rapier_sph::solver::Solver::dfsph())
+                .wall_density(true),
+        ),
+        "dfsph",
+    );
+}
+
+fn check_restore(mut a: FluidWorld, name: &str) {
+    let path = std::env::temp_dir().join(format!(
+        "rapier-sph-snapshot-{name}-{}.bin",
+        std::process::id()
+    ));
     for _ in 0..40 {
         a.step().unwrap();
     }

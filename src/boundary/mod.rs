@@ -17,5 +17,7 @@
 
 pub mod candidates;
 pub mod contact;
+pub mod wall;
 
 pub use candidates::ContactWorkspace;
+pub use wall::WallWorkspace;

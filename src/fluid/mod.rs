@@ -6,11 +6,12 @@ pub(crate) mod snapshot;
 
 pub use fluid_set::{FluidHandle, FluidSet};
 
-use crate::boundary::ContactWorkspace;
+use crate::boundary::{ContactWorkspace, WallWorkspace};
 use crate::error::{SphError, SphResult};
 use crate::math::{Real, Vector, is_finite};
 use crate::neighbors::{NeighborGrid, NeighborLists};
 use crate::params::FluidParams;
+use crate::solver::dfsph::DfsphBuffers;
 
 /// Scratch state a fluid keeps between steps so that the step never allocates once warm.
 #[derive(Clone, Debug, Default)]
@@ -18,6 +19,15 @@ pub(crate) struct Workspace {
     pub grid: NeighborGrid,
     pub neighbors: NeighborLists,
     pub contact: ContactWorkspace,
+    /// Wall contributions to density (see [`crate::boundary::wall`]).
+    pub wall: WallWorkspace,
+    /// DFSPH factors and iteration buffers.
+    pub dfsph: DfsphBuffers,
+    pub scratch_reals: Vec<Real>,
+    /// Largest speed after the last substep (the adaptive time step's input).
+    pub max_speed: Real,
+    /// Particles that became non-finite during the last substep.
+    pub non_finite: usize,
     /// Positions at the start of the current step (written by the particle update, swept
     /// from by collider contact).
     pub previous_positions: Vec<Vector>,
@@ -43,7 +53,12 @@ pub struct Fluid {
     pub(crate) densities: Vec<Real>,
     pub(crate) pressures: Vec<Real>,
     pub(crate) ids: Vec<u32>,
+    /// Pressure values `π = p/ρ²` of the last constant-density and divergence solves
+    /// (DFSPH warm start); they follow the particles through every re-sort.
+    pub(crate) warm_density: Vec<Real>,
+    pub(crate) warm_divergence: Vec<Real>,
     next_id: u32,
+    quarantined: usize,
     /// Set when particles were added: the next contact stage first pushes particles that
     /// start inside a solid out through its nearest surface.
     pub(crate) needs_depenetration: bool,
@@ -62,7 +77,10 @@ impl Fluid {
             densities: Vec::new(),
             pressures: Vec::new(),
             ids: Vec::new(),
+            warm_density: Vec::new(),
+            warm_divergence: Vec::new(),
             next_id: 0,
+            quarantined: 0,
             needs_depenetration: false,
             workspace: Workspace::default(),
         })
@@ -145,6 +163,8 @@ impl Fluid {
         self.accelerations.resize(n, Vector::ZERO);
         self.densities.resize(n, self.params.rest_density);
         self.pressures.resize(n, 0.0);
+        self.warm_density.resize(n, 0.0);
+        self.warm_divergence.resize(n, 0.0);
         self.needs_depenetration = true;
         Ok(start..end)
     }
@@ -187,6 +207,8 @@ impl Fluid {
                 self.accelerations[w] = self.accelerations[r];
                 self.densities[w] = self.densities[r];
                 self.pressures[w] = self.pressures[r];
+                self.warm_density[w] = self.warm_density[r];
+                self.warm_divergence[w] = self.warm_divergence[r];
                 w += 1;
             }
         }
@@ -200,7 +222,24 @@ impl Fluid {
         self.ids.truncate(w);
         self.densities.truncate(w);
         self.pressures.truncate(w);
+        self.warm_density.truncate(w);
+        self.warm_divergence.truncate(w);
         n - w
+    }
+
+    /// Removes every particle whose position or velocity is not finite (NaN or infinite),
+    /// before it can poison its neighbours through the density sums. Returns how many were
+    /// removed; the pipeline calls this at the start of every frame and after any substep that
+    /// produced such a particle, and reports the count as `StepReport::quarantined`.
+    pub fn quarantine_non_finite(&mut self) -> usize {
+        let removed = self.remove_particles_where(|x, v, _| !is_finite(x) || !is_finite(v));
+        self.quarantined += removed;
+        removed
+    }
+
+    /// Particles removed over the fluid's life because they became non-finite.
+    pub fn quarantined(&self) -> usize {
+        self.quarantined
     }
 
     /// Number of particles.
@@ -285,7 +324,11 @@ impl Fluid {
         let ws = &self.workspace;
         (self.positions.capacity() + self.velocities.capacity() + self.accelerations.capacity()) * v
             + (self.densities.capacity() + self.pressures.capacity()) * 4
+            + (self.warm_density.capacity() + self.warm_divergence.capacity()) * 4
             + self.ids.capacity() * 4
+            + ws.wall.heap_bytes()
+            + ws.dfsph.heap_bytes()
+            + ws.scratch_reals.capacity() * 4
             + ws.grid.heap_bytes()
             + ws.neighbors.heap_bytes()
             + ws.contact.heap_bytes()

@@ -17,7 +17,10 @@ pub(crate) struct FluidState {
     densities: Vec<Real>,
     pressures: Vec<Real>,
     ids: Vec<u32>,
+    warm_density: Vec<Real>,
+    warm_divergence: Vec<Real>,
     next_id: u32,
+    quarantined: usize,
     needs_depenetration: bool,
 }
 
@@ -31,7 +34,10 @@ impl FluidState {
             densities: f.densities.clone(),
             pressures: f.pressures.clone(),
             ids: f.ids.clone(),
+            warm_density: f.warm_density.clone(),
+            warm_divergence: f.warm_divergence.clone(),
             next_id: f.next_id,
+            quarantined: f.quarantined,
             needs_depenetration: f.needs_depenetration,
         }
     }
@@ -47,6 +53,8 @@ impl FluidState {
             self.densities.len(),
             self.pressures.len(),
             self.ids.len(),
+            self.warm_density.len(),
+            self.warm_divergence.len(),
         ];
         if lens.iter().any(|&l| l != n) {
             return Err(crate::SphError::InvalidParticle {
@@ -60,7 +68,10 @@ impl FluidState {
         f.densities = self.densities;
         f.pressures = self.pressures;
         f.ids = self.ids;
+        f.warm_density = self.warm_density;
+        f.warm_divergence = self.warm_divergence;
         f.next_id = self.next_id;
+        f.quarantined = self.quarantined;
         f.needs_depenetration = self.needs_depenetration;
         f.workspace = Workspace::default();
         Ok(f)

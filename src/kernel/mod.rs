@@ -26,6 +26,7 @@
 //! It is offered only to reproduce the paper.
 
 mod cubic_spline;
+pub mod half_space;
 mod paper_poly6;
 mod poly6;
 mod spiky;
@@ -33,6 +34,7 @@ mod viscosity;
 mod wendland;
 
 pub use cubic_spline::CubicSpline;
+pub use half_space::HalfSpaceTable;
 pub use paper_poly6::PaperPoly6;
 pub use poly6::Poly6;
 pub use spiky::Spiky;

@@ -12,6 +12,18 @@ use crate::par::{CHUNK, LANES, lane_sum};
 use rayon::prelude::*;
 
 /// Overwrites `accelerations[i]` with the pressure acceleration of particle `i`.
+///
+/// With `wall = Some(∇ρ_wall)` the walls push too, through their volume's density gradient
+/// (see [`crate::boundary::wall`]): `a_i −= p_i/(2ρ_i²)·∇ρ_wall,i`.
+///
+/// Why one half: in a uniform fluid Müller's symmetric form equals half the variational
+/// force `−Σ m (p_i/ρ_i² + p_j/ρ_j²) ∇W`, i.e. it is the exact gradient of the internal
+/// energy `Σ m·u(ρ)` with `u' = p/(2ρ²)`. A wall term is energy-consistent only if it is the
+/// gradient of that same energy through the wall's density, which gives the factor ½.
+/// Mirroring the full pressure into the wall (`p_b = p_i`) does work on the fluid over
+/// every oscillation: a column at rest in a closed tank then gains kinetic energy without
+/// bound (seen in development; the factor ½ makes it bounded).
+#[allow(clippy::too_many_arguments)]
 pub fn pressure_accelerations<K: Kernel>(
     positions: &[Vector],
     inv_densities: &[Real],
@@ -19,6 +31,7 @@ pub fn pressure_accelerations<K: Kernel>(
     neighbors: &NeighborLists,
     mass: Real,
     h: Real,
+    wall: Option<&[Vector]>,
     accelerations: &mut [Vector],
 ) {
     let kernel = K::new(h);
@@ -82,6 +95,9 @@ pub fn pressure_accelerations<K: Kernel>(
                     f -= grad * ((pi + pressures[ju]) * inv_densities[ju]);
                 }
                 *a = f * (half_m * inv_densities[i]);
+                if let Some(grad) = wall {
+                    *a -= grad[i] * (0.5 * pi * inv_densities[i] * inv_densities[i]);
+                }
             }
         });
 }

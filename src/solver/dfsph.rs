@@ -1,0 +1,455 @@
+//! Divergence-free SPH (DFSPH): Bender & Koschier, "Divergence-Free Smoothed Particle
+//! Hydrodynamics" (SCA 2015) and "Divergence-Free SPH for Incompressible and Viscous Fluids"
+//! (IEEE TVCG 23(3), 2017). Equation numbers below are the 2017 paper's.
+//!
+//! Pressure is not computed from an equation of state but solved for, twice per step:
+//!
+//! 1. **Divergence solve** (Alg. 2) at the start of the step: pressures that make the
+//!    velocity field divergence-free, `Dρ/Dt = 0`, to within `max_divergence_error`.
+//! 2. **Constant-density solve** (Alg. 3) after the non-pressure forces: pressures that bring
+//!    the density predicted for the end of the step back to `ρ0`, to within
+//!    `max_density_error` (average over the particles).
+//!
+//! Both solvers are Jacobi-style with the DFSPH factor (eq. 9, wall term included)
+//!
+//! ```text
+//! α_i = 1 / ( |Σ_j m ∇W_ij + ∇ρ_wall,i|² + Σ_j |m ∇W_ij|² )
+//! ```
+//!
+//! which is the exact inverse of the diagonal of the pressure system: a pressure value
+//! `π_i = p_i/ρ_i²` changes particle `i`'s density over a step by `−dt²·π_i/α_i`. The pressure
+//! acceleration is the symmetric, momentum-conserving form (eq. 4 with eq. 11)
+//!
+//! ```text
+//! a_i = −Σ_j m (π_i + π_j) ∇W_ij − π_i ∇ρ_wall,i ,
+//! ```
+//!
+//! the wall term mirroring the particle's pressure into the wall (Akinci et al. 2012). The
+//! density-solve pressures are summed over the iterations and kept for the next step (warm
+//! start, section 4.4), and reported as `p_i = π_i·ρ_i²`.
+//!
+//! The solver uses the fluid's *density* kernel for every gradient, so the factor is exact for
+//! the forces it predicts (the pressure-kernel setting is used by WCSPH only).
+
+use super::pairs::{gradient_block, gradient_one, reduce_partials};
+use crate::boundary::WallWorkspace;
+use crate::kernel::Kernel;
+use crate::math::{Real, Vector};
+use crate::neighbors::NeighborLists;
+use crate::par::{CHUNK, LANES, lane_sum};
+#[cfg(feature = "parallel")]
+use rayon::prelude::*;
+
+/// Weight `γ` of the wall's pressure force, `a_i −= γ·π_i·∇ρ_wall`. `γ = 1` is the
+/// energy-consistent (variational) choice: the force is the gradient of the same internal
+/// energy whose fluid part gives `(π_i + π_j)`. Full mirroring (`γ = 2`, as in IISPH) was
+/// tried: it does net work over every oscillation, and a column at rest in a closed tank
+/// gained kinetic energy until it sloshed.
+const WALL_MIRROR: Real = 1.0;
+
+/// Settings of the DFSPH solver. Defaults follow Bender & Koschier (2017): 0.1 % average
+/// density error, 1 % divergence error.
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub struct Dfsph {
+    /// Largest accepted average density error after the constant-density solve, as a fraction
+    /// of `ρ0` (default 0.001, i.e. 0.1 %).
+    pub max_density_error: Real,
+    /// Largest accepted average divergence error, `|Dρ/Dt|·dt/ρ0` averaged (default 0.01).
+    pub max_divergence_error: Real,
+    /// Iterations always run by each solve (default 2).
+    pub min_iterations: u32,
+    /// Iteration cap of each solve (default 100). When it binds, the step report's
+    /// `solver_capped` count says so.
+    pub max_iterations: u32,
+    /// Run the divergence solve (default true). Off gives "constant-density only" SPH, cheaper
+    /// and less stable.
+    pub divergence_solve: bool,
+}
+
+impl Default for Dfsph {
+    fn default() -> Self {
+        Self {
+            max_density_error: 0.001,
+            max_divergence_error: 0.01,
+            min_iterations: 2,
+            max_iterations: 100,
+            divergence_solve: true,
+        }
+    }
+}
+
+/// What one solve did.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct SolveStats {
+    /// Iterations run.
+    pub iterations: u32,
+    /// Average error reached (density: fraction of `ρ0`; divergence: `|Dρ/Dt|·dt/ρ0`).
+    pub error: Real,
+    /// `true` when the iteration cap stopped the solve before the target was reached.
+    pub capped: bool,
+}
+
+/// Arrays the solver needs during a step (indexed like the sorted particles).
+#[derive(Clone, Debug, Default)]
+pub struct DfsphBuffers {
+    /// DFSPH factor `α_i`.
+    pub alpha: Vec<Real>,
+    /// Pressure values `π_i` of the current iteration.
+    pub pi: Vec<Real>,
+    /// Per-chunk partial sums.
+    pub partials: Vec<(f64, Real)>,
+}
+
+impl DfsphBuffers {
+    fn resize(&mut self, n: usize) {
+        self.alpha.resize(n, 0.0);
+        self.pi.resize(n, 0.0);
+        self.partials.resize(n.div_ceil(CHUNK), (0.0, 0.0));
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        (self.alpha.capacity() + self.pi.capacity()) * 4 + self.partials.capacity() * 16
+    }
+}
+
+/// Density (fluid sum plus walls), its inverse, and the DFSPH factor of every particle, in
+/// one pass over the neighbours.
+#[allow(clippy::too_many_arguments)]
+pub fn density_and_factors<K: Kernel>(
+    positions: &[Vector],
+    neighbors: &NeighborLists,
+    mass: Real,
+    h: Real,
+    wall: Option<&WallWorkspace>,
+    densities: &mut [Real],
+    inv_densities: &mut [Real],
+    alpha: &mut [Real],
+) {
+    let kernel = K::new(h);
+    let self_term = mass * kernel.w(0.0);
+    crate::par_chunks_mut!(densities, CHUNK)
+        .zip(crate::par_chunks_mut!(inv_densities, CHUNK))
+        .zip(crate::par_chunks_mut!(alpha, CHUNK))
+        .enumerate()
+        .for_each(|(c, ((dens, inv), alpha))| {
+            let base = c * CHUNK;
+            for k in 0..dens.len() {
+                let i = base + k;
+                let xi = positions[i];
+                let nb = neighbors.of(i);
+                let (mut w, mut sx, mut sy, mut sz, mut s2) = (
+                    [0.0; LANES],
+                    [0.0; LANES],
+                    [0.0; LANES],
+                    [0.0; LANES],
+                    [0.0; LANES],
+                );
+                let mut blocks = nb.chunks_exact(LANES);
+                for block in &mut blocks {
+                    let b = gradient_block(&kernel, i, xi, positions, block);
+                    for l in 0..LANES {
+                        w[l] += kernel.w(b.d[l]);
+                        sx[l] += b.gx[l];
+                        sy[l] += b.gy[l];
+                        sz[l] += b.gz[l];
+                        s2[l] += b.gx[l] * b.gx[l] + b.gy[l] * b.gy[l] + b.gz[l] * b.gz[l];
+                    }
+                }
+                let mut wsum = lane_sum(w);
+                let mut g = Vector::new(lane_sum(sx), lane_sum(sy), lane_sum(sz));
+                let mut g2 = lane_sum(s2);
+                for &j in blocks.remainder() {
+                    let (gr, d) = gradient_one(&kernel, i, xi, positions, j);
+                    wsum += kernel.w(d);
+                    g += gr;
+                    g2 += gr.length_squared();
+                }
+                let mut rho = self_term + mass * wsum;
+                let grad = g * mass;
+                // Own pressure's effect on own density: the push Σm∇W + γ∇ρ_wall dotted with the
+                // density gradient Σm∇W + ∇ρ_wall (γ = WALL_MIRROR).
+                let mut denom = grad.length_squared() + mass * mass * g2;
+                if let Some(wall) = wall {
+                    rho += wall.density[i];
+                    let gw = wall.gradient[i];
+                    denom = (grad + gw * WALL_MIRROR).dot(grad + gw) + mass * mass * g2;
+                }
+                dens[k] = rho;
+                inv[k] = 1.0 / rho;
+                // An isolated particle has no neighbour to push: no pressure.
+                alpha[k] = if denom > 1e-12 * rho * rho / (h * h) {
+                    1.0 / denom
+                } else {
+                    0.0
+                };
+            }
+        });
+}
+
+/// Pass A of an iteration: the rate of change of every particle's density under the current
+/// velocities, `Dρ_i/Dt = Σ_j m (v_i − v_j)·∇W_ij + (v_i − v_wall)·∇ρ_wall,i` (eq. 6), handed to
+/// `finish(i, rate)`, which returns `(π_i, error_i)`. Writes `π`; returns the per-chunk error
+/// sums into `partials`.
+#[allow(clippy::too_many_arguments)]
+fn rate_pass<K: Kernel, F: Fn(usize, Real) -> (Real, Real) + Sync>(
+    positions: &[Vector],
+    velocities: &[Vector],
+    neighbors: &NeighborLists,
+    mass: Real,
+    h: Real,
+    wall: Option<&WallWorkspace>,
+    pi: &mut [Real],
+    partials: &mut [(f64, Real)],
+    finish: F,
+) {
+    let kernel = K::new(h);
+    crate::par_chunks_mut!(pi, CHUNK)
+        .zip(crate::par_iter_mut!(partials))
+        .enumerate()
+        .for_each(|(c, (pi, partial))| {
+            let base = c * CHUNK;
+            let mut err_sum = 0.0f64;
+            let mut err_max: Real = 0.0;
+            for k in 0..pi.len() {
+                let i = base + k;
+                let xi = positions[i];
+                let vi = velocities[i];
+                let nb = neighbors.of(i);
+                let mut acc = [0.0; LANES];
+                let mut blocks = nb.chunks_exact(LANES);
+                for block in &mut blocks {
+                    let b = gradient_block(&kernel, i, xi, positions, block);
+                    for l in 0..LANES {
+                        let v = vi - velocities[b.j[l]];
+                        acc[l] += v.x * b.gx[l] + v.y * b.gy[l] + v.z * b.gz[l];
+                    }
+                }
+                let mut rate = lane_sum(acc);
+                for &j in blocks.remainder() {
+                    let (g, _) = gradient_one(&kernel, i, xi, positions, j);
+                    rate += (vi - velocities[j as usize]).dot(g);
+                }
+                rate *= mass;
+                if let Some(wall) = wall {
+                    rate += vi.dot(wall.gradient[i]) - wall.motion[i];
+                }
+                let (p, e) = finish(i, rate);
+                pi[k] = p;
+                err_sum += e as f64;
+                err_max = err_max.max(e);
+            }
+            *partial = (err_sum, err_max);
+        });
+}
+
+/// Pass B of an iteration: `v_i −= dt·(Σ_j m (π_i + π_j) ∇W_ij + π_i ∇ρ_wall,i)`.
+#[allow(clippy::too_many_arguments)]
+pub fn apply_pressure<K: Kernel>(
+    positions: &[Vector],
+    neighbors: &NeighborLists,
+    mass: Real,
+    h: Real,
+    wall: Option<&WallWorkspace>,
+    pi: &[Real],
+    dt: Real,
+    velocities: &mut [Vector],
+) {
+    let kernel = K::new(h);
+    let dtm = dt * mass;
+    crate::par_chunks_mut!(velocities, CHUNK)
+        .enumerate()
+        .for_each(|(c, out)| {
+            let base = c * CHUNK;
+            for (k, v) in out.iter_mut().enumerate() {
+                let i = base + k;
+                let xi = positions[i];
+                let pii = pi[i];
+                let nb = neighbors.of(i);
+                let (mut fx, mut fy, mut fz) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+                let mut blocks = nb.chunks_exact(LANES);
+                for block in &mut blocks {
+                    let b = gradient_block(&kernel, i, xi, positions, block);
+                    for l in 0..LANES {
+                        let s = pii + pi[b.j[l]];
+                        fx[l] += s * b.gx[l];
+                        fy[l] += s * b.gy[l];
+                        fz[l] += s * b.gz[l];
+                    }
+                }
+                let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
+                for &j in blocks.remainder() {
+                    let (g, _) = gradient_one(&kernel, i, xi, positions, j);
+                    f += g * (pii + pi[j as usize]);
+                }
+                let mut dv = f * dtm;
+                if let Some(wall) = wall {
+                    dv += wall.gradient[i] * (WALL_MIRROR * pii * dt);
+                }
+                *v -= dv;
+            }
+        });
+}
+
+/// Inputs shared by both solves.
+pub struct SolveContext<'a> {
+    /// Sorted positions.
+    pub positions: &'a [Vector],
+    /// Neighbour lists of those positions.
+    pub neighbors: &'a NeighborLists,
+    /// Wall contributions, if any wall is near.
+    pub wall: Option<&'a WallWorkspace>,
+    /// Densities at the current positions.
+    pub densities: &'a [Real],
+    /// Particle mass.
+    pub mass: Real,
+    /// Support radius.
+    pub h: Real,
+    /// Rest density.
+    pub rest_density: Real,
+    /// Time step.
+    pub dt: Real,
+    /// Neighbours of a particle inside a full lattice. A particle with fewer than 60 % of
+    /// that (walls counted by the fraction of the kernel they cover) is a surface particle
+    /// and is left out of the divergence solve (Bender & Koschier use 20 of about 33).
+    pub expected_neighbours: Real,
+}
+
+/// The Jacobi loop both solves share: warm start at half the previous pressure values
+/// (section 4.4; the increments are never negative, so the whole value could only grow), then
+/// rate pass → error check → velocity update until the average error, `Σ error_i / n` times
+/// `error_scale`, is at most `target` (after at least `min_iterations`), or the cap binds.
+/// `finish(i, Dρ_i/Dt) = (π increment, error_i)`. `warm` ends as this step's summed pressure.
+#[allow(clippy::too_many_arguments)]
+fn jacobi<K: Kernel, F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
+    ctx: &SolveContext<'_>,
+    settings: &Dfsph,
+    target: Real,
+    error_scale: Real,
+    buffers: &mut DfsphBuffers,
+    warm: &mut [Real],
+    velocities: &mut [Vector],
+    finish: F,
+) -> SolveStats {
+    let n = ctx.positions.len();
+    buffers.resize(n);
+    let DfsphBuffers {
+        alpha,
+        pi,
+        partials,
+    } = buffers;
+    let apply = |pi: &[Real], velocities: &mut [Vector]| {
+        apply_pressure::<K>(
+            ctx.positions,
+            ctx.neighbors,
+            ctx.mass,
+            ctx.h,
+            ctx.wall,
+            pi,
+            ctx.dt,
+            velocities,
+        )
+    };
+    for w in warm.iter_mut() {
+        *w *= 0.5;
+    }
+    if warm.iter().any(|&w| w != 0.0) {
+        apply(warm, velocities);
+    }
+    let alpha: &[Real] = alpha;
+    let mut stats = SolveStats::default();
+    loop {
+        rate_pass::<K, _>(
+            ctx.positions,
+            velocities,
+            ctx.neighbors,
+            ctx.mass,
+            ctx.h,
+            ctx.wall,
+            pi,
+            partials,
+            |i, rate| finish(alpha, i, rate),
+        );
+        let (sum, _) = reduce_partials(partials);
+        stats.error = (sum / n as f64) as Real * error_scale;
+        let done = stats.error <= target;
+        if (done && stats.iterations >= settings.min_iterations)
+            || stats.iterations >= settings.max_iterations
+        {
+            stats.capped = !done;
+            break;
+        }
+        apply(pi, velocities);
+        for (w, p) in warm.iter_mut().zip(pi.iter()) {
+            *w += p;
+        }
+        stats.iterations += 1;
+    }
+    stats
+}
+
+/// Divergence solve (Alg. 2): corrects `velocities` until `Dρ/Dt ≈ 0`. `warm` holds the
+/// previous step's pressure values on entry (used at half weight) and this step's sum on exit.
+pub fn divergence_solve<K: Kernel>(
+    ctx: &SolveContext<'_>,
+    settings: &Dfsph,
+    buffers: &mut DfsphBuffers,
+    warm: &mut [Real],
+    velocities: &mut [Vector],
+) -> SolveStats {
+    let dt = ctx.dt;
+    let coverage = ctx.wall.map(|w| &w.coverage[..]);
+    let expected = ctx.expected_neighbours;
+    jacobi::<K, _>(
+        ctx,
+        settings,
+        settings.max_divergence_error,
+        dt / ctx.rest_density,
+        buffers,
+        warm,
+        velocities,
+        |alpha, i, rate| {
+            // Surface particles (few neighbours, walls counted by their coverage) are left
+            // out: their density deficit is not compression.
+            let count =
+                ctx.neighbors.of(i).len() as Real + coverage.map_or(0.0, |c| c[i] * expected);
+            let r = if count < 0.6 * expected {
+                0.0
+            } else {
+                rate.max(0.0)
+            };
+            (r * alpha[i] / dt, r)
+        },
+    )
+}
+
+/// Constant-density solve (Alg. 3): corrects the predicted `velocities` until the density they
+/// lead to after `dt` is `ρ0` on average to within `max_density_error`. `warm` holds the
+/// previous step's pressure values on entry (used at half weight) and this step's sum on exit
+/// (the pressure).
+pub fn density_solve<K: Kernel>(
+    ctx: &SolveContext<'_>,
+    settings: &Dfsph,
+    buffers: &mut DfsphBuffers,
+    warm: &mut [Real],
+    velocities: &mut [Vector],
+) -> SolveStats {
+    let (dt, rho0, densities) = (ctx.dt, ctx.rest_density, ctx.densities);
+    let inv_dt2 = 1.0 / (dt * dt);
+    jacobi::<K, _>(
+        ctx,
+        settings,
+        settings.max_density_error,
+        1.0 / rho0,
+        buffers,
+        warm,
+        velocities,
+        |alpha, i, rate| {
+            // Predicted density, clamped below at ρ0: only compression is corrected (a free
+            // surface is allowed to be under-dense).
+            let excess = (densities[i] + dt * rate - rho0).max(0.0);
+            (excess * alpha[i] * inv_dt2, excess)
+        },
+    )
+}
