@@ -63,9 +63,10 @@ pub struct SceneFile {
     pub description: String,
     /// Simulated time (s).
     pub duration: Positive,
-    /// Time step (s) of rapier and the fluids. Default: the smallest acoustic limit
+    /// Time step (s) of rapier and of each fluid step. Default: the smallest acoustic limit
     /// `0.4·h/c` of the fluids, at most 1/200 s; rounded down so a frame holds a whole number
-    /// of steps.
+    /// of steps. The fluid pipeline may split each step further (its adaptive CFL substeps,
+    /// [`crate::pipeline::TimeStepping`], are on by default).
     #[serde(default)]
     pub dt: Option<Positive>,
     /// Frames per second for pictures and exports. Default 30.
