@@ -532,11 +532,12 @@ fn step_dfsph(
     timed(report, Stage::Density, || {
         crate::with_kernel!(p.density_kernel, K => dfsph::density_and_factors::<K>(
             positions, &ws.neighbors, p.particle_mass, h, wall,
-            densities, &mut ws.inv_densities, &mut ws.dfsph.alpha));
+            densities, &mut ws.inv_densities, &mut ws.dfsph.alpha, &mut ws.gradients));
     });
     let ctx = dfsph::SolveContext {
         positions,
         neighbors: &ws.neighbors,
+        gradients: &ws.gradients,
         wall,
         densities,
         mass: p.particle_mass,
@@ -549,8 +550,7 @@ fn step_dfsph(
     // 4. Divergence solve.
     if settings.divergence_solve {
         let stats = timed(report, Stage::DivergenceSolve, || {
-            crate::with_kernel!(p.density_kernel, K => dfsph::divergence_solve::<K>(
-                &ctx, settings, &mut ws.dfsph, warm_divergence, velocities))
+            dfsph::divergence_solve(&ctx, settings, &mut ws.dfsph, warm_divergence, velocities)
         });
         report.divergence_iterations += stats.iterations;
         report.solver_divergence_error = report.solver_divergence_error.max(stats.error);
@@ -594,8 +594,7 @@ fn step_dfsph(
         if forces {
             integrate::add_accelerations(dt, accelerations, velocities);
         }
-        crate::with_kernel!(p.density_kernel, K => dfsph::density_solve::<K>(
-            &ctx, settings, &mut ws.dfsph, warm_density, velocities))
+        dfsph::density_solve(&ctx, settings, &mut ws.dfsph, warm_density, velocities)
     });
     report.solver_iterations += stats.iterations;
     report.solver_density_error = report.solver_density_error.max(stats.error);

@@ -23,6 +23,8 @@ pub(crate) struct Workspace {
     pub wall: WallWorkspace,
     /// DFSPH factors and iteration buffers.
     pub dfsph: DfsphBuffers,
+    /// Kernel gradients of every neighbour pair (DFSPH computes them once per substep).
+    pub gradients: crate::solver::pairs::PairGradients,
     pub scratch_reals: Vec<Real>,
     /// Largest speed after the last substep (the adaptive time step's input).
     pub max_speed: Real,
@@ -328,6 +330,7 @@ impl Fluid {
             + self.ids.capacity() * 4
             + ws.wall.heap_bytes()
             + ws.dfsph.heap_bytes()
+            + ws.gradients.heap_bytes()
             + ws.scratch_reals.capacity() * 4
             + ws.grid.heap_bytes()
             + ws.neighbors.heap_bytes()

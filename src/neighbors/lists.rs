@@ -130,6 +130,15 @@ impl NeighborLists {
         &chunk.indices[chunk.offsets[k] as usize..chunk.offsets[k + 1] as usize]
     }
 
+    /// The lists of chunk `c` (particles `c·CHUNK..`): `offsets` (one more than the chunk's
+    /// particles; particle `k`'s neighbours are `indices[offsets[k]..offsets[k + 1]]`) and
+    /// `indices`.
+    #[inline(always)]
+    pub(crate) fn chunk(&self, c: usize) -> (&[u32], &[u32]) {
+        let chunk = &self.chunks[c];
+        (&chunk.offsets, &chunk.indices)
+    }
+
     /// Number of particles the lists were built for.
     pub fn len(&self) -> usize {
         self.len

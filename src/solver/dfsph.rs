@@ -31,7 +31,7 @@
 //! The solver uses the fluid's *density* kernel for every gradient, so the factor is exact for
 //! the forces it predicts (the pressure-kernel setting is used by WCSPH only).
 
-use super::pairs::{gradient_block, gradient_one, reduce_partials};
+use super::pairs::{PairGradients, gradient_block, gradient_one, reduce_partials};
 use crate::boundary::WallWorkspace;
 use crate::kernel::Kernel;
 use crate::math::{Real, Vector};
@@ -115,7 +115,8 @@ impl DfsphBuffers {
 }
 
 /// Density (fluid sum plus walls), its inverse, and the DFSPH factor of every particle, in
-/// one pass over the neighbours.
+/// one pass over the neighbours, which also stores every pair's kernel gradient in `grads`
+/// for the solves (the positions do not move until the step's end).
 #[allow(clippy::too_many_arguments)]
 pub fn density_and_factors<K: Kernel>(
     positions: &[Vector],
@@ -126,19 +127,27 @@ pub fn density_and_factors<K: Kernel>(
     densities: &mut [Real],
     inv_densities: &mut [Real],
     alpha: &mut [Real],
+    grads: &mut PairGradients,
 ) {
     let kernel = K::new(h);
     let self_term = mass * kernel.w(0.0);
+    let n = positions.len();
+    let grad_chunks = grads.chunks_mut(n);
     crate::par_chunks_mut!(densities, CHUNK)
         .zip(crate::par_chunks_mut!(inv_densities, CHUNK))
         .zip(crate::par_chunks_mut!(alpha, CHUNK))
+        .zip(crate::par_iter_mut!(grad_chunks))
         .enumerate()
-        .for_each(|(c, ((dens, inv), alpha))| {
+        .for_each(|(c, (((dens, inv), alpha), gc))| {
             let base = c * CHUNK;
+            let (offsets, indices) = neighbors.chunk(c);
+            gc.resize(offsets[dens.len()] as usize);
             for k in 0..dens.len() {
                 let i = base + k;
                 let xi = positions[i];
-                let nb = neighbors.of(i);
+                let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
+                let nb = &indices[s..e];
+                let (ox, oy, oz) = (&mut gc.x[s..e], &mut gc.y[s..e], &mut gc.z[s..e]);
                 let (mut w, mut sx, mut sy, mut sz, mut s2) = (
                     [0.0; LANES],
                     [0.0; LANES],
@@ -146,9 +155,13 @@ pub fn density_and_factors<K: Kernel>(
                     [0.0; LANES],
                     [0.0; LANES],
                 );
-                let mut blocks = nb.chunks_exact(LANES);
-                for block in &mut blocks {
+                let full = nb.len() / LANES * LANES;
+                for (t, block) in nb[..full].chunks_exact(LANES).enumerate() {
                     let b = gradient_block(&kernel, i, xi, positions, block);
+                    let o = t * LANES;
+                    ox[o..o + LANES].copy_from_slice(&b.gx);
+                    oy[o..o + LANES].copy_from_slice(&b.gy);
+                    oz[o..o + LANES].copy_from_slice(&b.gz);
                     for l in 0..LANES {
                         w[l] += kernel.w(b.d[l]);
                         sx[l] += b.gx[l];
@@ -160,8 +173,9 @@ pub fn density_and_factors<K: Kernel>(
                 let mut wsum = lane_sum(w);
                 let mut g = Vector::new(lane_sum(sx), lane_sum(sy), lane_sum(sz));
                 let mut g2 = lane_sum(s2);
-                for &j in blocks.remainder() {
-                    let (gr, d) = gradient_one(&kernel, i, xi, positions, j);
+                for t in full..nb.len() {
+                    let (gr, d) = gradient_one(&kernel, i, xi, positions, nb[t]);
+                    (ox[t], oy[t], oz[t]) = (gr.x, gr.y, gr.z);
                     wsum += kernel.w(d);
                     g += gr;
                     g2 += gr.length_squared();
@@ -193,43 +207,46 @@ pub fn density_and_factors<K: Kernel>(
 /// `finish(i, rate)`, which returns `(π_i, error_i)`. Writes `π`; returns the per-chunk error
 /// sums into `partials`.
 #[allow(clippy::too_many_arguments)]
-fn rate_pass<K: Kernel, F: Fn(usize, Real) -> (Real, Real) + Sync>(
-    positions: &[Vector],
+fn rate_pass<F: Fn(usize, Real) -> (Real, Real) + Sync>(
     velocities: &[Vector],
     neighbors: &NeighborLists,
+    grads: &PairGradients,
     mass: Real,
-    h: Real,
     wall: Option<&WallWorkspace>,
     pi: &mut [Real],
     partials: &mut [(f64, Real)],
     finish: F,
 ) {
-    let kernel = K::new(h);
     crate::par_chunks_mut!(pi, CHUNK)
         .zip(crate::par_iter_mut!(partials))
         .enumerate()
         .for_each(|(c, (pi, partial))| {
             let base = c * CHUNK;
+            let (offsets, indices) = neighbors.chunk(c);
+            let gc = grads.chunk(c);
             let mut err_sum = 0.0f64;
             let mut err_max: Real = 0.0;
             for k in 0..pi.len() {
                 let i = base + k;
-                let xi = positions[i];
                 let vi = velocities[i];
-                let nb = neighbors.of(i);
+                let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
+                let (nb, gx, gy, gz) = (&indices[s..e], &gc.x[s..e], &gc.y[s..e], &gc.z[s..e]);
                 let mut acc = [0.0; LANES];
-                let mut blocks = nb.chunks_exact(LANES);
-                for block in &mut blocks {
-                    let b = gradient_block(&kernel, i, xi, positions, block);
+                let full = nb.len() / LANES * LANES;
+                for t in (0..full).step_by(LANES) {
+                    let j: &[u32; LANES] = nb[t..t + LANES].try_into().unwrap();
+                    let bx: &[Real; LANES] = gx[t..t + LANES].try_into().unwrap();
+                    let by: &[Real; LANES] = gy[t..t + LANES].try_into().unwrap();
+                    let bz: &[Real; LANES] = gz[t..t + LANES].try_into().unwrap();
                     for l in 0..LANES {
-                        let v = vi - velocities[b.j[l]];
-                        acc[l] += v.x * b.gx[l] + v.y * b.gy[l] + v.z * b.gz[l];
+                        let v = vi - velocities[j[l] as usize];
+                        acc[l] += v.x * bx[l] + v.y * by[l] + v.z * bz[l];
                     }
                 }
                 let mut rate = lane_sum(acc);
-                for &j in blocks.remainder() {
-                    let (g, _) = gradient_one(&kernel, i, xi, positions, j);
-                    rate += (vi - velocities[j as usize]).dot(g);
+                for t in full..nb.len() {
+                    let v = vi - velocities[nb[t] as usize];
+                    rate += v.dot(Vector::new(gx[t], gy[t], gz[t]));
                 }
                 rate *= mass;
                 if let Some(wall) = wall {
@@ -245,43 +262,44 @@ fn rate_pass<K: Kernel, F: Fn(usize, Real) -> (Real, Real) + Sync>(
 }
 
 /// Pass B of an iteration: `v_i −= dt·(Σ_j m (π_i + π_j) ∇W_ij + π_i ∇ρ_wall,i)`.
-#[allow(clippy::too_many_arguments)]
-pub fn apply_pressure<K: Kernel>(
-    positions: &[Vector],
+fn apply_pressure(
     neighbors: &NeighborLists,
+    grads: &PairGradients,
     mass: Real,
-    h: Real,
     wall: Option<&WallWorkspace>,
     pi: &[Real],
     dt: Real,
     velocities: &mut [Vector],
 ) {
-    let kernel = K::new(h);
     let dtm = dt * mass;
     crate::par_chunks_mut!(velocities, CHUNK)
         .enumerate()
         .for_each(|(c, out)| {
             let base = c * CHUNK;
+            let (offsets, indices) = neighbors.chunk(c);
+            let gc = grads.chunk(c);
             for (k, v) in out.iter_mut().enumerate() {
                 let i = base + k;
-                let xi = positions[i];
                 let pii = pi[i];
-                let nb = neighbors.of(i);
+                let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
+                let (nb, gx, gy, gz) = (&indices[s..e], &gc.x[s..e], &gc.y[s..e], &gc.z[s..e]);
                 let (mut fx, mut fy, mut fz) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
-                let mut blocks = nb.chunks_exact(LANES);
-                for block in &mut blocks {
-                    let b = gradient_block(&kernel, i, xi, positions, block);
+                let full = nb.len() / LANES * LANES;
+                for t in (0..full).step_by(LANES) {
+                    let j: &[u32; LANES] = nb[t..t + LANES].try_into().unwrap();
+                    let bx: &[Real; LANES] = gx[t..t + LANES].try_into().unwrap();
+                    let by: &[Real; LANES] = gy[t..t + LANES].try_into().unwrap();
+                    let bz: &[Real; LANES] = gz[t..t + LANES].try_into().unwrap();
                     for l in 0..LANES {
-                        let s = pii + pi[b.j[l]];
-                        fx[l] += s * b.gx[l];
-                        fy[l] += s * b.gy[l];
-                        fz[l] += s * b.gz[l];
+                        let s = pii + pi[j[l] as usize];
+                        fx[l] += s * bx[l];
+                        fy[l] += s * by[l];
+                        fz[l] += s * bz[l];
                     }
                 }
                 let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
-                for &j in blocks.remainder() {
-                    let (g, _) = gradient_one(&kernel, i, xi, positions, j);
-                    f += g * (pii + pi[j as usize]);
+                for t in full..nb.len() {
+                    f += Vector::new(gx[t], gy[t], gz[t]) * (pii + pi[nb[t] as usize]);
                 }
                 let mut dv = f * dtm;
                 if let Some(wall) = wall {
@@ -298,6 +316,8 @@ pub struct SolveContext<'a> {
     pub positions: &'a [Vector],
     /// Neighbour lists of those positions.
     pub neighbors: &'a NeighborLists,
+    /// Kernel gradients of every neighbour pair (from [`density_and_factors`]).
+    pub gradients: &'a PairGradients,
     /// Wall contributions, if any wall is near.
     pub wall: Option<&'a WallWorkspace>,
     /// Densities at the current positions.
@@ -322,7 +342,7 @@ pub struct SolveContext<'a> {
 /// `error_scale`, is at most `target` (after at least `min_iterations`), or the cap binds.
 /// `finish(i, Dρ_i/Dt) = (π increment, error_i)`. `warm` ends as this step's summed pressure.
 #[allow(clippy::too_many_arguments)]
-fn jacobi<K: Kernel, F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
+fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
     ctx: &SolveContext<'_>,
     settings: &Dfsph,
     target: Real,
@@ -340,11 +360,10 @@ fn jacobi<K: Kernel, F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
         partials,
     } = buffers;
     let apply = |pi: &[Real], velocities: &mut [Vector]| {
-        apply_pressure::<K>(
-            ctx.positions,
+        apply_pressure(
             ctx.neighbors,
+            ctx.gradients,
             ctx.mass,
-            ctx.h,
             ctx.wall,
             pi,
             ctx.dt,
@@ -360,12 +379,11 @@ fn jacobi<K: Kernel, F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
     let alpha: &[Real] = alpha;
     let mut stats = SolveStats::default();
     loop {
-        rate_pass::<K, _>(
-            ctx.positions,
+        rate_pass(
             velocities,
             ctx.neighbors,
+            ctx.gradients,
             ctx.mass,
-            ctx.h,
             ctx.wall,
             pi,
             partials,
@@ -391,7 +409,7 @@ fn jacobi<K: Kernel, F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
 
 /// Divergence solve (Alg. 2): corrects `velocities` until `Dρ/Dt ≈ 0`. `warm` holds the
 /// previous step's pressure values on entry (used at half weight) and this step's sum on exit.
-pub fn divergence_solve<K: Kernel>(
+pub fn divergence_solve(
     ctx: &SolveContext<'_>,
     settings: &Dfsph,
     buffers: &mut DfsphBuffers,
@@ -401,7 +419,7 @@ pub fn divergence_solve<K: Kernel>(
     let dt = ctx.dt;
     let coverage = ctx.wall.map(|w| &w.coverage[..]);
     let expected = ctx.expected_neighbours;
-    jacobi::<K, _>(
+    jacobi(
         ctx,
         settings,
         settings.max_divergence_error,
@@ -428,7 +446,7 @@ pub fn divergence_solve<K: Kernel>(
 /// lead to after `dt` is `ρ0` on average to within `max_density_error`. `warm` holds the
 /// previous step's pressure values on entry (used at half weight) and this step's sum on exit
 /// (the pressure).
-pub fn density_solve<K: Kernel>(
+pub fn density_solve(
     ctx: &SolveContext<'_>,
     settings: &Dfsph,
     buffers: &mut DfsphBuffers,
@@ -437,7 +455,7 @@ pub fn density_solve<K: Kernel>(
 ) -> SolveStats {
     let (dt, rho0, densities) = (ctx.dt, ctx.rest_density, ctx.densities);
     let inv_dt2 = 1.0 / (dt * dt);
-    jacobi::<K, _>(
+    jacobi(
         ctx,
         settings,
         settings.max_density_error,

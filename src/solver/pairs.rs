@@ -5,12 +5,10 @@
 
 use crate::kernel::Kernel;
 use crate::math::{Real, Vector};
-use crate::par::LANES;
+use crate::par::{CHUNK, LANES};
 
 /// A block of [`LANES`] neighbours of one particle: separations, distances, gradients.
 pub(crate) struct Block {
-    /// Neighbour indices.
-    pub j: [usize; LANES],
     /// `∇W(x_i − x_j)` components.
     pub gx: [Real; LANES],
     pub gy: [Real; LANES],
@@ -30,11 +28,9 @@ pub(crate) fn gradient_block<K: Kernel>(
 ) -> Block {
     debug_assert_eq!(block.len(), LANES);
     let coincident = K::COINCIDENT_FRACTION * kernel.support();
-    let mut j = [0usize; LANES];
     let (mut rx, mut ry, mut rz, mut d) = ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
     for l in 0..LANES {
-        j[l] = block[l] as usize;
-        let r = xi - positions[j[l]];
+        let r = xi - positions[block[l] as usize];
         (rx[l], ry[l], rz[l]) = (r.x, r.y, r.z);
         d[l] = r.length_squared();
     }
@@ -60,7 +56,7 @@ pub(crate) fn gradient_block<K: Kernel>(
             }
         }
     }
-    Block { j, gx, gy, gz, d }
+    Block { gx, gy, gz, d }
 }
 
 /// `∇W(x_i − x_j)` and `|x_i − x_j|` for one pair (the remainder loop).
@@ -82,4 +78,57 @@ pub(crate) fn reduce_partials(partials: &[(f64, Real)]) -> (f64, Real) {
     partials
         .iter()
         .fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1.max(b.1)))
+}
+
+/// Kernel gradients `∇W(x_i − x_j)` of every neighbour pair, stored in the neighbour lists'
+/// own layout (per chunk of [`CHUNK`] particles, the pair at `indices[t]` of a chunk has its
+/// gradient at `x[t], y[t], z[t]`), three flat arrays (structure of arrays).
+///
+/// An iterative solver visits every pair twice per iteration (density rate, then pressure
+/// push) with the positions unchanged: computing each gradient once per step (distance,
+/// square root, kernel polynomial) and streaming it afterwards makes every later pass a plain
+/// gather-and-multiply.
+#[derive(Clone, Debug, Default)]
+pub struct PairGradients {
+    chunks: Vec<GradientChunk>,
+}
+
+#[derive(Clone, Debug, Default)]
+pub(crate) struct GradientChunk {
+    pub x: Vec<Real>,
+    pub y: Vec<Real>,
+    pub z: Vec<Real>,
+}
+
+impl GradientChunk {
+    /// Sizes the arrays for `pairs` pairs (no allocation once warm).
+    pub fn resize(&mut self, pairs: usize) {
+        self.x.resize(pairs, 0.0);
+        self.y.resize(pairs, 0.0);
+        self.z.resize(pairs, 0.0);
+    }
+}
+
+impl PairGradients {
+    /// One chunk per neighbour-list chunk, for `n` particles.
+    pub(crate) fn chunks_mut(&mut self, n: usize) -> &mut [GradientChunk] {
+        self.chunks
+            .resize_with(n.div_ceil(CHUNK), GradientChunk::default);
+        &mut self.chunks
+    }
+
+    /// The gradients of chunk `c`.
+    #[inline(always)]
+    pub(crate) fn chunk(&self, c: usize) -> &GradientChunk {
+        &self.chunks[c]
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        self.chunks
+            .iter()
+            .map(|c| (c.x.capacity() + c.y.capacity() + c.z.capacity()) * 4)
+            .sum::<usize>()
+            + self.chunks.capacity() * std::mem::size_of::<GradientChunk>()
+    }
 }
