@@ -145,6 +145,15 @@ pub struct StepReport {
     /// Particles removed because their position or velocity was no longer finite (they are
     /// taken out before they can poison their neighbours; see [`crate::Fluid::quarantined`]).
     pub quarantined: usize,
+    /// Particles added by emitters during the step (see [`crate::emitter`]).
+    pub emitted: usize,
+    /// Particles removed by sinks during the step.
+    pub drained: usize,
+    /// Particles that were due from an emitter but could not be placed (the nozzle was
+    /// blocked by particles or a solid); they are not emitted.
+    pub emitter_blocked: usize,
+    /// `true` when a fluid's capacity stopped its emitters during the step.
+    pub capacity_reached: bool,
 }
 
 impl fmt::Display for StageTimings {

@@ -97,6 +97,7 @@
 pub mod boundary;
 pub mod density;
 pub mod diagnostics;
+pub mod emitter;
 pub mod error;
 pub mod fluid;
 pub mod forces;
@@ -125,6 +126,7 @@ pub mod surface;
 pub mod world;
 
 pub use diagnostics::{Stage, StageTimings, StepReport};
+pub use emitter::{Emitter, EmitterHandle, Nozzle, Sink, SinkHandle, SinkRegion};
 pub use error::{SphError, SphResult};
 pub use fluid::{Fluid, FluidHandle, FluidSet};
 pub use kernel::KernelKind;

@@ -206,11 +206,19 @@ impl FluidPipeline {
                     if fluid.workspace.non_finite > 0 {
                         report.quarantined += fluid.quarantine_non_finite();
                     }
+                    report.drained += fluid.drain_sinks(colliders);
                 }
                 elapsed += h;
                 if last {
                     break;
                 }
+            }
+            // Emitters: the particles due during the frame, where they are at its end.
+            for (_, fluid) in fluids.iter_mut() {
+                let e = fluid.run_emitters(dt, has_colliders.then_some(bvh), colliders);
+                report.emitted += e.emitted;
+                report.emitter_blocked += e.blocked;
+                report.capacity_reached |= e.capacity_reached;
             }
             report.particles = fluids.num_particles();
             if counted > 0 {

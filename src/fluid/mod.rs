@@ -61,6 +61,13 @@ pub struct Fluid {
     pub(crate) warm_divergence: Vec<Real>,
     next_id: u32,
     quarantined: usize,
+    /// Particles added by emitters / removed by sinks over the fluid's life.
+    pub(crate) emitted: usize,
+    pub(crate) drained: usize,
+    /// Emitters and sinks (see [`crate::emitter`]).
+    pub(crate) sources: crate::emitter::Sources,
+    /// Particle capacity: emitters pause when it is reached.
+    pub(crate) capacity: Option<usize>,
     /// Set when particles were added: the next contact stage first pushes particles that
     /// start inside a solid out through its nearest surface.
     pub(crate) needs_depenetration: bool,
@@ -83,6 +90,10 @@ impl Fluid {
             warm_divergence: Vec::new(),
             next_id: 0,
             quarantined: 0,
+            emitted: 0,
+            drained: 0,
+            sources: Default::default(),
+            capacity: None,
             needs_depenetration: false,
             workspace: Workspace::default(),
         })
@@ -146,18 +157,39 @@ impl Fluid {
                 }
             }
         }
-        let count = positions.len() as u32;
-        let Some(end) = self.next_id.checked_add(count) else {
+        if self.next_id.checked_add(positions.len() as u32).is_none()
+            || positions.len() > u32::MAX as usize
+        {
             return Err(SphError::InvalidParticle {
                 index: 0,
                 reason: "more than 2^32 particles added over the fluid's life",
             });
-        };
+        }
+        if let Some(cap) = self.capacity
+            && self.positions.len() + positions.len() > cap
+        {
+            return Err(SphError::InvalidParticle {
+                index: cap.saturating_sub(self.positions.len()),
+                reason: "the fluid's capacity is reached (see `Fluid::set_capacity`)",
+            });
+        }
+        self.append_unchecked(positions, velocities.unwrap_or(&[]));
+        self.needs_depenetration = true;
+        Ok(self.next_id - positions.len() as u32..self.next_id)
+    }
+
+    /// Appends particles already checked (finite, outside solids); `velocities` empty means at
+    /// rest. Gives up silently only past 2^32 ids, which `add_particles_with_velocities`
+    /// refuses first.
+    pub(crate) fn append_unchecked(&mut self, positions: &[Vector], velocities: &[Vector]) {
+        let count = positions.len() as u32;
         let start = self.next_id;
+        let end = start.wrapping_add(count);
         self.positions.extend_from_slice(positions);
-        match velocities {
-            Some(v) => self.velocities.extend_from_slice(v),
-            None => self.velocities.resize(self.positions.len(), Vector::ZERO),
+        if velocities.len() == positions.len() {
+            self.velocities.extend_from_slice(velocities);
+        } else {
+            self.velocities.resize(self.positions.len(), Vector::ZERO);
         }
         self.ids.extend(start..end);
         self.next_id = end;
@@ -167,8 +199,58 @@ impl Fluid {
         self.pressures.resize(n, 0.0);
         self.warm_density.resize(n, 0.0);
         self.warm_divergence.resize(n, 0.0);
-        self.needs_depenetration = true;
-        Ok(start..end)
+    }
+
+    /// Sets the particle capacity (`None`: unbounded). With a capacity, every per-particle
+    /// array and the step's per-particle scratch are reserved for it once, so emitting up to
+    /// it never reallocates them; emitters pause when it is reached (the step report says so)
+    /// and [`Fluid::add_particles`] refuses to go beyond it. Refuses a capacity below the
+    /// current particle count.
+    pub fn set_capacity(&mut self, capacity: Option<usize>) -> SphResult<()> {
+        if let Some(cap) = capacity {
+            if cap < self.len() {
+                return Err(SphError::InvalidParameter {
+                    field: "capacity",
+                    value: cap as f64,
+                    reason: "below the current particle count",
+                });
+            }
+            let extra = cap - self.len();
+            self.positions.reserve_exact(extra);
+            self.velocities.reserve_exact(extra);
+            self.accelerations.reserve_exact(extra);
+            self.densities.reserve_exact(extra);
+            self.pressures.reserve_exact(extra);
+            self.ids.reserve_exact(extra);
+            self.warm_density.reserve_exact(extra);
+            self.warm_divergence.reserve_exact(extra);
+            let ws = &mut self.workspace;
+            for v in [&mut ws.previous_positions, &mut ws.scratch_vectors] {
+                v.reserve_exact(cap.saturating_sub(v.len()));
+            }
+            for v in [&mut ws.inv_densities, &mut ws.scratch_reals] {
+                v.reserve_exact(cap.saturating_sub(v.len()));
+            }
+            ws.scratch_ids
+                .reserve_exact(cap.saturating_sub(ws.scratch_ids.len()));
+        }
+        self.capacity = capacity;
+        Ok(())
+    }
+
+    /// The particle capacity, if any (see [`Fluid::set_capacity`]).
+    pub fn capacity(&self) -> Option<usize> {
+        self.capacity
+    }
+
+    /// Particles added by this fluid's emitters over its life.
+    pub fn emitted(&self) -> usize {
+        self.emitted
+    }
+
+    /// Particles removed by this fluid's sinks over its life.
+    pub fn drained(&self) -> usize {
+        self.drained
     }
 
     /// Fills the box `[min, min + size)` with particles on a cubic lattice at the fluid's

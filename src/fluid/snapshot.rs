@@ -22,6 +22,10 @@ pub(crate) struct FluidState {
     next_id: u32,
     quarantined: usize,
     needs_depenetration: bool,
+    emitted: usize,
+    drained: usize,
+    sources: crate::emitter::Sources,
+    capacity: Option<usize>,
 }
 
 impl FluidState {
@@ -39,6 +43,10 @@ impl FluidState {
             next_id: f.next_id,
             quarantined: f.quarantined,
             needs_depenetration: f.needs_depenetration,
+            emitted: f.emitted,
+            drained: f.drained,
+            sources: f.sources.clone(),
+            capacity: f.capacity,
         }
     }
 
@@ -73,6 +81,16 @@ impl FluidState {
         f.next_id = self.next_id;
         f.quarantined = self.quarantined;
         f.needs_depenetration = self.needs_depenetration;
+        f.emitted = self.emitted;
+        f.drained = self.drained;
+        for e in self.sources.emitters.iter() {
+            e.1.validate()?;
+        }
+        for s in self.sources.sinks.iter() {
+            s.1.validate()?;
+        }
+        f.sources = self.sources;
+        f.set_capacity(self.capacity)?;
         f.workspace = Workspace::default();
         Ok(f)
     }

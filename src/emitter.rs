@@ -1,0 +1,692 @@
+//! Emitters (nozzles that add particles) and sinks (regions that remove them).
+//!
+//! Both belong to one [`Fluid`] and are stored in it, in small sets with generational
+//! handles in rapier's style ([`EmitterHandle`], [`SinkHandle`]); the pipeline's step reaches
+//! them through the fluid, so there are no globals. A fluid with neither pays one emptiness
+//! check per substep.
+//!
+//! ## Emitters
+//!
+//! A nozzle ([`Nozzle`]: a disk or a square across `direction`, or a sphere emitting radially)
+//! is covered by *slots* on a square lattice at the fluid's particle spacing (a sphere: a
+//! Fibonacci lattice of the same density). Particles are due at `rate` per second on the
+//! emitter's own clock, between `start` and `stop`, until the optional `budget` is spent,
+//! and fill the slots in turn. A particle due at time `t` of a frame ending at `T` is placed
+//! where it would be at `T`: `slot + direction·speed·(T − t)`, so the jet is the same at any
+//! frame rate. A particle is placed only
+//!
+//! - at least `0.9·spacing` from every particle (old or just emitted): no overlap;
+//! - outside every solid collider, at least one contact radius off its surface, and with a
+//!   straight path from its slot that crosses no surface (parry queries on the colliders
+//!   rapier's broad-phase finds around the nozzle).
+//!
+//! A due particle that cannot be placed is not emitted (the nozzle is blocked: counted in
+//! [`crate::StepReport::emitter_blocked`]); emitting faster than `speed·slots/spacing` always
+//! blocks some, since the previous layer has not moved one spacing away yet
+//! ([`Emitter::max_rate`]). When the fluid reaches its capacity ([`Fluid::set_capacity`])
+//! emitters pause and the report says so (`capacity_reached`).
+//!
+//! ## Sinks
+//!
+//! A sink ([`SinkRegion`]: a box, a ball, or a rapier collider) removes every particle of its
+//! fluid inside it after every substep. A collider sink also takes particles within `reach`
+//! of its surface (default: one particle spacing), so a solid drain plate, which contact keeps
+//! particles half a spacing off, drains what rests on it; a sensor collider drains what
+//! enters it.
+
+use crate::error::{SphError, SphResult};
+use crate::fluid::Fluid;
+use crate::math::{Real, Vector, is_finite};
+use parry3d::bounding_volume::{Aabb, BoundingVolume};
+use parry3d::partitioning::{Bvh, BvhNode};
+use parry3d::query::Ray;
+use rapier3d::geometry::{ColliderHandle, ColliderSet};
+
+/// Shape of an emitter's opening.
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub enum Nozzle {
+    /// A disk of `radius` (m) across the emitter's direction.
+    Disk {
+        /// Radius (m).
+        radius: Real,
+    },
+    /// A square of side `2·half_width` (m) across the emitter's direction.
+    Square {
+        /// Half the side (m).
+        half_width: Real,
+    },
+    /// A sphere of `radius` (m) emitting radially outward from its surface (the emitter's
+    /// direction is not used).
+    Sphere {
+        /// Radius (m).
+        radius: Real,
+    },
+}
+
+/// A nozzle that adds particles to its fluid. Build it with [`Emitter::new`] and the setters,
+/// add it with [`Fluid::add_emitter`] (which validates it).
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub struct Emitter {
+    nozzle: Nozzle,
+    position: Vector,
+    direction: Vector,
+    speed: Real,
+    rate: Real,
+    start: Real,
+    stop: Real,
+    budget: Option<u64>,
+    enabled: bool,
+    // State.
+    clock: f64,
+    /// Index of the next due instant: instant `k` is at `start + k/rate` on the clock.
+    due: u64,
+    emitted: u64,
+    next_slot: usize,
+}
+
+impl Emitter {
+    /// An emitter at `position` shooting along `direction` (any length, normalised) at
+    /// `speed` (m/s), `rate` particles per second, from time 0 forever, no budget.
+    pub fn new(
+        nozzle: Nozzle,
+        position: Vector,
+        direction: Vector,
+        speed: Real,
+        rate: Real,
+    ) -> Self {
+        Self {
+            nozzle,
+            position,
+            direction,
+            speed,
+            rate,
+            start: 0.0,
+            stop: Real::INFINITY,
+            budget: None,
+            enabled: true,
+            clock: 0.0,
+            due: 0,
+            emitted: 0,
+            next_slot: 0,
+        }
+    }
+
+    /// Emits only between `start` and `stop` seconds of the emitter's clock (which starts at 0
+    /// when the emitter is added and advances with every step of its fluid).
+    pub fn active_between(mut self, start: Real, stop: Real) -> Self {
+        self.start = start;
+        self.stop = stop;
+        self
+    }
+
+    /// Emits at most `budget` particles in total.
+    pub fn budget(mut self, budget: u64) -> Self {
+        self.budget = Some(budget);
+        self
+    }
+
+    /// Checks every field; returns the first problem, naming it.
+    pub fn validate(&self) -> SphResult<()> {
+        let bad = |field, value: Real, reason| {
+            Err(SphError::InvalidParameter {
+                field,
+                value: value as f64,
+                reason,
+            })
+        };
+        let size = match self.nozzle {
+            Nozzle::Disk { radius } | Nozzle::Sphere { radius } => ("radius", radius),
+            Nozzle::Square { half_width } => ("half_width", half_width),
+        };
+        if !size.1.is_finite() || size.1 <= 0.0 {
+            return bad(size.0, size.1, "a nozzle size must be positive and finite");
+        }
+        if !is_finite(self.position) || self.position.abs().max_element() > 1.0e7 {
+            return bad(
+                "position",
+                self.position.length(),
+                "must be finite (and within 10,000 km)",
+            );
+        }
+        let l = self.direction.length();
+        if !matches!(self.nozzle, Nozzle::Sphere { .. }) && !(l.is_finite() && l > 0.0) {
+            return bad("direction", l, "must be a finite non-zero vector");
+        }
+        if !self.speed.is_finite() || self.speed <= 0.0 {
+            return bad("speed", self.speed, "must be positive and finite");
+        }
+        if !self.rate.is_finite() || self.rate <= 0.0 {
+            return bad("rate", self.rate, "must be positive and finite");
+        }
+        if !self.start.is_finite() || self.start < 0.0 {
+            return bad("start", self.start, "must be finite and non-negative");
+        }
+        if self.stop.is_nan() || self.stop < self.start {
+            return bad("stop", self.stop, "must not be before start");
+        }
+        Ok(())
+    }
+
+    /// The nozzle.
+    pub fn nozzle(&self) -> Nozzle {
+        self.nozzle
+    }
+
+    /// Centre of the nozzle (m).
+    pub fn position(&self) -> Vector {
+        self.position
+    }
+
+    /// Unit direction of the jet.
+    pub fn direction(&self) -> Vector {
+        self.direction.normalize_or_zero()
+    }
+
+    /// Moves the nozzle (e.g. a hose carried by a character). Refuses non-finite input.
+    pub fn set_pose(&mut self, position: Vector, direction: Vector) -> SphResult<()> {
+        let mut e = self.clone();
+        e.position = position;
+        e.direction = direction;
+        e.validate()?;
+        *self = e;
+        Ok(())
+    }
+
+    /// Changes the rate (particles per second; positive and finite).
+    pub fn set_rate(&mut self, rate: Real) -> SphResult<()> {
+        let mut e = self.clone();
+        e.rate = rate;
+        e.validate()?;
+        *self = e;
+        Ok(())
+    }
+
+    /// Switches the emitter on or off (off: its clock still runs, nothing is due).
+    pub fn set_enabled(&mut self, on: bool) {
+        self.enabled = on;
+    }
+
+    /// Particles emitted so far.
+    pub fn emitted(&self) -> u64 {
+        self.emitted
+    }
+
+    /// The emitter's clock (s).
+    pub fn clock(&self) -> f64 {
+        self.clock
+    }
+
+    /// Largest rate (particles/s) at which slots never block: one layer of slots per
+    /// `spacing` of travel, `speed·slots/spacing`.
+    pub fn max_rate(&self, spacing: Real) -> Real {
+        self.speed * self.slot_offsets(spacing).len() as Real / spacing
+    }
+
+    /// Slot positions relative to the centre, with their jet directions.
+    fn slot_offsets(&self, s: Real) -> Vec<(Vector, Vector)> {
+        let dir = self.direction();
+        let (u, w) = dir.any_orthonormal_pair();
+        let across = |r: Real, disk: bool| {
+            let n = (r / s).floor() as i32;
+            let mut out = Vec::new();
+            for j in -n..=n {
+                for i in -n..=n {
+                    let (a, b) = (i as Real * s, j as Real * s);
+                    if !disk || a * a + b * b <= r * r {
+                        out.push((u * a + w * b, dir));
+                    }
+                }
+            }
+            out
+        };
+        match self.nozzle {
+            Nozzle::Disk { radius } => across(radius, true),
+            Nozzle::Square { half_width } => across(half_width, false),
+            Nozzle::Sphere { radius } => {
+                let n = ((4.0 * std::f32::consts::PI * radius * radius) / (s * s))
+                    .round()
+                    .max(1.0) as usize;
+                let golden = std::f32::consts::PI * (3.0 - (5.0f32).sqrt());
+                (0..n)
+                    .map(|k| {
+                        let y = 1.0 - 2.0 * (k as Real + 0.5) / n as Real;
+                        let r = (1.0 - y * y).max(0.0).sqrt();
+                        let phi = golden * k as Real;
+                        let d = Vector::new(r * phi.cos(), y, r * phi.sin());
+                        (d * radius, d)
+                    })
+                    .collect()
+            }
+        }
+    }
+
+    /// Bounding radius of the slots around the centre.
+    fn reach(&self) -> Real {
+        match self.nozzle {
+            Nozzle::Disk { radius } | Nozzle::Sphere { radius } => radius,
+            Nozzle::Square { half_width } => half_width * std::f32::consts::SQRT_2,
+        }
+    }
+}
+
+/// Where a sink removes particles.
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub enum SinkRegion {
+    /// The box `[min, max]`.
+    Aabb {
+        /// Lower corner (m).
+        min: Vector,
+        /// Upper corner (m).
+        max: Vector,
+    },
+    /// A ball.
+    Ball {
+        /// Centre (m).
+        centre: Vector,
+        /// Radius (m).
+        radius: Real,
+    },
+    /// Inside a rapier collider (a sensor or a solid), or within `reach` of its surface
+    /// (`None`: one particle spacing).
+    Collider {
+        /// The collider.
+        handle: ColliderHandle,
+        /// Distance from the surface that still drains (m).
+        reach: Option<Real>,
+    },
+}
+
+/// A region that removes the particles of its fluid that enter it.
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub struct Sink {
+    region: SinkRegion,
+    enabled: bool,
+    drained: u64,
+}
+
+impl Sink {
+    /// A sink over `region`.
+    pub fn new(region: SinkRegion) -> Self {
+        Self {
+            region,
+            enabled: true,
+            drained: 0,
+        }
+    }
+
+    /// The region.
+    pub fn region(&self) -> SinkRegion {
+        self.region
+    }
+
+    /// Particles this sink removed so far.
+    pub fn drained(&self) -> u64 {
+        self.drained
+    }
+
+    /// Switches the sink on or off.
+    pub fn set_enabled(&mut self, on: bool) {
+        self.enabled = on;
+    }
+
+    /// Checks the region; returns the first problem, naming it.
+    pub fn validate(&self) -> SphResult<()> {
+        match self.region {
+            SinkRegion::Aabb { min, max } => {
+                if !is_finite(min) || !is_finite(max) || max.cmplt(min).any() {
+                    return Err(SphError::InvalidParameter {
+                        field: "max",
+                        value: (max - min).min_element() as f64,
+                        reason: "a sink box needs finite corners with min <= max",
+                    });
+                }
+            }
+            SinkRegion::Ball { centre, radius } => {
+                if !is_finite(centre) {
+                    return Err(SphError::InvalidParameter {
+                        field: "centre",
+                        value: centre.length() as f64,
+                        reason: "must be finite",
+                    });
+                }
+                if !radius.is_finite() || radius <= 0.0 {
+                    return Err(SphError::InvalidParameter {
+                        field: "radius",
+                        value: radius as f64,
+                        reason: "must be positive and finite",
+                    });
+                }
+            }
+            SinkRegion::Collider { reach, .. } => {
+                if let Some(r) = reach
+                    && (!r.is_finite() || r < 0.0)
+                {
+                    return Err(SphError::InvalidParameter {
+                        field: "reach",
+                        value: r as f64,
+                        reason: "must be finite and non-negative",
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+macro_rules! handle_type {
+    ($name:ident, $what:literal) => {
+        #[doc = concat!("A generational handle naming one ", $what, " of a fluid.")]
+        #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
+        #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+        pub struct $name {
+            index: u32,
+            generation: u32,
+        }
+    };
+}
+handle_type!(EmitterHandle, "emitter");
+handle_type!(SinkHandle, "sink");
+
+/// A small arena with generational handles (the `(index, generation)` pair of a handle).
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub(crate) struct Slots<T> {
+    entries: Vec<(u32, Option<T>)>,
+    len: usize,
+}
+
+impl<T> Default for Slots<T> {
+    fn default() -> Self {
+        Self {
+            entries: Vec::new(),
+            len: 0,
+        }
+    }
+}
+
+impl<T> Slots<T> {
+    fn insert(&mut self, value: T) -> (u32, u32) {
+        self.len += 1;
+        if let Some(i) = self.entries.iter().position(|e| e.1.is_none()) {
+            let e = &mut self.entries[i];
+            e.0 += 1;
+            e.1 = Some(value);
+            (i as u32, e.0)
+        } else {
+            self.entries.push((0, Some(value)));
+            (self.entries.len() as u32 - 1, 0)
+        }
+    }
+    fn remove(&mut self, index: u32, generation: u32) -> Option<T> {
+        let e = self.entries.get_mut(index as usize)?;
+        if e.0 != generation {
+            return None;
+        }
+        let v = e.1.take();
+        if v.is_some() {
+            self.len -= 1;
+        }
+        v
+    }
+    fn get(&self, index: u32, generation: u32) -> Option<&T> {
+        self.entries
+            .get(index as usize)
+            .filter(|e| e.0 == generation)
+            .and_then(|e| e.1.as_ref())
+    }
+    fn get_mut(&mut self, index: u32, generation: u32) -> Option<&mut T> {
+        self.entries
+            .get_mut(index as usize)
+            .filter(|e| e.0 == generation)
+            .and_then(|e| e.1.as_mut())
+    }
+    pub(crate) fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+    pub(crate) fn iter_mut(&mut self) -> impl Iterator<Item = &mut T> {
+        self.entries.iter_mut().filter_map(|e| e.1.as_mut())
+    }
+    pub(crate) fn iter(&self) -> impl Iterator<Item = ((u32, u32), &T)> {
+        self.entries
+            .iter()
+            .enumerate()
+            .filter_map(|(i, e)| e.1.as_ref().map(|v| ((i as u32, e.0), v)))
+    }
+}
+
+/// Emitters and sinks of one fluid.
+#[derive(Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub(crate) struct Sources {
+    pub emitters: Slots<Emitter>,
+    pub sinks: Slots<Sink>,
+}
+
+/// What the emitters of one fluid did during one frame.
+#[derive(Copy, Clone, Debug, Default)]
+pub(crate) struct EmitCounts {
+    pub emitted: usize,
+    pub blocked: usize,
+    pub capacity_reached: bool,
+}
+
+impl Fluid {
+    /// Adds an emitter (validated) to this fluid.
+    pub fn add_emitter(&mut self, emitter: Emitter) -> SphResult<EmitterHandle> {
+        emitter.validate()?;
+        let (index, generation) = self.sources.emitters.insert(emitter);
+        Ok(EmitterHandle { index, generation })
+    }
+
+    /// Removes an emitter, returning it.
+    pub fn remove_emitter(&mut self, handle: EmitterHandle) -> Option<Emitter> {
+        self.sources
+            .emitters
+            .remove(handle.index, handle.generation)
+    }
+
+    /// The emitter named by `handle`.
+    pub fn emitter(&self, handle: EmitterHandle) -> Option<&Emitter> {
+        self.sources.emitters.get(handle.index, handle.generation)
+    }
+
+    /// The emitter named by `handle`, mutably (its setters validate).
+    pub fn emitter_mut(&mut self, handle: EmitterHandle) -> Option<&mut Emitter> {
+        self.sources
+            .emitters
+            .get_mut(handle.index, handle.generation)
+    }
+
+    /// Iterates over `(handle, emitter)`.
+    pub fn emitters(&self) -> impl Iterator<Item = (EmitterHandle, &Emitter)> {
+        self.sources
+            .emitters
+            .iter()
+            .map(|((index, generation), e)| (EmitterHandle { index, generation }, e))
+    }
+
+    /// Adds a sink (validated) to this fluid.
+    pub fn add_sink(&mut self, sink: Sink) -> SphResult<SinkHandle> {
+        sink.validate()?;
+        let (index, generation) = self.sources.sinks.insert(sink);
+        Ok(SinkHandle { index, generation })
+    }
+
+    /// Removes a sink, returning it.
+    pub fn remove_sink(&mut self, handle: SinkHandle) -> Option<Sink> {
+        self.sources.sinks.remove(handle.index, handle.generation)
+    }
+
+    /// The sink named by `handle`.
+    pub fn sink(&self, handle: SinkHandle) -> Option<&Sink> {
+        self.sources.sinks.get(handle.index, handle.generation)
+    }
+
+    /// The sink named by `handle`, mutably.
+    pub fn sink_mut(&mut self, handle: SinkHandle) -> Option<&mut Sink> {
+        self.sources.sinks.get_mut(handle.index, handle.generation)
+    }
+
+    /// Removes the particles inside the fluid's sinks. Returns how many.
+    pub(crate) fn drain_sinks(&mut self, colliders: &ColliderSet) -> usize {
+        if self.sources.sinks.is_empty() {
+            return 0;
+        }
+        let spacing = self.params().particle_spacing;
+        let mut sinks = std::mem::take(&mut self.sources.sinks);
+        let mut total = 0;
+        for sink in sinks.iter_mut() {
+            if !sink.enabled {
+                continue;
+            }
+            let removed = match sink.region {
+                SinkRegion::Aabb { min, max } => {
+                    self.remove_particles_where(|x, _, _| x.cmpge(min).all() && x.cmple(max).all())
+                }
+                SinkRegion::Ball { centre, radius } => {
+                    let r2 = radius * radius;
+                    self.remove_particles_where(|x, _, _| (x - centre).length_squared() <= r2)
+                }
+                SinkRegion::Collider { handle, reach } => {
+                    let Some(co) = colliders.get(handle) else {
+                        continue;
+                    };
+                    let reach = reach.unwrap_or(spacing);
+                    let aabb = co.compute_aabb().loosened(reach);
+                    let (shape, pose) = (co.shape(), co.position());
+                    self.remove_particles_where(|x, _, _| {
+                        aabb.contains_local_point(x)
+                            && shape
+                                .project_point_with_max_dist(pose, x, true, reach)
+                                .is_some()
+                    })
+                }
+            };
+            sink.drained += removed as u64;
+            total += removed;
+        }
+        self.sources.sinks = sinks;
+        self.drained += total;
+        total
+    }
+
+    /// Runs the fluid's emitters over a frame of `dt` seconds that ends now: places the
+    /// particles due during the frame where they are at its end (see the [module
+    /// docs](crate::emitter)).
+    pub(crate) fn run_emitters(
+        &mut self,
+        dt: Real,
+        bvh: Option<&Bvh>,
+        colliders: &ColliderSet,
+    ) -> EmitCounts {
+        let mut counts = EmitCounts::default();
+        if self.sources.emitters.is_empty() {
+            return counts;
+        }
+        let p = self.params().clone();
+        let (s, r) = (p.particle_spacing, p.particle_radius);
+        let min_d2 = (0.9 * s) * (0.9 * s);
+        let mut emitters = std::mem::take(&mut self.sources.emitters);
+        let mut new_x: Vec<Vector> = Vec::new();
+        let mut new_v: Vec<Vector> = Vec::new();
+        for e in emitters.iter_mut() {
+            let c0 = e.clock;
+            e.clock += dt as f64;
+            let c1 = e.clock;
+            let (start, rate) = (e.start as f64, e.rate as f64);
+            let at = |k: u64| start + k as f64 / rate;
+            // Instants before this frame that were not emitted (the emitter was off or
+            // paused) are skipped: a paused stream does not build up.
+            if at(e.due) < c0 {
+                e.due = ((c0 - start) * rate).ceil().max(0.0) as u64;
+            }
+            if !e.enabled {
+                continue;
+            }
+            if at(e.due) > c1 || at(e.due) > e.stop as f64 {
+                continue;
+            }
+            let slots = e.slot_offsets(s);
+            let travel = e.speed * dt;
+            let reach = e.reach() + travel + s;
+            // Particles near the nozzle (old ones; new ones are added to `near` as placed).
+            let mut near: Vec<Vector> = self
+                .positions
+                .iter()
+                .copied()
+                .filter(|x| (*x - e.position).length_squared() <= reach * reach)
+                .collect();
+            // Colliders near the nozzle, from rapier's broad-phase.
+            let mut solids: Vec<ColliderHandle> = Vec::new();
+            if let Some(bvh) = bvh {
+                let aabb = Aabb::new(
+                    e.position - Vector::splat(reach),
+                    e.position + Vector::splat(reach),
+                );
+                for leaf in bvh.leaves(|node: &BvhNode| node.aabb().intersects(&aabb)) {
+                    if let Some((co, h)) = colliders.get_unknown_gen(leaf)
+                        && co.is_enabled()
+                        && !co.is_sensor()
+                        && p.collision_groups.test(co.collision_groups())
+                    {
+                        solids.push(h);
+                    }
+                }
+            }
+            let placeable = |x: Vector, from: Vector, near: &[Vector]| -> bool {
+                if near.iter().any(|q| (*q - x).length_squared() < min_d2) {
+                    return false;
+                }
+                let motion = x - from;
+                let ray = Ray::new(from, motion);
+                solids.iter().all(|&h| {
+                    let co = &colliders[h];
+                    let (shape, pose) = (co.shape(), co.position());
+                    !shape.contains_point(pose, from)
+                        && shape
+                            .project_point_with_max_dist(pose, x, true, r)
+                            .is_none()
+                        && (motion == Vector::ZERO
+                            || shape.cast_ray(pose, &ray, 1.0, true).is_none())
+                })
+            };
+            while at(e.due) <= c1 && at(e.due) <= e.stop as f64 {
+                if e.budget.is_some_and(|b| e.emitted >= b) {
+                    break;
+                }
+                if self
+                    .capacity
+                    .is_some_and(|cap| self.positions.len() + new_x.len() >= cap)
+                {
+                    counts.capacity_reached = true;
+                    break;
+                }
+                let age = (c1 - at(e.due)) as Real;
+                let (offset, dir) = slots[e.next_slot % slots.len()];
+                let from = e.position + offset;
+                let x = from + dir * (e.speed * age);
+                e.due += 1;
+                e.next_slot = (e.next_slot + 1) % slots.len();
+                if placeable(x, from, &near) {
+                    near.push(x);
+                    new_x.push(x);
+                    new_v.push(dir * e.speed);
+                    e.emitted += 1;
+                    counts.emitted += 1;
+                } else {
+                    counts.blocked += 1;
+                }
+            }
+        }
+        self.sources.emitters = emitters;
+        if !new_x.is_empty() {
+            self.append_unchecked(&new_x, &new_v);
+            self.emitted += new_x.len();
+        }
+        counts
+    }
+}
