@@ -154,6 +154,9 @@ pub struct StepReport {
     pub emitter_blocked: usize,
     /// `true` when a fluid's capacity stopped its emitters during the step.
     pub capacity_reached: bool,
+    /// Dynamic bodies that received impulses from the fluid (applied through rapier at the
+    /// end of the step; see [`crate::boundary::bodies`]).
+    pub coupled_bodies: usize,
 }
 
 impl fmt::Display for StageTimings {

@@ -124,3 +124,23 @@ impl<I: Iterator<Item = (usize, Real)>> ReduceCountMax for I {
         self.fold((0, 0.0), |a, b| (a.0 + b.0, a.1.max(b.1)))
     }
 }
+
+/// Bounding box `(min, max)` of the finite positions (min/max are exact, so the result does
+/// not depend on the order of reduction). An empty slice gives an inverted box.
+pub fn bounds(positions: &[Vector]) -> (Vector, Vector) {
+    let chunks = crate::par_chunks!(positions, CHUNK).map(|x| {
+        let mut lo = Vector::splat(Real::MAX);
+        let mut hi = Vector::splat(Real::MIN);
+        for p in x.iter().filter(|p| is_finite(**p)) {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        (lo, hi)
+    });
+    let id = || (Vector::splat(Real::MAX), Vector::splat(Real::MIN));
+    let merge = |a: (Vector, Vector), b: (Vector, Vector)| (a.0.min(b.0), a.1.max(b.1));
+    #[cfg(feature = "parallel")]
+    return rayon::iter::ParallelIterator::reduce(chunks, id, merge);
+    #[cfg(not(feature = "parallel"))]
+    chunks.fold(id(), merge)
+}

@@ -12,7 +12,8 @@
 //! scene does not use is skipped, not run on zeros: no viscosity pass when ε = 0, no gravity
 //! pass when gravity is zero, no wall or contact work when no collider is near the fluid.
 
-use crate::boundary::contact::{self, ContactResponse};
+use crate::boundary::Coupling;
+use crate::boundary::contact::{self, ContactResponse, Movers};
 use crate::diagnostics::{Stage, StepReport};
 use crate::error::{SphError, SphResult};
 use crate::fluid::{Fluid, FluidSet};
@@ -68,6 +69,7 @@ pub struct FluidPipeline {
     /// How frames are divided into substeps (default: adaptive, Courant 0.4).
     pub time_stepping: TimeStepping,
     report: StepReport,
+    coupling: Coupling,
 }
 
 impl FluidPipeline {
@@ -81,6 +83,7 @@ impl FluidPipeline {
         Self {
             time_stepping,
             report: StepReport::default(),
+            coupling: Coupling::default(),
         }
     }
 
@@ -135,9 +138,12 @@ impl FluidPipeline {
                 reason: "must be finite",
             });
         }
+        // The BVH is the broad-phase's own tree; an empty body set keeps it from borrowing
+        // `bodies`, which the coupling writes impulses into at the end of the step.
+        let no_bodies = RigidBodySet::new();
         let query = broad_phase.as_query_pipeline(
             &DefaultQueryDispatcher,
-            bodies,
+            &no_bodies,
             colliders,
             QueryFilter::default(),
         );
@@ -151,7 +157,10 @@ impl FluidPipeline {
 
         let mut report = StepReport::default();
         let time_stepping = self.time_stepping;
-        let bodies: &RigidBodySet = bodies;
+        let coupling = &mut self.coupling;
+        coupling.begin_frame(if has_colliders { bodies } else { &no_bodies }, colliders);
+        let bodies_mut = bodies;
+        let bodies: &RigidBodySet = bodies_mut;
         let mut run = || {
             // Quarantine what the caller may have broken since the last frame (a NaN written
             // through `velocities_mut`), and measure the speeds the first substep starts from.
@@ -192,6 +201,9 @@ impl FluidPipeline {
                 report.substeps += 1;
                 report.min_substep = report.min_substep.min(h);
                 report.max_substep = report.max_substep.max(h);
+                // Seconds from the substep's start and end to the frame's end (moving bodies
+                // stand at their end-of-frame poses; see `boundary::bodies`).
+                let back = (dt - elapsed, if last { 0.0 } else { dt - elapsed - h });
                 for (_, fluid) in fluids.iter_mut() {
                     let n = fluid.len();
                     let mean = step_fluid(
@@ -199,6 +211,7 @@ impl FluidPipeline {
                         gravity,
                         h,
                         has_colliders.then_some((bvh, colliders, bodies)),
+                        (&mut *coupling, back),
                         &mut report,
                     );
                     weighted_mean_error += mean as f64 * n as f64;
@@ -236,6 +249,7 @@ impl FluidPipeline {
         }
         #[cfg(not(feature = "parallel"))]
         run();
+        report.coupled_bodies = self.coupling.apply(bodies_mut);
         self.report = report;
         Ok(&self.report)
     }
@@ -283,6 +297,7 @@ fn step_fluid(
     gravity: Vector,
     dt: Real,
     colliders: Option<(&parry3d::partitioning::Bvh, &ColliderSet, &RigidBodySet)>,
+    (coupling, back): (&mut Coupling, (Real, Real)),
     report: &mut StepReport,
 ) -> Real {
     let n = fluid.len();
@@ -290,6 +305,21 @@ fn step_fluid(
     if n == 0 {
         return 0.0;
     }
+    // Moving bodies near this fluid during this substep (none: nothing more is done).
+    let coupling = match colliders {
+        Some((_, colliders, _)) if !coupling.is_off() => {
+            timed(report, Stage::Contact, || {
+                let p = fluid.params();
+                let (lo, hi) = integrate::bounds(&fluid.positions);
+                let v = fluid.workspace.max_speed + gravity.length() * dt;
+                let margin = p.smoothing_length + p.particle_radius + 2.0 * v * dt;
+                let fluid_box = parry3d::bounding_volume::Aabb::new(lo, hi);
+                coupling.begin_substep(colliders, &fluid_box, margin, back.0, back.1);
+            });
+            Some(coupling)
+        }
+        _ => None,
+    };
     let p = fluid.params().clone();
     let h = p.smoothing_length;
     let dfsph_settings = match p.solver {
@@ -347,6 +377,7 @@ fn step_fluid(
                     colliders,
                     bodies,
                     p.collision_groups,
+                    coupling.as_deref(),
                 )
             });
             report.particles_near_walls += near;
@@ -409,6 +440,7 @@ fn step_fluid(
                 bvh,
                 colliders,
                 p.collision_groups,
+                coupling.as_deref(),
             );
             if !ws.contact.any() {
                 return contact::ContactCounts::default();
@@ -427,8 +459,18 @@ fn step_fluid(
                 &ws.previous_positions,
                 positions,
                 velocities,
+                coupling.as_deref().map(|c| Movers {
+                    table: c.table(),
+                    mass: p.particle_mass,
+                    records: &mut ws.impulses,
+                }),
             )
         });
+        if let Some(c) = coupling
+            && !c.table().is_empty()
+        {
+            c.add_impulses(ws.impulses.iter().flatten());
+        }
         report.contacts += counts.contacts;
         report.contact_fallbacks += counts.fallbacks;
         report.depenetrated += counts.depenetrated;

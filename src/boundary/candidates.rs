@@ -37,7 +37,9 @@ impl ContactWorkspace {
         bvh: &Bvh,
         colliders: &ColliderSet,
         groups: InteractionGroups,
+        coupling: Option<&super::Coupling>,
     ) {
+        let coupling = coupling.filter(|c| !c.is_off());
         let n_cells = grid.num_cells();
         self.chunks
             .resize_with(n_cells.div_ceil(CELL_CHUNK), Chunk::default);
@@ -66,8 +68,22 @@ impl ContactWorkspace {
                             && co.is_enabled()
                             && !co.is_sensor()
                             && groups.test(co.collision_groups())
+                            && !coupling.is_some_and(|c| c.is_nonfixed(handle))
                         {
                             chunk.handles.push(handle);
+                        }
+                    }
+                    // Colliders of moving bodies come from the coupling table, with the box
+                    // they sweep over the substep (rapier's broad-phase boxes may lag them).
+                    if let Some(c) = coupling {
+                        for m in c.table() {
+                            if m.aabb.loosened(margin).intersects(&aabb)
+                                && colliders
+                                    .get(m.handle)
+                                    .is_some_and(|co| groups.test(co.collision_groups()))
+                            {
+                                chunk.handles.push(m.handle);
+                            }
                         }
                     }
                     chunk.offsets.push(chunk.handles.len() as u32);

@@ -2,6 +2,7 @@
 //! [module docs](super).
 
 use super::ContactWorkspace;
+use super::bodies::{ImpulseRecord, MovingCollider, entry_of};
 use crate::math::{Real, Vector};
 use crate::neighbors::NeighborGrid;
 use crate::par::CHUNK;
@@ -192,10 +193,75 @@ fn depenetrate(
     best.map(|(_, p, n)| (p, n))
 }
 
+/// Moving bodies near the fluid during a substep, for [`resolve`]: the coupling table, the
+/// particle mass, and one impulse buffer per chunk of particles (reused across steps).
+pub struct Movers<'a> {
+    /// The table of the substep (sorted by collider handle).
+    pub table: &'a [MovingCollider],
+    /// Mass of one particle (kg).
+    pub mass: Real,
+    /// Per-chunk impulses on dynamic bodies, filled by [`resolve`] (chunk order is the
+    /// summation order).
+    pub records: &'a mut Vec<Vec<ImpulseRecord>>,
+}
+
 /// Resolves contact for every particle of a sorted fluid. `previous` holds the start-of-step
-/// positions (outside every solid), `positions` and `velocities` the integrated ones.
+/// positions (outside every solid), `positions` and `velocities` the integrated ones. With
+/// `movers`, colliders of non-fixed bodies are handled in their moving frames and impulses on
+/// dynamic bodies are recorded (see [`super::bodies`]).
 #[allow(clippy::too_many_arguments)]
 pub fn resolve(
+    grid: &NeighborGrid,
+    candidates: &ContactWorkspace,
+    colliders: &ColliderSet,
+    response: ContactResponse,
+    depenetrate_first: bool,
+    previous: &[Vector],
+    positions: &mut [Vector],
+    velocities: &mut [Vector],
+    movers: Option<Movers<'_>>,
+) -> ContactCounts {
+    match movers {
+        Some(m) if !m.table.is_empty() => resolve_moving(
+            grid,
+            candidates,
+            colliders,
+            response,
+            depenetrate_first,
+            previous,
+            positions,
+            velocities,
+            m,
+        ),
+        Some(m) => {
+            m.records.iter_mut().for_each(Vec::clear);
+            resolve_static(
+                grid,
+                candidates,
+                colliders,
+                response,
+                depenetrate_first,
+                previous,
+                positions,
+                velocities,
+            )
+        }
+        None => resolve_static(
+            grid,
+            candidates,
+            colliders,
+            response,
+            depenetrate_first,
+            previous,
+            positions,
+            velocities,
+        ),
+    }
+}
+
+/// [`resolve`] when every candidate collider is at rest.
+#[allow(clippy::too_many_arguments)]
+fn resolve_static(
     grid: &NeighborGrid,
     candidates: &ContactWorkspace,
     colliders: &ColliderSet,
@@ -295,6 +361,283 @@ pub fn resolve(
                     if !finite || !segment_is_free(colliders, cands, start, target) {
                         target = start;
                         v = Vector::ZERO;
+                        counts.fallbacks += 1;
+                    }
+                    xs[k] = target;
+                    vs[k] = v;
+                }
+            }
+            counts
+        });
+    #[cfg(feature = "parallel")]
+    return rayon::iter::ParallelIterator::reduce(per_chunk, ContactCounts::default, |a, b| a + b);
+    #[cfg(not(feature = "parallel"))]
+    per_chunk.fold(ContactCounts::default(), |a, b| a + b)
+}
+
+/// `true` when the particle's motion `from → to` (over the substep) crosses no candidate's
+/// surface, each collider seen in its own moving frame.
+fn moving_segment_free(
+    colliders: &ColliderSet,
+    table: &[MovingCollider],
+    candidates: &[ColliderHandle],
+    from: Vector,
+    to: Vector,
+) -> Result<(), Option<u32>> {
+    for &h in candidates {
+        let Some(co) = colliders.get(h) else { continue };
+        match entry_of(table, h) {
+            Some((e, m)) if m.moving => {
+                let a = m.start.inverse_transform_point(from);
+                let b = m.stop.inverse_transform_point(to);
+                if a == b {
+                    if co.shape().contains_local_point(a) {
+                        return Err(Some(e));
+                    }
+                    continue;
+                }
+                if co
+                    .shape()
+                    .cast_local_ray(&Ray::new(a, b - a), 1.0, false)
+                    .is_some()
+                {
+                    return Err(Some(e));
+                }
+            }
+            other => {
+                let motion = to - from;
+                if motion.length_squared() == 0.0 {
+                    continue;
+                }
+                if co
+                    .shape()
+                    .cast_ray(co.position(), &Ray::new(from, motion), 1.0, false)
+                    .is_some()
+                {
+                    return Err(other.map(|(e, _)| e));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// [`resolve`] with moving bodies near the fluid.
+#[allow(clippy::too_many_arguments)]
+fn resolve_moving(
+    grid: &NeighborGrid,
+    candidates: &ContactWorkspace,
+    colliders: &ColliderSet,
+    response: ContactResponse,
+    depenetrate_first: bool,
+    previous: &[Vector],
+    positions: &mut [Vector],
+    velocities: &mut [Vector],
+    movers: Movers<'_>,
+) -> ContactCounts {
+    let Movers {
+        table,
+        mass,
+        records,
+    } = movers;
+    let r = response.radius;
+    let slack = r * 1e-3;
+    records.resize_with(positions.len().div_ceil(CHUNK), Vec::new);
+    // Surface velocity of an entry at a point (zero for bodies at rest and static colliders).
+    let surface = |e: Option<u32>, p: Vector| match e {
+        Some(e) if table[e as usize].moving => table[e as usize].velocity_at_stop(p),
+        _ => Vector::ZERO,
+    };
+    let per_chunk = crate::par_chunks_mut!(positions, CHUNK)
+        .zip(crate::par_chunks_mut!(velocities, CHUNK))
+        .zip(crate::par_iter_mut!(records[..]))
+        .enumerate()
+        .map(|(c, ((xs, vs), recs))| {
+            recs.clear();
+            let base = c * CHUNK;
+            let mut counts = ContactCounts::default();
+            for k in 0..xs.len() {
+                let i = base + k;
+                let cands = candidates.of_cell(grid.cell_of(i));
+                if cands.is_empty() {
+                    continue;
+                }
+                let mut start = previous[i];
+                let v_orig = vs[k];
+                let mut v = v_orig;
+                let motion = xs[k] - start;
+                let mut touched = false;
+                let first_record = recs.len();
+                // Velocity change against entry `e` at `p`: recorded as an impulse on a
+                // dynamic body.
+                let kick =
+                    |recs: &mut Vec<ImpulseRecord>, e: Option<u32>, dv: Vector, p: Vector| {
+                        if let Some(e) = e
+                            && table[e as usize].dynamic
+                            && dv != Vector::ZERO
+                        {
+                            recs.push(ImpulseRecord {
+                                entry: e,
+                                impulse: dv * -mass,
+                                point: p,
+                            });
+                        }
+                    };
+
+                if depenetrate_first && let Some((p, n)) = depenetrate(colliders, cands, start, r) {
+                    start = p;
+                    v = reflect(v, n, 0.0, 0.0);
+                    counts.depenetrated += 1;
+                    touched = true;
+                }
+
+                // 1. Sweep the motion, each collider in its own moving frame.
+                let mut target = start + motion;
+                let mut best: Option<(Real, Vector, Vector, Vector, Option<u32>)> = None;
+                for &h in cands {
+                    let Some(co) = colliders.get(h) else { continue };
+                    let max_t = best.map_or(1.0, |b| b.0);
+                    match entry_of(table, h) {
+                        Some((e, m)) if m.moving => {
+                            let a = m.start.inverse_transform_point(start);
+                            let b = m.stop.inverse_transform_point(start + motion);
+                            let d = b - a;
+                            if d.length_squared() == 0.0 {
+                                continue;
+                            }
+                            if let Some(hit) = co.shape().cast_local_ray_and_get_normal(
+                                &Ray::new(a, d),
+                                max_t,
+                                false,
+                            ) && hit.time_of_impact <= max_t
+                            {
+                                let t = hit.time_of_impact;
+                                best = Some((
+                                    t,
+                                    m.stop.rotation * hit.normal,
+                                    m.stop.transform_point(a + d * t),
+                                    m.stop.rotation * d,
+                                    Some(e),
+                                ));
+                            }
+                        }
+                        other => {
+                            if motion.length_squared() == 0.0 {
+                                continue;
+                            }
+                            if let Some(hit) = co.shape().cast_ray_and_get_normal(
+                                co.position(),
+                                &Ray::new(start, motion),
+                                max_t,
+                                false,
+                            ) && hit.time_of_impact <= max_t
+                            {
+                                let t = hit.time_of_impact;
+                                best = Some((
+                                    t,
+                                    hit.normal,
+                                    start + motion * t,
+                                    motion,
+                                    other.map(|(e, _)| e),
+                                ));
+                            }
+                        }
+                    }
+                }
+                if let Some((_, normal, point, rel, e)) = best {
+                    let mut n = if normal.dot(rel) > 0.0 {
+                        -normal
+                    } else {
+                        normal
+                    };
+                    if n.length_squared() < 0.5 {
+                        n = -rel.normalize_or_zero();
+                    }
+                    target = point + n * r;
+                    let u = surface(e, point);
+                    let nv = u + reflect(v - u, n, response.restitution, response.friction);
+                    kick(recs, e, nv - v, point);
+                    v = nv;
+                    touched = true;
+                }
+
+                // 2. Keep one contact radius off every surface, at the substep's end poses.
+                for _ in 0..4 {
+                    let mut moved = false;
+                    for &h in cands {
+                        let Some(co) = colliders.get(h) else { continue };
+                        let entry = entry_of(table, h);
+                        let pose = match entry {
+                            Some((_, m)) if m.moving => &m.stop,
+                            _ => co.position(),
+                        };
+                        let Some(proj) = co
+                            .shape()
+                            .project_point_with_max_dist(pose, target, false, r)
+                        else {
+                            continue;
+                        };
+                        let delta = target - proj.point;
+                        let d = delta.length();
+                        if !proj.is_inside && d >= r - slack {
+                            continue;
+                        }
+                        let n = if proj.is_inside {
+                            -delta / d.max(Real::MIN_POSITIVE)
+                        } else if d > 1e-6 * r {
+                            delta / d
+                        } else {
+                            let from = match entry {
+                                Some((_, m)) if m.moving => m
+                                    .stop
+                                    .transform_point(m.start.inverse_transform_point(start)),
+                                _ => start,
+                            };
+                            (from - proj.point).normalize_or_zero()
+                        };
+                        if n == Vector::ZERO {
+                            continue;
+                        }
+                        target = proj.point + n * r;
+                        let e = entry.map(|(e, _)| e);
+                        let u = surface(e, proj.point);
+                        let nv = u + reflect(v - u, n, response.restitution, response.friction);
+                        kick(recs, e, nv - v, proj.point);
+                        v = nv;
+                        moved = true;
+                    }
+                    touched |= moved;
+                    if !moved {
+                        break;
+                    }
+                }
+
+                // 3. Verify in the moving frames; on failure ride with the body that failed
+                // it (or stay put against a static one).
+                if touched {
+                    counts.contacts += 1;
+                    let finite = crate::math::is_finite(target) && crate::math::is_finite(v);
+                    let check = if finite {
+                        moving_segment_free(colliders, table, cands, start, target)
+                    } else {
+                        Err(None)
+                    };
+                    if let Err(failed) = check {
+                        recs.truncate(first_record);
+                        match failed.map(|e| (e, &table[e as usize])) {
+                            Some((e, m)) if m.moving => {
+                                target = m
+                                    .stop
+                                    .transform_point(m.start.inverse_transform_point(start));
+                                v = m.velocity_at_stop(target);
+                                kick(recs, Some(e), v - v_orig, target);
+                            }
+                            other => {
+                                target = start;
+                                v = Vector::ZERO;
+                                kick(recs, other.map(|(e, _)| e), v - v_orig, target);
+                            }
+                        }
                         counts.fallbacks += 1;
                     }
                     xs[k] = target;

@@ -15,9 +15,11 @@
 //! triangle mesh (open or closed, either face), heightfield and compound. Sensors are
 //! ignored; the fluid's collision groups are respected.
 
+pub mod bodies;
 pub mod candidates;
 pub mod contact;
 pub mod wall;
 
+pub use bodies::Coupling;
 pub use candidates::ContactWorkspace;
 pub use wall::WallWorkspace;

@@ -105,11 +105,14 @@ impl WallWorkspace {
         colliders: &ColliderSet,
         bodies: &RigidBodySet,
         groups: InteractionGroups,
+        coupling: Option<&super::Coupling>,
     ) -> usize {
         let n = positions.len();
         self.tables(density_kernel, force_kernel, h, spacing);
-        self.candidates
-            .gather(grid, positions, positions, h, bvh, colliders, groups);
+        self.candidates.gather(
+            grid, positions, positions, h, bvh, colliders, groups, coupling,
+        );
+        let table = coupling.map_or(&[][..], |c| c.table());
         self.density.resize(n, 0.0);
         self.gradient.resize(n, Vector::ZERO);
         self.motion.resize(n, 0.0);
@@ -146,9 +149,13 @@ impl WallWorkspace {
                         let Some(co) = colliders.get(handle) else {
                             continue;
                         };
-                        let Some(proj) =
-                            co.shape()
-                                .project_point_with_max_dist(co.position(), x, false, h)
+                        // A moving body stands at its pose of the substep's start.
+                        let entry = super::bodies::entry_of(table, handle).map(|(_, m)| m);
+                        let pose = match entry {
+                            Some(m) if m.moving => &m.start,
+                            _ => co.position(),
+                        };
+                        let Some(proj) = co.shape().project_point_with_max_dist(pose, x, false, h)
                         else {
                             continue;
                         };
@@ -162,11 +169,11 @@ impl WallWorkspace {
                             }
                         } else {
                             // On the surface: the feature's normal, if the shape has one.
-                            let local = co.position().inverse_transform_point(x);
+                            let local = pose.inverse_transform_point(x);
                             let (_, feature) =
                                 co.shape().project_local_point_and_get_feature(local);
                             match co.shape().feature_normal_at_point(0, feature, local) {
-                                Some(nl) => co.position().rotation * nl,
+                                Some(nl) => pose.rotation * nl,
                                 None => continue,
                             }
                         };
@@ -182,7 +189,11 @@ impl WallWorkspace {
                         let gk = ga * (1.0 - u);
                         g = g * (1.0 - a) + gk;
                         u = 1.0 - (1.0 - u) * (1.0 - a);
-                        if let Some(body) = co.parent().and_then(|b| bodies.get(b))
+                        if let Some(mc) = entry {
+                            if mc.moving {
+                                m += mc.velocity_at_start(proj.point).dot(gk);
+                            }
+                        } else if let Some(body) = co.parent().and_then(|b| bodies.get(b))
                             && !body.is_fixed()
                         {
                             m += body.velocity_at_point(proj.point).dot(gk);

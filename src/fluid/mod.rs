@@ -19,6 +19,8 @@ pub(crate) struct Workspace {
     pub grid: NeighborGrid,
     pub neighbors: NeighborLists,
     pub contact: ContactWorkspace,
+    /// Impulses on dynamic bodies recorded by contact, one buffer per chunk of particles.
+    pub impulses: Vec<Vec<crate::boundary::bodies::ImpulseRecord>>,
     /// Wall contributions to density (see [`crate::boundary::wall`]).
     pub wall: WallWorkspace,
     /// DFSPH factors and iteration buffers.

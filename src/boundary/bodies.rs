@@ -1,0 +1,275 @@
+//! Two-way coupling with rapier's dynamic and kinematic bodies.
+//!
+//! **Body → fluid.** rapier steps first, so when the fluid steps a frame every body already
+//! stands at its pose at the frame's end. A body's pose at an earlier time of the frame is
+//! found by running its motion backward: rapier's integrator moves a body with its new
+//! velocity (symplectic Euler), so `pose(T − τ)` is the end pose moved by `−τ·v` and rotated
+//! by `−τ·ω` about the centre of mass, exact for a body that did not rotate and to first order
+//! otherwise. Contact then sweeps each particle's motion of a substep *in the body's moving
+//! frame* (the start of the segment mapped through the body's pose at the substep's start,
+//! its end through the pose at its end), so a thin fast paddle cannot pass over a particle,
+//! and reflects the particle's velocity *relative* to the body's surface velocity at the
+//! contact point (linear and angular, `v + ω × (x − c)`).
+//!
+//! **Fluid → body.** Every velocity change contact makes on a particle next to a dynamic
+//! body's collider is an impulse `−m·Δv` on that body at the contact point. Impulses are
+//! recorded per chunk of particles and summed in chunk order (no float atomics: the parallel
+//! and serial builds sum in the same order), then applied once per frame through rapier
+//! (`apply_impulse` and `apply_torque_impulse` about the centre of mass).
+//!
+//! **Cost.** Only colliders of non-fixed bodies whose motion over the substep comes within a
+//! kernel radius of the fluid's bounding box enter the table; a scene without dynamic or
+//! kinematic bodies pays one pass over its bodies per frame, and a scene whose moving bodies
+//! are far from the fluid pays one bounding box per collider per substep.
+
+use crate::math::{Pose, Real, Rotation, Vector};
+use parry3d::bounding_volume::{Aabb, BoundingVolume};
+use rapier3d::dynamics::{RigidBodyHandle, RigidBodySet};
+use rapier3d::geometry::{ColliderHandle, ColliderSet};
+
+/// A collider of a non-fixed body near the fluid, with its poses over the current substep.
+#[derive(Clone, Debug)]
+pub struct MovingCollider {
+    /// The collider.
+    pub handle: ColliderHandle,
+    /// Its body.
+    pub body: RigidBodyHandle,
+    /// `true` for a dynamic body (it receives the fluid's impulses).
+    pub dynamic: bool,
+    /// `true` when the body has a non-zero velocity (otherwise its poses are the end pose).
+    pub moving: bool,
+    /// Body velocity (m/s) and angular velocity (rad/s).
+    pub linvel: Vector,
+    /// Angular velocity (rad/s).
+    pub angvel: Vector,
+    /// Collider pose at the frame's end (rapier's current pose).
+    pub end: Pose,
+    /// Body centre of mass at the frame's end.
+    pub com_end: Vector,
+    /// Collider pose at the start of the current substep.
+    pub start: Pose,
+    /// Collider pose at the end of the current substep.
+    pub stop: Pose,
+    /// Centre of mass at the start and end of the current substep.
+    pub com_start: Vector,
+    /// Centre of mass at the end of the current substep.
+    pub com_stop: Vector,
+    /// Box swept by the collider over the substep.
+    pub aabb: Aabb,
+}
+
+impl MovingCollider {
+    /// The surface velocity of the body at `point` (at the substep's end).
+    #[inline]
+    pub fn velocity_at_stop(&self, point: Vector) -> Vector {
+        self.linvel + self.angvel.cross(point - self.com_stop)
+    }
+
+    /// The surface velocity of the body at `point` (at the substep's start).
+    #[inline]
+    pub fn velocity_at_start(&self, point: Vector) -> Vector {
+        self.linvel + self.angvel.cross(point - self.com_start)
+    }
+}
+
+/// The pose of a body's collider `back` seconds before the end pose `end`.
+fn pose_back(end: &Pose, com: Vector, v: Vector, w: Vector, back: Real) -> (Pose, Vector) {
+    if back == 0.0 || (v == Vector::ZERO && w == Vector::ZERO) {
+        return (*end, com);
+    }
+    let q = Rotation::from_scaled_axis(w * -back);
+    let com_b = com - v * back;
+    (
+        Pose::from_parts(
+            com_b + q * (end.translation - com),
+            (q * end.rotation).normalize(),
+        ),
+        com_b,
+    )
+}
+
+/// Accumulated impulse on one body: `(body, linear impulse, angular impulse about the
+/// centre of mass)`, summed in f64.
+type BodyImpulse = (RigidBodyHandle, [f64; 3], [f64; 3]);
+
+/// Coupling state of the pipeline: the non-fixed colliders of the frame, the table of those
+/// near the fluid in the current substep, and the impulses gathered for the bodies.
+#[derive(Clone, Debug, Default)]
+pub struct Coupling {
+    /// Colliders of non-fixed bodies (sorted by handle): `(handle, body, dynamic, linvel,
+    /// angvel, end pose, end com)`.
+    candidates: Vec<MovingCollider>,
+    /// Sorted handles of every non-fixed collider (those far from the fluid too): contact
+    /// takes them from the table only, never from the broad-phase.
+    nonfixed: Vec<ColliderHandle>,
+    /// Table of the current (fluid, substep).
+    table: Vec<MovingCollider>,
+    impulses: Vec<BodyImpulse>,
+}
+
+impl Coupling {
+    /// Collects the colliders of every non-fixed body, once per frame.
+    pub fn begin_frame(&mut self, bodies: &RigidBodySet, colliders: &ColliderSet) {
+        self.candidates.clear();
+        self.nonfixed.clear();
+        self.table.clear();
+        self.impulses.clear();
+        for (bh, body) in bodies.iter() {
+            if body.is_fixed() {
+                continue;
+            }
+            for &ch in body.colliders() {
+                let Some(co) = colliders.get(ch) else {
+                    continue;
+                };
+                self.nonfixed.push(ch);
+                if !co.is_enabled() || co.is_sensor() {
+                    continue;
+                }
+                let linvel = body.linvel();
+                let angvel = body.angvel();
+                let end = *co.position();
+                self.candidates.push(MovingCollider {
+                    handle: ch,
+                    body: bh,
+                    dynamic: body.is_dynamic(),
+                    moving: linvel != Vector::ZERO || angvel != Vector::ZERO,
+                    linvel,
+                    angvel,
+                    end,
+                    com_end: body.center_of_mass(),
+                    start: end,
+                    stop: end,
+                    com_start: body.center_of_mass(),
+                    com_stop: body.center_of_mass(),
+                    aabb: co.compute_aabb(),
+                });
+            }
+        }
+        self.candidates.sort_by_key(|c| c.handle.0);
+        self.nonfixed.sort_by_key(|h| h.0);
+    }
+
+    /// `true` when the scene has no non-fixed collider at all (coupling is off).
+    pub fn is_off(&self) -> bool {
+        self.candidates.is_empty()
+    }
+
+    /// Builds the table of one fluid's substep: the non-fixed colliders whose motion over the
+    /// substep (from `back_start` to `back_stop` seconds before the frame's end) comes within
+    /// `margin` of `fluid_box`.
+    pub fn begin_substep(
+        &mut self,
+        colliders: &ColliderSet,
+        fluid_box: &Aabb,
+        margin: Real,
+        back_start: Real,
+        back_stop: Real,
+    ) {
+        self.table.clear();
+        for c in &self.candidates {
+            let Some(co) = colliders.get(c.handle) else {
+                continue;
+            };
+            let mut m = c.clone();
+            (m.start, m.com_start) = pose_back(&c.end, c.com_end, c.linvel, c.angvel, back_start);
+            (m.stop, m.com_stop) = pose_back(&c.end, c.com_end, c.linvel, c.angvel, back_stop);
+            let mut aabb = co.shape().compute_aabb(&m.stop);
+            if m.moving {
+                aabb.merge(&co.shape().compute_aabb(&m.start));
+            }
+            m.aabb = aabb;
+            if aabb.loosened(margin).intersects(fluid_box) {
+                self.table.push(m);
+            }
+        }
+    }
+
+    /// Forgets the table (a fluid with no particle, or coupling off).
+    pub fn clear_table(&mut self) {
+        self.table.clear();
+    }
+
+    /// The table of the current substep (sorted by handle).
+    pub fn table(&self) -> &[MovingCollider] {
+        &self.table
+    }
+
+    /// `true` when `handle` is a collider of a non-fixed body.
+    pub fn is_nonfixed(&self, handle: ColliderHandle) -> bool {
+        !self.nonfixed.is_empty()
+            && self
+                .nonfixed
+                .binary_search_by_key(&handle.0, |h| h.0)
+                .is_ok()
+    }
+
+    /// Adds impulses `(table index, impulse, point)` to the bodies, in the order given.
+    pub fn add_impulses<'a>(&mut self, records: impl Iterator<Item = &'a ImpulseRecord>) {
+        for r in records {
+            let m = &self.table[r.entry as usize];
+            let torque = (r.point - m.com_stop).cross(r.impulse);
+            let k = match self.impulses.iter().position(|b| b.0 == m.body) {
+                Some(k) => k,
+                None => {
+                    self.impulses.push((m.body, [0.0; 3], [0.0; 3]));
+                    self.impulses.len() - 1
+                }
+            };
+            let b = &mut self.impulses[k];
+            for a in 0..3 {
+                b.1[a] += r.impulse[a] as f64;
+                b.2[a] += torque[a] as f64;
+            }
+        }
+    }
+
+    /// Applies the gathered impulses to their bodies through rapier (waking them up) and
+    /// forgets them. Returns the number of bodies pushed.
+    pub fn apply(&mut self, bodies: &mut RigidBodySet) -> usize {
+        let n = self.impulses.len();
+        for (h, j, t) in self.impulses.drain(..) {
+            if let Some(body) = bodies.get_mut(h) {
+                let j = Vector::new(j[0] as Real, j[1] as Real, j[2] as Real);
+                let t = Vector::new(t[0] as Real, t[1] as Real, t[2] as Real);
+                body.apply_impulse(j, true);
+                body.apply_torque_impulse(t, true);
+            }
+        }
+        n
+    }
+
+    /// The impulses gathered so far this frame: `(body, linear, angular)`.
+    pub fn pending(&self) -> impl Iterator<Item = (RigidBodyHandle, Vector, Vector)> + '_ {
+        self.impulses.iter().map(|(h, j, t)| {
+            (
+                *h,
+                Vector::new(j[0] as Real, j[1] as Real, j[2] as Real),
+                Vector::new(t[0] as Real, t[1] as Real, t[2] as Real),
+            )
+        })
+    }
+}
+
+/// One impulse a particle gave a dynamic body's collider during contact.
+#[derive(Copy, Clone, Debug)]
+pub struct ImpulseRecord {
+    /// Index into the coupling table.
+    pub entry: u32,
+    /// Impulse on the body (N·s).
+    pub impulse: Vector,
+    /// Where it acts (m).
+    pub point: Vector,
+}
+
+/// The coupling-table entry of collider `h`, if any: `(index, entry)`.
+#[inline]
+pub fn entry_of(table: &[MovingCollider], h: ColliderHandle) -> Option<(u32, &MovingCollider)> {
+    if table.is_empty() {
+        return None;
+    }
+    table
+        .binary_search_by_key(&h.0, |m| m.handle.0)
+        .ok()
+        .map(|k| (k as u32, &table[k]))
+}
