@@ -469,7 +469,9 @@ fn step_fluid(
         if let Some(c) = coupling
             && !c.table().is_empty()
         {
-            c.add_impulses(ws.impulses.iter().flatten());
+            timed(report, Stage::Contact, || {
+                c.exchange(&ws.impulses, velocities, p.particle_mass)
+            });
         }
         report.contacts += counts.contacts;
         report.contact_fallbacks += counts.fallbacks;

@@ -24,6 +24,7 @@
 
 use crate::math::{Pose, Real, Rotation, Vector};
 use parry3d::bounding_volume::{Aabb, BoundingVolume};
+use parry3d::math::Matrix;
 use rapier3d::dynamics::{RigidBodyHandle, RigidBodySet};
 use rapier3d::geometry::{ColliderHandle, ColliderSet};
 
@@ -38,8 +39,13 @@ pub struct MovingCollider {
     pub dynamic: bool,
     /// `true` when the body has a non-zero velocity (otherwise its poses are the end pose).
     pub moving: bool,
-    /// Body velocity (m/s) and angular velocity (rad/s).
+    /// Body velocity (m/s) at the frame's start: the poses of the frame follow it.
     pub linvel: Vector,
+    /// Body velocity (m/s) the fluid sees: `linvel` plus the fluid's impulses of the
+    /// frame's earlier substeps.
+    pub vel: Vector,
+    /// Inverse mass per axis (0 along locked axes; 0 for kinematic bodies).
+    pub inv_mass: Vector,
     /// Angular velocity (rad/s).
     pub angvel: Vector,
     /// Collider pose at the frame's end (rapier's current pose).
@@ -62,13 +68,13 @@ impl MovingCollider {
     /// The surface velocity of the body at `point` (at the substep's end).
     #[inline]
     pub fn velocity_at_stop(&self, point: Vector) -> Vector {
-        self.linvel + self.angvel.cross(point - self.com_stop)
+        self.vel + self.angvel.cross(point - self.com_stop)
     }
 
     /// The surface velocity of the body at `point` (at the substep's start).
     #[inline]
     pub fn velocity_at_start(&self, point: Vector) -> Vector {
-        self.linvel + self.angvel.cross(point - self.com_start)
+        self.vel + self.angvel.cross(point - self.com_start)
     }
 }
 
@@ -135,6 +141,12 @@ impl Coupling {
                     dynamic: body.is_dynamic(),
                     moving: linvel != Vector::ZERO || angvel != Vector::ZERO,
                     linvel,
+                    vel: linvel,
+                    inv_mass: if body.is_dynamic() {
+                        body.mass_properties().effective_inv_mass
+                    } else {
+                        Vector::ZERO
+                    },
                     angvel,
                     end,
                     com_end: body.center_of_mass(),
@@ -204,22 +216,80 @@ impl Coupling {
                 .is_ok()
     }
 
-    /// Adds impulses `(table index, impulse, point)` to the bodies, in the order given.
-    pub fn add_impulses<'a>(&mut self, records: impl Iterator<Item = &'a ImpulseRecord>) {
-        for r in records {
-            let m = &self.table[r.entry as usize];
-            let torque = (r.point - m.com_stop).cross(r.impulse);
-            let k = match self.impulses.iter().position(|b| b.0 == m.body) {
-                Some(k) => k,
+    /// Settles the impulses contact recorded in one substep (`records`, per chunk, summed in
+    /// chunk order) between the particles and each dynamic body, and gathers them for
+    /// [`Coupling::apply`].
+    ///
+    /// Contact reflected each particle as if the body were infinitely heavy; a light body
+    /// hit by many particles at once would then be kicked far past them (the added-mass
+    /// instability of explicit coupling). So the body's velocity change `Δu` is solved with
+    /// the particles it touched moving along with it in their contact normals:
+    /// `(M + Σ m n nᵀ)·Δu = J`, each of those particles then gains `n (n·Δu)`, and the body
+    /// receives `J − Σ m n (n·Δu) = M·Δu`: linear momentum is exchanged exactly. The body's
+    /// velocity seen by the next substeps of the frame includes `Δu`; the angular impulse
+    /// about the centre of mass is applied at the end of the frame.
+    pub fn exchange(
+        &mut self,
+        records: &[Vec<ImpulseRecord>],
+        velocities: &mut [Vector],
+        mass: Real,
+    ) {
+        let mut done: Vec<RigidBodyHandle> = Vec::new();
+        for k in 0..self.table.len() {
+            let m = &self.table[k];
+            if !m.dynamic || done.contains(&m.body) {
+                continue;
+            }
+            let body = m.body;
+            let inv = m.inv_mass;
+            done.push(body);
+            let of_body = |r: &&ImpulseRecord| self.table[r.entry as usize].body == body;
+            let mut j = Vector::ZERO;
+            let mut a = Matrix::ZERO;
+            let mut any = false;
+            for r in records.iter().flatten().filter(of_body) {
+                j += r.impulse;
+                a += Matrix::from_cols(
+                    r.normal * r.normal.x,
+                    r.normal * r.normal.y,
+                    r.normal * r.normal.z,
+                ) * mass;
+                any = true;
+            }
+            if !any {
+                continue;
+            }
+            // (I + M⁻¹ A) Δu = M⁻¹ J, with M⁻¹ per axis (locked axes: 0).
+            let k_mat = Matrix::IDENTITY + Matrix::from_diagonal(inv) * a;
+            let rhs = inv * j;
+            let mut du = k_mat.inverse() * rhs;
+            if !crate::math::is_finite(du) {
+                du = rhs;
+            }
+            let slot = match self.impulses.iter().position(|b| b.0 == body) {
+                Some(s) => s,
                 None => {
-                    self.impulses.push((m.body, [0.0; 3], [0.0; 3]));
+                    self.impulses.push((body, [0.0; 3], [0.0; 3]));
                     self.impulses.len() - 1
                 }
             };
-            let b = &mut self.impulses[k];
-            for a in 0..3 {
-                b.1[a] += r.impulse[a] as f64;
-                b.2[a] += torque[a] as f64;
+            for r in records.iter().flatten().filter(of_body) {
+                let dv = r.normal * r.normal.dot(du);
+                let i = r.particle as usize;
+                velocities[i] += dv;
+                let impulse = r.impulse - dv * mass;
+                let com = self.table[r.entry as usize].com_stop;
+                let torque = (r.point - com).cross(impulse);
+                let b = &mut self.impulses[slot];
+                for c in 0..3 {
+                    b.1[c] += impulse[c] as f64;
+                    b.2[c] += torque[c] as f64;
+                }
+            }
+            for c in self.candidates.iter_mut().chain(self.table.iter_mut()) {
+                if c.body == body {
+                    c.vel += du;
+                }
             }
         }
     }
@@ -256,6 +326,11 @@ impl Coupling {
 pub struct ImpulseRecord {
     /// Index into the coupling table.
     pub entry: u32,
+    /// The particle (index in the current order).
+    pub particle: u32,
+    /// Contact normal (unit, out of the body; zero when the particle was not reflected off
+    /// a surface).
+    pub normal: Vector,
     /// Impulse on the body (N·s).
     pub impulse: Vector,
     /// Where it acts (m).

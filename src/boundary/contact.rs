@@ -445,7 +445,7 @@ fn resolve_moving(
     records.resize_with(positions.len().div_ceil(CHUNK), Vec::new);
     // Surface velocity of an entry at a point (zero for bodies at rest and static colliders).
     let surface = |e: Option<u32>, p: Vector| match e {
-        Some(e) if table[e as usize].moving => table[e as usize].velocity_at_stop(p),
+        Some(e) => table[e as usize].velocity_at_stop(p),
         _ => Vector::ZERO,
     };
     let per_chunk = crate::par_chunks_mut!(positions, CHUNK)
@@ -468,21 +468,36 @@ fn resolve_moving(
                 let motion = xs[k] - start;
                 let mut touched = false;
                 let first_record = recs.len();
-                // Velocity change against entry `e` at `p`: recorded as an impulse on a
-                // dynamic body.
-                let kick =
-                    |recs: &mut Vec<ImpulseRecord>, e: Option<u32>, dv: Vector, p: Vector| {
-                        if let Some(e) = e
-                            && table[e as usize].dynamic
-                            && dv != Vector::ZERO
+                // Velocity change against entry `e` at `p` with normal `n`: recorded as an
+                // impulse on a dynamic body (one record per particle and body: repeated
+                // contacts add up, the last normal and point are kept).
+                let kick = |recs: &mut Vec<ImpulseRecord>,
+                            e: Option<u32>,
+                            dv: Vector,
+                            p: Vector,
+                            n: Vector| {
+                    if let Some(e) = e
+                        && table[e as usize].dynamic
+                        && dv != Vector::ZERO
+                    {
+                        if recs.len() > first_record
+                            && let Some(last) = recs.last_mut()
+                            && last.entry == e
                         {
+                            last.impulse += dv * -mass;
+                            last.point = p;
+                            last.normal = n;
+                        } else {
                             recs.push(ImpulseRecord {
                                 entry: e,
+                                particle: i as u32,
+                                normal: n,
                                 impulse: dv * -mass,
                                 point: p,
                             });
                         }
-                    };
+                    }
+                };
 
                 if depenetrate_first && let Some((p, n)) = depenetrate(colliders, cands, start, r) {
                     start = p;
@@ -556,7 +571,7 @@ fn resolve_moving(
                     target = point + n * r;
                     let u = surface(e, point);
                     let nv = u + reflect(v - u, n, response.restitution, response.friction);
-                    kick(recs, e, nv - v, point);
+                    kick(recs, e, nv - v, point, n);
                     v = nv;
                     touched = true;
                 }
@@ -602,7 +617,7 @@ fn resolve_moving(
                         let e = entry.map(|(e, _)| e);
                         let u = surface(e, proj.point);
                         let nv = u + reflect(v - u, n, response.restitution, response.friction);
-                        kick(recs, e, nv - v, proj.point);
+                        kick(recs, e, nv - v, proj.point, n);
                         v = nv;
                         moved = true;
                     }
@@ -630,12 +645,18 @@ fn resolve_moving(
                                     .stop
                                     .transform_point(m.start.inverse_transform_point(start));
                                 v = m.velocity_at_stop(target);
-                                kick(recs, Some(e), v - v_orig, target);
+                                kick(recs, Some(e), v - v_orig, target, Vector::ZERO);
                             }
                             other => {
                                 target = start;
                                 v = Vector::ZERO;
-                                kick(recs, other.map(|(e, _)| e), v - v_orig, target);
+                                kick(
+                                    recs,
+                                    other.map(|(e, _)| e),
+                                    v - v_orig,
+                                    target,
+                                    Vector::ZERO,
+                                );
                             }
                         }
                         counts.fallbacks += 1;
