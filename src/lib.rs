@@ -113,6 +113,7 @@ pub mod par;
 pub mod params;
 pub mod pipeline;
 pub mod pressure;
+pub mod query;
 #[cfg(feature = "render")]
 pub mod render;
 #[cfg(feature = "scene")]
@@ -132,6 +133,7 @@ pub use fluid::{Fluid, FluidHandle, FluidSet};
 pub use kernel::KernelKind;
 pub use params::{EquationOfState, FluidParams, FluidParamsBuilder};
 pub use pipeline::{FluidPipeline, TimeStepping};
+pub use query::{FluidAmount, FluidSampler, Region, RegionTracker};
 pub use solver::{Dfsph, Solver};
 pub use world::FluidWorld;
 
