@@ -272,3 +272,321 @@ impl HydrostaticTank {
         (errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64).sqrt() as Real
     }
 }
+
+/// The obstacle course of issue 5: water from an [`Emitter`](crate::Emitter) runs down a
+/// ramp (cuboid), through a row of pegs (balls and capsules), into a funnel (open triangle
+/// mesh), onto a stretch of heightfield terrain between two side walls, under a rotating
+/// kinematic paddle wheel, around a compound obstacle, past floating dynamic crates, and into
+/// a bucket whose fill is read through [`crate::Fluid::amount_in`] on a sensor. Everything
+/// that leaves the course falls into a drain sink below it, so every particle is accounted
+/// for: `emitted = live + drained + quarantined`.
+///
+/// The flow runs along +x and down: emitter at x ≈ 0, y = 1.9; bucket at x ∈ [3.12, 3.7],
+/// y ∈ [−0.25, 0.15].
+#[derive(Clone, Debug)]
+pub struct ObstacleCourseConfig {
+    /// Fluid parameters (the spacing sets the resolution).
+    pub params: FluidParams,
+    /// Emission rate as a fraction of the nozzle's blocking rate (one layer of slots per
+    /// spacing of travel; see [`crate::Emitter::max_rate`]). Default 0.8.
+    pub rate_fraction: Real,
+    /// Nozzle radius (m). Default 0.08.
+    pub nozzle_radius: Real,
+    /// Jet speed (m/s). Default 1.5.
+    pub jet_speed: Real,
+    /// Paddle wheel angular speed (rad/s, its lower blades move downstream). Default 4.
+    pub wheel_speed: Real,
+}
+
+impl ObstacleCourseConfig {
+    /// The course with water at `spacing` (m) and the defaults above.
+    pub fn new(params: FluidParams) -> Self {
+        Self {
+            params,
+            rate_fraction: 0.8,
+            nozzle_radius: 0.08,
+            jet_speed: 1.5,
+            wheel_speed: 4.0,
+        }
+    }
+}
+
+/// A built obstacle course.
+pub struct ObstacleCourse {
+    /// The world (rapier bodies and colliders, the fluid with its emitter and drain).
+    pub world: FluidWorld,
+    /// The fluid.
+    pub fluid: FluidHandle,
+    /// The sensor filling the bucket's inside (the fill query's region).
+    pub bucket_sensor: rapier3d::prelude::ColliderHandle,
+    /// Floor area of the bucket's inside (m²), to turn volume into fill height.
+    pub bucket_area: Real,
+    /// Height of the bucket's inside (m).
+    pub bucket_depth: Real,
+    /// The crates (dynamic bodies).
+    pub crates: Vec<rapier3d::prelude::RigidBodyHandle>,
+    /// The paddle wheel (kinematic body).
+    pub wheel: rapier3d::prelude::RigidBodyHandle,
+    /// Every fixed collider with a solid inside (no particle may ever be in one).
+    pub solids: Vec<rapier3d::prelude::ColliderHandle>,
+}
+
+impl ObstacleCourse {
+    /// Fluid in the bucket: particles, volume (m³) and fill height (m, volume over floor
+    /// area).
+    pub fn bucket(&self) -> (crate::query::FluidAmount, Real) {
+        let a = self.world.fluids[self.fluid].amount_in(
+            &crate::query::Region::Collider(self.bucket_sensor),
+            &self.world.physics.colliders,
+        );
+        (a, a.volume / self.bucket_area)
+    }
+}
+
+/// A funnel: a truncated cone around +y, open at both ends, `segments` around.
+fn funnel_mesh(
+    r_top: Real,
+    r_bottom: Real,
+    height: Real,
+    segments: u32,
+) -> (Vec<Vector>, Vec<[u32; 3]>) {
+    let mut v = Vec::new();
+    for k in 0..segments {
+        let a = std::f32::consts::TAU * k as Real / segments as Real;
+        let (s, c) = a.sin_cos();
+        v.push(Vector::new(r_top * c, height, r_top * s));
+        v.push(Vector::new(r_bottom * c, 0.0, r_bottom * s));
+    }
+    let mut idx = Vec::new();
+    for k in 0..segments {
+        let (t0, b0) = (2 * k, 2 * k + 1);
+        let (t1, b1) = (2 * ((k + 1) % segments), 2 * ((k + 1) % segments) + 1);
+        idx.push([t0, b0, b1]);
+        idx.push([t0, b1, t1]);
+    }
+    (v, idx)
+}
+
+/// Builds the obstacle course (the rapier world is stepped once, so its broad-phase holds
+/// the colliders).
+pub fn obstacle_course(config: &ObstacleCourseConfig) -> SphResult<ObstacleCourse> {
+    use crate::emitter::{Emitter, Nozzle, Sink, SinkRegion};
+    use rapier3d::prelude::*;
+    if !(config.rate_fraction > 0.0 && config.rate_fraction.is_finite()) {
+        return Err(SphError::InvalidParameter {
+            field: "rate_fraction",
+            value: config.rate_fraction as f64,
+            reason: "must be positive and finite",
+        });
+    }
+    if !config.wheel_speed.is_finite() {
+        return Err(SphError::InvalidParameter {
+            field: "wheel_speed",
+            value: config.wheel_speed as f64,
+            reason: "must be finite",
+        });
+    }
+    let mut world = FluidWorld::new();
+    world.physics.integration_parameters.dt = 1.0 / 60.0;
+    let p = &mut world.physics;
+    let fixed = p.insert_body(RigidBodyBuilder::fixed());
+    let mut solids = Vec::new();
+    let mut add = |p: &mut rapier3d::pipeline::PhysicsWorld, c: ColliderBuilder, solid: bool| {
+        let h = p.insert_collider(c, Some(fixed));
+        if solid {
+            solids.push(h);
+        }
+        h
+    };
+    let w = 0.25; // half width of the course along z
+    // Ramp: 1.2 m long, tilted 20° down along +x.
+    add(
+        p,
+        ColliderBuilder::cuboid(0.6, 0.02, w).position(Pose::new(
+            Vector::new(0.55, 1.6, 0.0),
+            Vector::new(0.0, 0.0, -0.35),
+        )),
+        true,
+    );
+    // Side walls of the ramp.
+    for z in [-w - 0.02, w + 0.02] {
+        add(
+            p,
+            ColliderBuilder::cuboid(0.65, 0.15, 0.02).position(Pose::new(
+                Vector::new(0.55, 1.7, z),
+                Vector::new(0.0, 0.0, -0.35),
+            )),
+            true,
+        );
+    }
+    // Pegs: two balls and a capsule across the flow below the ramp's end.
+    add(
+        p,
+        ColliderBuilder::ball(0.04).translation(Vector::new(1.3, 1.2, -0.12)),
+        true,
+    );
+    add(
+        p,
+        ColliderBuilder::ball(0.04).translation(Vector::new(1.3, 1.2, 0.12)),
+        true,
+    );
+    add(
+        p,
+        ColliderBuilder::capsule_z(0.15, 0.03).translation(Vector::new(1.45, 1.05, 0.0)),
+        true,
+    );
+    // Funnel (open trimesh, both faces collide): top radius 0.4 at y = 1.0, bottom radius 0.1
+    // at y = 0.7, under the pegs.
+    let (fv, fi) = funnel_mesh(0.4, 0.1, 0.3, 24);
+    let funnel = ColliderBuilder::trimesh(fv, fi)
+        .map_err(|_| SphError::InvalidParameter {
+            field: "funnel",
+            value: 0.0,
+            reason: "degenerate funnel mesh",
+        })?
+        .translation(Vector::new(1.45, 0.7, 0.0));
+    add(p, funnel, false);
+    // Heightfield terrain from x = 1.2 to 3.2 (2 m × 0.6 m), sloping from 0.45 m down to
+    // 0.2 m with ripples, between two side walls.
+    let (nrows, ncols) = (7usize, 41usize);
+    let mut data = vec![0.0; nrows * ncols];
+    for j in 0..ncols {
+        for i in 0..nrows {
+            let u = j as Real / (ncols - 1) as Real;
+            data[i + j * nrows] = 0.25 * (1.0 - u) + 0.02 * (u * 25.0).sin();
+        }
+    }
+    add(
+        p,
+        ColliderBuilder::heightfield(
+            Array2::new(nrows, ncols, data),
+            Vector::new(2.0, 1.0, 2.0 * w + 0.1),
+        )
+        .translation(Vector::new(2.2, 0.2, 0.0)),
+        false,
+    );
+    for z in [-w - 0.02, w + 0.02] {
+        add(
+            p,
+            ColliderBuilder::cuboid(1.1, 0.35, 0.02).translation(Vector::new(2.2, 0.55, z)),
+            true,
+        );
+    }
+    // A back wall closing the channel upstream of where the funnel pours.
+    add(
+        p,
+        ColliderBuilder::cuboid(0.02, 0.35, w + 0.04).translation(Vector::new(1.18, 0.55, 0.0)),
+        true,
+    );
+    // A compound obstacle on the terrain: a block with a ball on top.
+    add(
+        p,
+        ColliderBuilder::compound(vec![
+            (Pose::IDENTITY, SharedShape::cuboid(0.05, 0.08, 0.08)),
+            (
+                Pose::from_translation(Vector::new(0.0, 0.08, 0.0)),
+                SharedShape::ball(0.06),
+            ),
+        ])
+        .translation(Vector::new(2.95, 0.33, -0.1)),
+        true,
+    );
+    // The bucket: inside x ∈ [3.12, 3.7], y ∈ [−0.25, 0.15], z ∈ [−0.3, 0.3], walls 2 cm;
+    // its near wall stands under the terrain's end, so what runs off the terrain falls in.
+    let (bmin, bmax) = (Vector::new(3.12, -0.25, -0.3), Vector::new(3.7, 0.15, 0.3));
+    let t = 0.02;
+    let bc = (bmin + bmax) * 0.5;
+    let bh = (bmax - bmin) * 0.5;
+    for (c, h) in [
+        (
+            Vector::new(bc.x, bmin.y - t, bc.z),
+            Vector::new(bh.x + 2.0 * t, t, bh.z + 2.0 * t),
+        ),
+        (
+            Vector::new(bmin.x - t, bc.y, bc.z),
+            Vector::new(t, bh.y, bh.z + 2.0 * t),
+        ),
+        (
+            Vector::new(bmax.x + t, bc.y, bc.z),
+            Vector::new(t, bh.y, bh.z + 2.0 * t),
+        ),
+        (
+            Vector::new(bc.x, bc.y, bmin.z - t),
+            Vector::new(bh.x, bh.y, t),
+        ),
+        (
+            Vector::new(bc.x, bc.y, bmax.z + t),
+            Vector::new(bh.x, bh.y, t),
+        ),
+    ] {
+        add(
+            p,
+            ColliderBuilder::cuboid(h.x, h.y, h.z).translation(c),
+            true,
+        );
+    }
+    let bucket_sensor = add(
+        p,
+        ColliderBuilder::cuboid(bh.x, bh.y, bh.z)
+            .translation(bc)
+            .sensor(true),
+        false,
+    );
+    // The paddle wheel: kinematic, axis z, four blades reaching down into the stream on the
+    // terrain, lower blades moving downstream (+x).
+    let wheel = p.insert_body(
+        RigidBodyBuilder::kinematic_velocity_based()
+            .translation(Vector::new(2.5, 0.62, 0.0))
+            .angvel(Vector::new(0.0, 0.0, config.wheel_speed)),
+    );
+    for k in 0..4 {
+        let a = std::f32::consts::FRAC_PI_2 * k as Real;
+        let d = Vector::new(a.cos(), a.sin(), 0.0);
+        p.insert_collider(
+            ColliderBuilder::cuboid(0.12, 0.008, w - 0.03)
+                .position(Pose::new(d * 0.15, Vector::new(0.0, 0.0, a))),
+            Some(wheel),
+        );
+    }
+    // Two floating crates (density 500) on the terrain, in the flow.
+    let mut crates = Vec::new();
+    for (x, z) in [(2.05, -0.1), (2.2, 0.1)] {
+        let b = p.insert_body(RigidBodyBuilder::dynamic().translation(Vector::new(x, 0.45, z)));
+        p.insert_collider(
+            ColliderBuilder::cuboid(0.05, 0.05, 0.05).density(500.0),
+            Some(b),
+        );
+        crates.push(b);
+    }
+    p.step();
+    let params = config.params.clone();
+    let s = params.particle_spacing;
+    let mut fluid = Fluid::new(params)?;
+    let mut emitter = Emitter::new(
+        Nozzle::Disk {
+            radius: config.nozzle_radius,
+        },
+        Vector::new(0.05, 1.9, 0.0),
+        Vector::new(1.0, -0.3, 0.0),
+        config.jet_speed,
+        1.0,
+    );
+    let rate = emitter.max_rate(s) * config.rate_fraction;
+    emitter.set_rate(rate)?;
+    fluid.add_emitter(emitter)?;
+    fluid.add_sink(Sink::new(SinkRegion::Aabb {
+        min: Vector::splat(-100.0),
+        max: Vector::new(100.0, -0.6, 100.0),
+    }))?;
+    let fluid = world.fluids.insert(fluid);
+    Ok(ObstacleCourse {
+        world,
+        fluid,
+        bucket_sensor,
+        bucket_area: (bmax.x - bmin.x) * (bmax.z - bmin.z),
+        bucket_depth: bmax.y - bmin.y,
+        crates,
+        wheel,
+        solids,
+    })
+}
