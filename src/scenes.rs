@@ -281,7 +281,7 @@ impl HydrostaticTank {
 /// that leaves the course falls into a drain sink below it, so every particle is accounted
 /// for: `emitted = live + drained + quarantined`.
 ///
-/// The flow runs along +x and down: emitter at x ≈ 0, y = 1.9; bucket at x ∈ [3.12, 3.7],
+/// The flow runs along +x and down: emitter at x ≈ 0, y = 1.9; bucket at x ∈ [3.12, 4.0],
 /// y ∈ [−0.25, 0.15].
 #[derive(Clone, Debug)]
 pub struct ObstacleCourseConfig {
@@ -468,14 +468,14 @@ pub fn obstacle_course(config: &ObstacleCourseConfig) -> SphResult<ObstacleCours
     for z in [-w - 0.02, w + 0.02] {
         add(
             p,
-            ColliderBuilder::cuboid(1.1, 0.35, 0.02).translation(Vector::new(2.2, 0.55, z)),
+            ColliderBuilder::cuboid(1.1, 0.55, 0.02).translation(Vector::new(2.2, 0.75, z)),
             true,
         );
     }
     // A back wall closing the channel upstream of where the funnel pours.
     add(
         p,
-        ColliderBuilder::cuboid(0.02, 0.35, w + 0.04).translation(Vector::new(1.18, 0.55, 0.0)),
+        ColliderBuilder::cuboid(0.02, 0.55, w + 0.04).translation(Vector::new(1.18, 0.75, 0.0)),
         true,
     );
     // A compound obstacle on the terrain: a block with a ball on top.
@@ -491,12 +491,15 @@ pub fn obstacle_course(config: &ObstacleCourseConfig) -> SphResult<ObstacleCours
         .translation(Vector::new(2.95, 0.33, -0.1)),
         true,
     );
-    // The bucket: inside x ∈ [3.12, 3.7], y ∈ [−0.25, 0.15], z ∈ [−0.3, 0.3], walls 2 cm;
-    // its near wall stands under the terrain's end, so what runs off the terrain falls in.
-    let (bmin, bmax) = (Vector::new(3.12, -0.25, -0.3), Vector::new(3.7, 0.15, 0.3));
+    // The bucket: inside x ∈ [3.12, 4.0], y ∈ [−0.25, 0.15], z ∈ [−0.4, 0.4], walls 2 cm.
+    // Its near wall stands under the terrain's end (top at y = 0.15), so what runs off the
+    // terrain falls in; the other three walls rise to y = 0.6 to catch the splash.
+    let (bmin, bmax) = (Vector::new(3.12, -0.25, -0.4), Vector::new(4.0, 0.15, 0.4));
     let t = 0.02;
     let bc = (bmin + bmax) * 0.5;
     let bh = (bmax - bmin) * 0.5;
+    let top = 0.6;
+    let (tall_c, tall_h) = ((bmin.y + top) * 0.5, (top - bmin.y) * 0.5);
     for (c, h) in [
         (
             Vector::new(bc.x, bmin.y - t, bc.z),
@@ -507,16 +510,16 @@ pub fn obstacle_course(config: &ObstacleCourseConfig) -> SphResult<ObstacleCours
             Vector::new(t, bh.y, bh.z + 2.0 * t),
         ),
         (
-            Vector::new(bmax.x + t, bc.y, bc.z),
-            Vector::new(t, bh.y, bh.z + 2.0 * t),
+            Vector::new(bmax.x + t, tall_c, bc.z),
+            Vector::new(t, tall_h, bh.z + 2.0 * t),
         ),
         (
-            Vector::new(bc.x, bc.y, bmin.z - t),
-            Vector::new(bh.x, bh.y, t),
+            Vector::new(bc.x, tall_c, bmin.z - t),
+            Vector::new(bh.x, tall_h, t),
         ),
         (
-            Vector::new(bc.x, bc.y, bmax.z + t),
-            Vector::new(bh.x, bh.y, t),
+            Vector::new(bc.x, tall_c, bmax.z + t),
+            Vector::new(bh.x, tall_h, t),
         ),
     ] {
         add(
