@@ -150,3 +150,75 @@ fn thread_counts_give_bitwise_identical_results() {
         }
     }
 }
+
+/// The obstacle course for 1.5 s at 5 cm: emitters, sinks, a kinematic wheel and dynamic
+/// crates pushed by the fluid (moving-frame contact, impulses summed per chunk). Returns
+/// the fluid's final state and the crates' positions and velocities.
+fn run_coupled() -> (Vec<Vector>, Vec<Vector>, Vec<u32>, Vec<Vector>) {
+    use rapier_sph::scenes::{ObstacleCourseConfig, obstacle_course};
+    let params = FluidParamsBuilder::water(0.05).build().unwrap();
+    let mut course = obstacle_course(&ObstacleCourseConfig::new(params)).unwrap();
+    let mut pushed = 0;
+    for _ in 0..90 {
+        pushed += course.world.step().unwrap().coupled_bodies;
+    }
+    assert!(pushed > 0, "no body was pushed by the fluid");
+    let f = &course.world.fluids[course.fluid];
+    let bodies: Vec<Vector> = course
+        .crates
+        .iter()
+        .flat_map(|&b| {
+            let b = &course.world.physics.bodies[b];
+            [b.translation(), b.linvel(), b.angvel()]
+        })
+        .collect();
+    (
+        f.positions().to_vec(),
+        f.velocities().to_vec(),
+        f.ids().to_vec(),
+        bodies,
+    )
+}
+
+#[test]
+fn coupled_scene_is_bitwise_identical_across_thread_counts_and_builds() {
+    let mut results = Vec::new();
+    for threads in [1, 2, 3] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        results.push((threads, pool.install(run_coupled)));
+    }
+    let (_, (p1, v1, i1, b1)) = &results[0];
+    for (threads, (p, v, i, b)) in &results[1..] {
+        assert_eq!(i, i1, "{threads} threads: particle order differs");
+        assert!(bits(p) == bits(p1), "{threads} threads: positions differ");
+        assert!(bits(v) == bits(v1), "{threads} threads: velocities differ");
+        assert!(bits(b) == bits(b1), "{threads} threads: crates differ");
+    }
+    let hash = fnv(p1, v1, i1) ^ fnv(b1, b1, &vec![0; b1.len()]).rotate_left(1);
+    let build = if cfg!(feature = "parallel") {
+        "parallel"
+    } else {
+        "serial"
+    };
+    if let Some(path) = std::env::var_os("RAPIER_SPH_PARITY_FILE") {
+        let mut path = std::path::PathBuf::from(path).into_os_string();
+        path.push(".coupled");
+        match std::fs::read_to_string(&path) {
+            Ok(text) => {
+                let recorded = text.split_whitespace().next().expect("empty parity file");
+                assert_eq!(
+                    recorded,
+                    format!("{hash:016x}"),
+                    "the {build} build's coupled scene differs (recorded in {path:?})"
+                );
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                std::fs::write(&path, format!("{hash:016x} {build}\n")).unwrap();
+            }
+            Err(e) => panic!("cannot read {path:?}: {e}"),
+        }
+    }
+}
