@@ -306,7 +306,7 @@ fn step_fluid(
         return 0.0;
     }
     // Moving bodies near this fluid during this substep (none: nothing more is done).
-    let coupling = match colliders {
+    let mut coupling = match colliders {
         Some((_, colliders, _)) if !coupling.is_off() => {
             timed(report, Stage::Contact, || {
                 let p = fluid.params();
@@ -421,6 +421,36 @@ fn step_fluid(
             report,
         ),
     };
+    // Fluid → body through the walls' pressure (WCSPH): each particle's wall force from
+    // dynamic bodies, `−m·∇ρ_wall,c·p/(2ρ²)`, pushes those bodies back (see
+    // `boundary::bodies`). DFSPH's wall force is spread over its solver iterations and is
+    // not transmitted yet.
+    if let (Some(c), Some(w), None) = (coupling.as_deref_mut(), wall, dfsph_settings)
+        && w.coupled_any
+    {
+        timed(report, Stage::Contact, || {
+            let records = &mut ws.wall_impulses;
+            records.resize_with(1, Vec::new);
+            records[0].clear();
+            for (i, &(gc, e, point)) in w.coupled.iter().enumerate() {
+                if e == u32::MAX {
+                    continue;
+                }
+                let inv = ws.inv_densities[i];
+                let impulse = gc * (0.5 * pressures[i] * inv * inv * p.particle_mass * dt);
+                if impulse != Vector::ZERO {
+                    records[0].push(crate::boundary::bodies::ImpulseRecord {
+                        entry: e,
+                        particle: i as u32,
+                        normal: Vector::ZERO,
+                        impulse,
+                        point,
+                    });
+                }
+            }
+            c.exchange(records, velocities, p.particle_mass);
+        });
+    }
     ws.wall = wall_ws;
     report.non_finite += non_finite;
     report.max_speed = report.max_speed.max(max_speed);

@@ -21,10 +21,17 @@ fn float(density: Real, wall_density: bool, seconds: Real) -> (Real, Real, Real)
     world.physics.integration_parameters.dt = 1.0 / 60.0;
     let (lx, lz, depth) = (0.5, 0.5, 0.2);
     rapier_sph::scenes::add_closed_box(&mut world, Vector::ZERO, Vector::new(lx, 0.6, lz), 0.05);
-    let params = rapier_sph::FluidParamsBuilder::water(S).wall_density(wall_density).build().unwrap();
+    let params = rapier_sph::FluidParamsBuilder::water(S)
+        .wall_density(wall_density)
+        .build()
+        .unwrap();
     let mut fluid = Fluid::new(params).unwrap();
     let half = 0.08;
-    let centre = Vector::new(0.25, depth + half * (1.0 - 2.0 * density.min(1000.0) / 1000.0), 0.25);
+    let centre = Vector::new(
+        0.25,
+        depth + half * (1.0 - 2.0 * density.min(1000.0) / 1000.0),
+        0.25,
+    );
     let pts: Vec<Vector> = rapier_sph::fluid::lattice(
         Vector::splat(0.5 * S),
         (lx / S) as usize,
@@ -37,10 +44,13 @@ fn float(density: Real, wall_density: bool, seconds: Real) -> (Real, Real, Real)
     .collect();
     fluid.add_particles(&pts).unwrap();
     let fluid = world.fluids.insert(fluid);
-    let cube = world.physics.insert_body(RigidBodyBuilder::dynamic().translation(centre));
-    world
+    let cube = world
         .physics
-        .insert_collider(ColliderBuilder::cuboid(half, half, half).density(density), Some(cube));
+        .insert_body(RigidBodyBuilder::dynamic().translation(centre));
+    world.physics.insert_collider(
+        ColliderBuilder::cuboid(half, half, half).density(density),
+        Some(cube),
+    );
     world.physics.step();
     let frames = (seconds * 60.0) as usize;
     for _ in 0..frames {
@@ -60,7 +70,11 @@ fn float(density: Real, wall_density: bool, seconds: Real) -> (Real, Real, Real)
     let surface = top[..n].iter().sum::<Real>() / n as Real + 0.5 * S;
     let b = &world.physics.bodies[cube];
     let bottom = b.translation().y - half;
-    (((surface - bottom) / (2.0 * half)).clamp(0.0, 1.0), b.linvel().y, surface)
+    (
+        ((surface - bottom) / (2.0 * half)).clamp(0.0, 1.0),
+        b.linvel().y,
+        surface,
+    )
 }
 
 #[test]
@@ -76,10 +90,15 @@ fn boxes_float_at_the_right_depth() {
             );
         }
         let (frac, vy, _) = float(2000.0, wall_density, 3.0);
-        eprintln!("wall_density {wall_density}: density 2000: submerged {frac:.3}, vertical speed {vy:.3} m/s");
+        eprintln!(
+            "wall_density {wall_density}: density 2000: submerged {frac:.3}, vertical speed {vy:.3} m/s"
+        );
     }
     for density in [250.0, 500.0, 750.0] {
         let (frac, _, _) = float(density, false, 3.0);
-        assert!((frac - density / 1000.0).abs() < 0.05, "density {density}: {frac}");
+        assert!(
+            (frac - density / 1000.0).abs() < 0.05,
+            "density {density}: {frac}"
+        );
     }
 }

@@ -53,6 +53,12 @@ pub struct WallWorkspace {
     pub motion: Vec<Real>,
     /// Fraction `Φ ∈ [0, 1]` of each particle's kernel covered by walls.
     pub coverage: Vec<Real>,
+    /// The part of `gradient` due to dynamic bodies of the coupling table, with the table
+    /// entry and surface point of the body contributing most (`u32::MAX`: none). Empty when
+    /// no dynamic body is near (see [`super::bodies`]).
+    pub coupled: Vec<(Vector, u32, Vector)>,
+    /// `true` when `coupled` holds data for this update.
+    pub coupled_any: bool,
     near: usize,
 }
 
@@ -75,6 +81,8 @@ impl WallWorkspace {
         self.gradient.clear();
         self.motion.clear();
         self.coverage.clear();
+        self.coupled.clear();
+        self.coupled_any = false;
     }
 
     fn tables(&mut self, density: KernelKind, force: KernelKind, h: Real, spacing: Real) {
@@ -117,6 +125,11 @@ impl WallWorkspace {
         self.gradient.resize(n, Vector::ZERO);
         self.motion.resize(n, 0.0);
         self.coverage.resize(n, 0.0);
+        let any_dynamic = table.iter().any(|m| m.dynamic);
+        self.coupled_any = any_dynamic;
+        // Read only when `coupled_any`; sized always so the chunks line up.
+        self.coupled
+            .resize(n, (Vector::ZERO, u32::MAX, Vector::ZERO));
         if !self.candidates.any() {
             self.density.fill(0.0);
             self.gradient.fill(Vector::ZERO);
@@ -134,8 +147,9 @@ impl WallWorkspace {
             .zip(crate::par_chunks_mut!(self.gradient, CHUNK))
             .zip(crate::par_chunks_mut!(self.motion, CHUNK))
             .zip(crate::par_chunks_mut!(self.coverage, CHUNK))
+            .zip(crate::par_chunks_mut!(self.coupled, CHUNK))
             .enumerate()
-            .map(|(c, (((dens, grad), motion), cover))| {
+            .map(|(c, ((((dens, grad), motion), cover), coupled))| {
                 let base = c * CHUNK;
                 let mut near = 0usize;
                 for k in 0..dens.len() {
@@ -145,12 +159,16 @@ impl WallWorkspace {
                     let mut u: Real = 0.0;
                     let mut g = Vector::ZERO;
                     let mut m: Real = 0.0;
+                    // Share of the gradient from dynamic bodies, and the largest one's entry.
+                    let mut gc = Vector::ZERO;
+                    let mut main: (Real, u32, Vector) = (0.0, u32::MAX, Vector::ZERO);
                     for &handle in candidates.of_cell(grid.cell_of(i)) {
                         let Some(co) = colliders.get(handle) else {
                             continue;
                         };
                         // A moving body stands at its pose of the substep's start.
-                        let entry = super::bodies::entry_of(table, handle).map(|(_, m)| m);
+                        let found = super::bodies::entry_of(table, handle);
+                        let entry = found.map(|(_, m)| m);
                         let pose = match entry {
                             Some(m) if m.moving => &m.start,
                             _ => co.position(),
@@ -189,6 +207,18 @@ impl WallWorkspace {
                         let gk = ga * (1.0 - u);
                         g = g * (1.0 - a) + gk;
                         u = 1.0 - (1.0 - u) * (1.0 - a);
+                        if any_dynamic {
+                            gc *= 1.0 - a;
+                            if let Some((e, mc)) = found
+                                && mc.dynamic
+                            {
+                                gc += gk;
+                                let l = gk.length_squared();
+                                if l > main.0 {
+                                    main = (l, e, proj.point);
+                                }
+                            }
+                        }
                         if let Some(mc) = entry {
                             if mc.moving {
                                 m += mc.velocity_at_start(proj.point).dot(gk);
@@ -203,6 +233,9 @@ impl WallWorkspace {
                     grad[k] = g * (rest_density * full_f);
                     motion[k] = m * rest_density * full_f;
                     cover[k] = u;
+                    if any_dynamic {
+                        coupled[k] = (gc * (rest_density * full_f), main.1, main.2);
+                    }
                     near += (u > 0.0 || g != Vector::ZERO) as usize;
                 }
                 near

@@ -21,6 +21,8 @@ pub(crate) struct Workspace {
     pub contact: ContactWorkspace,
     /// Impulses on dynamic bodies recorded by contact, one buffer per chunk of particles.
     pub impulses: Vec<Vec<crate::boundary::bodies::ImpulseRecord>>,
+    /// Impulses on dynamic bodies from the walls' pressure force (WCSPH with wall density).
+    pub wall_impulses: Vec<Vec<crate::boundary::bodies::ImpulseRecord>>,
     /// Wall contributions to density (see [`crate::boundary::wall`]).
     pub wall: WallWorkspace,
     /// DFSPH factors and iteration buffers.
