@@ -70,6 +70,9 @@ pub struct FluidPipeline {
     pub time_stepping: TimeStepping,
     report: StepReport,
     coupling: Coupling,
+    /// Always empty: lets the broad-phase's BVH be borrowed without `bodies` (kept here so
+    /// the step does not allocate one).
+    no_bodies: RigidBodySet,
 }
 
 impl FluidPipeline {
@@ -84,6 +87,7 @@ impl FluidPipeline {
             time_stepping,
             report: StepReport::default(),
             coupling: Coupling::default(),
+            no_bodies: RigidBodySet::new(),
         }
     }
 
@@ -140,10 +144,10 @@ impl FluidPipeline {
         }
         // The BVH is the broad-phase's own tree; an empty body set keeps it from borrowing
         // `bodies`, which the coupling writes impulses into at the end of the step.
-        let no_bodies = RigidBodySet::new();
+        let no_bodies = &self.no_bodies;
         let query = broad_phase.as_query_pipeline(
             &DefaultQueryDispatcher,
-            &no_bodies,
+            no_bodies,
             colliders,
             QueryFilter::default(),
         );
@@ -158,7 +162,7 @@ impl FluidPipeline {
         let mut report = StepReport::default();
         let time_stepping = self.time_stepping;
         let coupling = &mut self.coupling;
-        coupling.begin_frame(if has_colliders { bodies } else { &no_bodies }, colliders);
+        coupling.begin_frame(if has_colliders { bodies } else { no_bodies }, colliders);
         let bodies_mut = bodies;
         let bodies: &RigidBodySet = bodies_mut;
         let mut run = || {

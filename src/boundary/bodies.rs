@@ -111,6 +111,8 @@ pub struct Coupling {
     /// Table of the current (fluid, substep).
     table: Vec<MovingCollider>,
     impulses: Vec<BodyImpulse>,
+    /// Scratch of [`Coupling::exchange`]: bodies already settled.
+    done: Vec<RigidBodyHandle>,
 }
 
 impl Coupling {
@@ -234,7 +236,8 @@ impl Coupling {
         velocities: &mut [Vector],
         mass: Real,
     ) {
-        let mut done: Vec<RigidBodyHandle> = Vec::new();
+        let mut done = std::mem::take(&mut self.done);
+        done.clear();
         for k in 0..self.table.len() {
             let m = &self.table[k];
             if !m.dynamic || done.contains(&m.body) {
@@ -292,6 +295,7 @@ impl Coupling {
                 }
             }
         }
+        self.done = done;
     }
 
     /// Applies the gathered impulses to their bodies through rapier (waking them up) and
