@@ -181,11 +181,14 @@ impl FluidParams {
         if let Solver::Dfsph(d) = &self.solver {
             positive("max_density_error", d.max_density_error)?;
             positive("max_divergence_error", d.max_divergence_error)?;
-            if d.max_iterations == 0 || d.min_iterations > d.max_iterations {
+            if d.max_iterations == 0
+                || d.min_iterations > d.max_iterations
+                || d.min_divergence_iterations > d.max_iterations
+            {
                 return Err(SphError::InvalidParameter {
                     field: "max_iterations",
                     value: d.max_iterations as f64,
-                    reason: "must be at least 1 and at least min_iterations",
+                    reason: "must be at least 1 and at least both minimum iteration counts",
                 });
             }
         }

@@ -59,8 +59,13 @@ pub struct Dfsph {
     pub max_density_error: Real,
     /// Largest accepted average divergence error, `|Dρ/Dt|·dt/ρ0` averaged (default 0.01).
     pub max_divergence_error: Real,
-    /// Iterations always run by each solve (default 2).
+    /// Iterations always run by the constant-density solve (default 2, as in Bender &
+    /// Koschier's reference implementation, SPlisHSPlasH).
     pub min_iterations: u32,
+    /// Iterations always run by the divergence solve (default 1, as in SPlisHSPlasH: the
+    /// divergence solve only keeps the velocity field from drifting, its error target is
+    /// usually met by the warm start and one correction).
+    pub min_divergence_iterations: u32,
     /// Iteration cap of each solve (default 100). When it binds, the step report's
     /// `solver_capped` count says so.
     pub max_iterations: u32,
@@ -75,6 +80,7 @@ impl Default for Dfsph {
             max_density_error: 0.001,
             max_divergence_error: 0.01,
             min_iterations: 2,
+            min_divergence_iterations: 1,
             max_iterations: 100,
             divergence_solve: true,
         }
@@ -347,6 +353,7 @@ pub struct SolveContext<'a> {
 fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
     ctx: &SolveContext<'_>,
     settings: &Dfsph,
+    min_iterations: u32,
     target: Real,
     error_scale: Real,
     buffers: &mut DfsphBuffers,
@@ -394,7 +401,7 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
         let (sum, _) = reduce_partials(partials);
         stats.error = (sum / n as f64) as Real * error_scale;
         let done = stats.error <= target;
-        if (done && stats.iterations >= settings.min_iterations)
+        if (done && stats.iterations >= min_iterations)
             || stats.iterations >= settings.max_iterations
         {
             stats.capped = !done;
@@ -424,6 +431,7 @@ pub fn divergence_solve(
     jacobi(
         ctx,
         settings,
+        settings.min_divergence_iterations,
         settings.max_divergence_error,
         dt / ctx.rest_density,
         buffers,
@@ -460,6 +468,7 @@ pub fn density_solve(
     jacobi(
         ctx,
         settings,
+        settings.min_iterations,
         settings.max_density_error,
         1.0 / rho0,
         buffers,
