@@ -88,7 +88,8 @@ fn dfsph_conserves_momentum_of_an_isolated_blob() {
         exchange > 1.0,
         "the blob must actually exchange momentum ({exchange})"
     );
-    assert!(iterations >= 400, "both solves ran at least twice per step");
+    // At least the minimum iterations of both solves (2 + 1) every step: the solver ran.
+    assert!(iterations >= 300, "both solves ran every step");
     assert!(
         drift <= 1e-4 * exchange,
         "momentum drift {drift:e} vs exchange {exchange:e}"
