@@ -28,6 +28,10 @@ enum SolverArg {
     Wcsph,
     /// Divergence-free SPH (Bender & Koschier 2017).
     Dfsph,
+    /// Position-based fluids (Macklin & Müller 2013): fixed iterations, any time step.
+    Pbf,
+    /// Double-density relaxation (Clavet et al. 2005).
+    Clavet,
 }
 
 #[derive(Parser, Debug)]
@@ -159,6 +163,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     match args.solver {
         Some(SolverArg::Wcsph) => builder = builder.solver(Solver::Wcsph),
         Some(SolverArg::Dfsph) => builder = builder.solver(Solver::dfsph()),
+        Some(SolverArg::Pbf) => builder = builder.solver(Solver::pbf()),
+        Some(SolverArg::Clavet) => builder = builder.solver(Solver::clavet()),
         None => {}
     }
     if args.walls {

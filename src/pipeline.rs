@@ -5,6 +5,8 @@
 //! particles ─▶ 1 neighbour search ─▶ 2 wall density ─▶ 3 density
 //!   WCSPH: ─▶ 4 pressure (EOS) ─▶ 5 pressure force ─▶ 6 viscosity ─▶ 7 gravity ─▶ 8 particle update
 //!   DFSPH: ─▶ 4 divergence solve ─▶ 5 viscosity ─▶ 6 gravity ─▶ 7 density solve ─▶ 8 particle update
+//!   PBF, Clavet: (gravity and position prediction before 1) ─▶ 7 position solve (PBF) or
+//!          relaxation (Clavet) ─▶ 8 velocity update ─▶ 6 viscosity
 //!        ─▶ 9 collider contact
 //! ```
 //!
@@ -39,7 +41,10 @@ pub enum TimeStepping {
     /// - every solver: `dt ≤ courant · spacing / (v_max + |g|·dt)` (a particle moves at
     ///   most `courant` spacings per substep), and the explicit viscosity limit
     ///   `dt ≤ ρ0·h²/(30·ε)`;
-    /// - WCSPH also the acoustic limit `dt ≤ courant · h / (c + v_max)`.
+    /// - WCSPH also the acoustic limit `dt ≤ courant · h / (c + v_max)`, Clavet the same with
+    ///   `c·√k` (its stiffness `k` is in units of `c²/(h·ρ0)`);
+    /// - DFSPH under gravity also `g·dt² ≤ 5·max_density_error·spacing`: gravity's
+    ///   compression within one substep stays a few times the solve's error target.
     ///
     /// The frame is split into equal substeps that meet the limits; at most `max_substeps`
     /// of them. When the cap binds the substeps are longer than the limits ask and the report
@@ -281,9 +286,31 @@ fn stable_time_step(fluid: &Fluid, gravity: Vector, courant: Real, remaining: Re
         let h = p.smoothing_length;
         limit = limit.min(p.rest_density * h * h / (30.0 * p.viscosity));
     }
-    if p.solver == Solver::Wcsph {
-        let c = p.equation_of_state.speed_of_sound();
-        limit = limit.min(courant * p.smoothing_length / (c + v));
+    match p.solver {
+        Solver::Wcsph => {
+            let c = p.equation_of_state.speed_of_sound();
+            limit = limit.min(courant * p.smoothing_length / (c + v));
+        }
+        Solver::Clavet(cl) => {
+            // The relaxation pushes like an equation of state whose speed of sound is
+            // `c·√k` (its stiffnesses are in units of c²/(h·ρ0)).
+            let c = p.equation_of_state.speed_of_sound()
+                * cl.stiffness
+                    .max(cl.near_stiffness.unwrap_or(cl.stiffness))
+                    .max(1e-6)
+                    .sqrt();
+            limit = limit.min(courant * p.smoothing_length / (c + v));
+        }
+        Solver::Dfsph(d) if g > 0.0 => {
+            // The density solve undoes, every substep, the compression that gravity makes in
+            // it (a displacement of about g·dt²). Keeping that displacement within
+            // 5·max_density_error spacings keeps the work per substep a few times the error
+            // the solve is asked to reach; without it a fluid at rest takes CFL substeps of
+            // ~30 ms (nothing moves yet), far outside the solve's linearisation. At the
+            // default 0.1 % target this is 5 ms for 5 cm particles and 3.2 ms for 2 cm.
+            limit = limit.min((5.0 * d.max_density_error * s / g).sqrt());
+        }
+        Solver::Dfsph(_) | Solver::Pbf(_) => {}
     }
     limit.min(remaining)
 }
@@ -328,8 +355,17 @@ fn step_fluid(
     let h = p.smoothing_length;
     let dfsph_settings = match p.solver {
         Solver::Dfsph(d) => Some(d),
-        Solver::Wcsph => None,
+        _ => None,
     };
+    let pbf_settings = match p.solver {
+        Solver::Pbf(b) => Some(b),
+        _ => None,
+    };
+    let clavet_settings = match p.solver {
+        Solver::Clavet(c) => Some(c),
+        _ => None,
+    };
+    let position_based = pbf_settings.is_some() || clavet_settings.is_some();
     let Fluid {
         positions,
         velocities,
@@ -343,6 +379,22 @@ fn step_fluid(
         ..
     } = fluid;
 
+    // 0. PBF and Clavet predict first (gravity, then positions) and search neighbours at the
+    //    predicted positions (Macklin & Müller 2013, Alg. 1 lines 2–4; Clavet et al. 2005,
+    //    Alg. 1).
+    if position_based {
+        ws.previous_positions.resize(n, Vector::ZERO);
+        if gravity != Vector::ZERO {
+            timed(report, Stage::ExternalForces, || {
+                accelerations.fill(gravity);
+                integrate::add_accelerations(dt, accelerations, velocities);
+            });
+        }
+        timed(report, Stage::ParticleUpdate, || {
+            integrate::predict_positions(dt, velocities, positions, &mut ws.previous_positions)
+        });
+    }
+
     // 1. Neighbour search: sort by cell (every per-particle array follows), cells, lists.
     timed(report, Stage::NeighbourSearch, || {
         if ws.grid.sort(positions, h) {
@@ -354,6 +406,9 @@ fn step_fluid(
                 par::permute(warm_density, &mut ws.scratch_reals, perm);
                 par::permute(warm_divergence, &mut ws.scratch_reals, perm);
             }
+            if position_based {
+                par::permute(&mut ws.previous_positions, &mut ws.scratch_vectors, perm);
+            }
         }
         ws.grid.build_cells();
         ws.neighbors.build(&ws.grid, positions, h);
@@ -361,10 +416,10 @@ fn step_fluid(
     report.neighbour_pairs += ws.neighbors.total_pairs();
 
     // 2. Wall density: colliders within the kernel support count in the density.
-    let force_kernel = if dfsph_settings.is_some() {
-        p.density_kernel
-    } else {
+    let force_kernel = if p.solver == Solver::Wcsph {
         p.pressure_kernel
+    } else {
+        p.density_kernel
     };
     match colliders {
         Some((bvh, colliders, bodies)) if p.wall_density => {
@@ -394,8 +449,33 @@ fn step_fluid(
 
     ws.inv_densities.resize(n, 0.0);
     ws.previous_positions.resize(n, Vector::ZERO);
-    let (non_finite, max_speed) = match dfsph_settings {
-        None => step_wcsph(
+    let (non_finite, max_speed) = match (dfsph_settings, pbf_settings) {
+        _ if clavet_settings.is_some() => step_clavet(
+            &p,
+            &clavet_settings.unwrap_or_default(),
+            dt,
+            positions,
+            velocities,
+            accelerations,
+            densities,
+            pressures,
+            ws,
+            report,
+        ),
+        (_, Some(settings)) => step_pbf(
+            &p,
+            &settings,
+            dt,
+            wall,
+            positions,
+            velocities,
+            accelerations,
+            densities,
+            pressures,
+            ws,
+            report,
+        ),
+        (None, None) => step_wcsph(
             &p,
             gravity,
             dt,
@@ -408,7 +488,7 @@ fn step_fluid(
             ws,
             report,
         ),
-        Some(settings) => step_dfsph(
+        (Some(settings), None) => step_dfsph(
             &p,
             &settings,
             gravity,
@@ -685,16 +765,153 @@ fn step_dfsph(
     report.solver_iterations += stats.iterations;
     report.solver_density_error = report.solver_density_error.max(stats.error);
     report.solver_capped += stats.capped as u32;
-    for ((pr, &w), &rho) in pressures
+    // The pressure reported is all the pressure the step applied: the constant-density and
+    // the divergence solves' values (both are `π = p/ρ²` applied over the same `dt`).
+    for (((pr, &w), &wv), &rho) in pressures
         .iter_mut()
         .zip(warm_density.iter())
+        .zip(warm_divergence.iter())
         .zip(ctx.densities)
     {
-        *pr = w * rho * rho;
+        *pr = (w + wv) * rho * rho;
     }
 
     // 8. Particle update: the velocities are final; move.
     timed(report, Stage::ParticleUpdate, || {
         integrate::advance_positions(dt, velocities, positions, &mut ws.previous_positions)
     })
+}
+
+/// Stages 3–8 of PBF (see [`crate::solver::pbf`]); gravity and the position prediction ran
+/// before the neighbour search. Returns `(non-finite count, max speed)`.
+#[allow(clippy::too_many_arguments)]
+fn step_pbf(
+    p: &crate::FluidParams,
+    settings: &crate::solver::Pbf,
+    dt: Real,
+    wall: Option<&crate::boundary::WallWorkspace>,
+    positions: &mut [Vector],
+    velocities: &mut [Vector],
+    accelerations: &mut [Vector],
+    densities: &mut [Real],
+    pressures: &mut [Real],
+    ws: &mut crate::fluid::Workspace,
+    report: &mut StepReport,
+) -> (usize, Real) {
+    let h = p.smoothing_length;
+    let ctx = crate::solver::pbf::PbfContext {
+        neighbors: &ws.neighbors,
+        wall,
+        mass: p.particle_mass,
+        h,
+        spacing: p.particle_spacing,
+        rest_density: p.rest_density,
+    };
+    // 3–5. The position solve (densities are measured in its first pass).
+    let stats = timed(report, Stage::DensitySolve, || {
+        crate::with_kernel!(p.density_kernel, K => crate::solver::pbf::solve::<K>(
+            &ctx, settings, &mut ws.pbf, positions, densities, &mut ws.inv_densities))
+    });
+    report.solver_iterations += stats.iterations;
+    report.solver_density_error = report.solver_density_error.max(stats.error);
+    // The pressure the corrections stand for: Δx = dt²·a with a = −Σ m (π_i + π_j) ∇W gives
+    // π = −Σλ/(ρ0·dt²).
+    let scale = -1.0 / (p.rest_density * dt * dt);
+    for ((pr, &l), &rho) in pressures
+        .iter_mut()
+        .zip(ws.pbf.lambda_sum.iter())
+        .zip(densities.iter())
+    {
+        *pr = l * scale * rho * rho;
+    }
+
+    // 8. Velocities from the corrected positions.
+    let (mut non_finite, mut max_speed) = timed(report, Stage::ParticleUpdate, || {
+        integrate::velocities_from_positions(dt, positions, &ws.previous_positions, velocities)
+    });
+
+    // 6. Viscosity on the new velocities (the paper's XSPH role).
+    if p.viscosity > 0.0 {
+        timed(report, Stage::ViscosityForce, || {
+            accelerations.fill(Vector::ZERO);
+            forces::viscosity::add_accelerations(
+                positions,
+                velocities,
+                &ws.inv_densities,
+                &ws.neighbors,
+                p.particle_mass,
+                p.viscosity,
+                h,
+                accelerations,
+            );
+            integrate::add_accelerations(dt, accelerations, velocities);
+        });
+        (non_finite, max_speed) = integrate::scan(positions, velocities);
+    }
+    (non_finite, max_speed)
+}
+
+/// Stages 3–8 of the double-density relaxation (see [`crate::solver::clavet`]); gravity and
+/// the position prediction ran before the neighbour search. Returns `(non-finite count, max
+/// speed)`.
+#[allow(clippy::too_many_arguments)]
+fn step_clavet(
+    p: &crate::FluidParams,
+    settings: &crate::solver::Clavet,
+    dt: Real,
+    positions: &mut [Vector],
+    velocities: &mut [Vector],
+    accelerations: &mut [Vector],
+    densities: &mut [Real],
+    pressures: &mut [Real],
+    ws: &mut crate::fluid::Workspace,
+    report: &mut StepReport,
+) -> (usize, Real) {
+    let h = p.smoothing_length;
+    let c = p.equation_of_state.speed_of_sound();
+    let ctx = crate::solver::clavet::ClavetContext {
+        neighbors: &ws.neighbors,
+        h,
+        spacing: p.particle_spacing,
+        speed_of_sound: c,
+        dt,
+    };
+    let error = timed(report, Stage::DensitySolve, || {
+        crate::solver::clavet::relax(&ctx, settings, &mut ws.clavet, positions, densities)
+    });
+    report.solver_iterations += 1;
+    report.solver_density_error = report.solver_density_error.max(error);
+    // Densities: the relative density times ρ0; pressures: a linear equation of state with the
+    // fluid's speed of sound at that density (the acceleration the relaxation applies).
+    for ((rho, pr), inv) in densities
+        .iter_mut()
+        .zip(pressures.iter_mut())
+        .zip(ws.inv_densities.iter_mut())
+    {
+        let rel = *rho;
+        *rho = rel * p.rest_density;
+        *inv = 1.0 / rho.max(Real::MIN_POSITIVE);
+        *pr = settings.stiffness * p.rest_density * c * c * (rel - 1.0);
+    }
+    let (mut non_finite, mut max_speed) = timed(report, Stage::ParticleUpdate, || {
+        integrate::velocities_from_positions(dt, positions, &ws.previous_positions, velocities)
+    });
+    if p.viscosity > 0.0 {
+        timed(report, Stage::ViscosityForce, || {
+            accelerations.fill(Vector::ZERO);
+            forces::viscosity::add_accelerations(
+                positions,
+                velocities,
+                &ws.inv_densities,
+                &ws.neighbors,
+                p.particle_mass,
+                p.viscosity,
+                h,
+                accelerations,
+            );
+            integrate::add_accelerations(dt, accelerations, velocities);
+        });
+        (non_finite, max_speed) = integrate::scan(positions, velocities);
+    }
+    (non_finite, max_speed)
 }
