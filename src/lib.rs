@@ -24,10 +24,15 @@
 //!   ├─ 7 external forces    forces/external.rs  gravity                  (skipped if g = 0)
 //!   ├─ 8 (DFSPH) density solve                    constant-density solve
 //!   ├─ 9 particle update    integrate.rs  symplectic Euler
-//!   └─ 10 collider contact  boundary/     swept parry queries, reflection + friction
+//!   ├─ 10 collider contact  boundary/     swept parry queries, reflection + friction,
+//!   │                                     moving bodies in their own frame (boundary/bodies.rs)
+//!   └─ 11 sinks             emitter.rs    particles in drains are removed
+//! after the substeps: emitters add the frame's particles (emitter.rs); the impulses the
+//! fluid gave dynamic bodies go to rapier (boundary/bodies.rs)
 //! ```
 //!
-//! Each stage is timed ([`StepReport::timings`]); see [`pipeline`]. Particles whose state
+//! Each stage is timed ([`StepReport::timings`]); see [`pipeline`]. Game logic reads the
+//! fluid through [`query`] (amount in a region or sensor, SPH samples, enter/leave counts). Particles whose state
 //! becomes NaN or infinite are quarantined (removed and counted in the report).
 //!
 //! ## In a rapier game loop

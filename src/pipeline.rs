@@ -507,9 +507,9 @@ fn step_fluid(
     };
     // Fluid → body through the walls' pressure (WCSPH): each particle's wall force from
     // dynamic bodies, `−m·∇ρ_wall,c·p/(2ρ²)`, pushes those bodies back (see
-    // `boundary::bodies`). DFSPH's wall force is spread over its solver iterations and is
-    // not transmitted yet.
-    if let (Some(c), Some(w), None) = (coupling.as_deref_mut(), wall, dfsph_settings)
+    // `boundary::bodies`). The other solvers' wall forces (DFSPH spreads its wall force over
+    // its iterations) are not transmitted yet.
+    if let (Some(c), Some(w), Solver::Wcsph) = (coupling.as_deref_mut(), wall, p.solver)
         && w.coupled_any
     {
         timed(report, Stage::Contact, || {
