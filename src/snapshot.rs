@@ -29,8 +29,9 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 const MAGIC: &[u8; 16] = b"rapier-sph snap\0";
-/// The snapshot format's version, stored in every file.
-pub const FORMAT_VERSION: u32 = 2;
+/// The snapshot format's version, stored in every file (3: fluids carry their emitters,
+/// sinks, emitted/drained counters and capacity).
+pub const FORMAT_VERSION: u32 = 3;
 
 #[derive(Serialize)]
 struct SnapshotRef<'a> {

@@ -77,6 +77,32 @@ fn restore_and_continue_with_dfsph_and_wall_density() {
     );
 }
 
+/// Emitters (their clocks and slots) and sinks (their counters) are part of the state.
+#[test]
+fn restore_and_continue_with_an_emitter_and_a_sink() {
+    use rapier_sph::{Emitter, Nozzle, Sink, SinkRegion};
+    let mut w = scene();
+    let (_, f) = w.fluids.iter_mut().next().unwrap();
+    f.add_emitter(
+        Emitter::new(
+            Nozzle::Square { half_width: 0.06 },
+            Vector::new(0.6, 0.5, 0.15),
+            Vector::new(0.0, -1.0, 0.0),
+            1.0,
+            300.0,
+        )
+        .budget(150),
+    )
+    .unwrap();
+    f.add_sink(Sink::new(SinkRegion::Ball {
+        centre: Vector::new(0.0, 0.0, 0.0),
+        radius: 0.15,
+    }))
+    .unwrap();
+    f.set_capacity(Some(2000)).unwrap();
+    check_restore(w, "emitter");
+}
+
 fn check_restore(mut a: FluidWorld, name: &str) {
     let path = std::env::temp_dir().join(format!(
         "rapier-sph-snapshot-{name}-{}.bin",
