@@ -79,11 +79,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 speed_range: Some((0.0, 4.0)),
                 ..RenderOptions::default()
             };
-            let camera = Camera::framing(
-                rapier_sph::math::Vector::new(-0.2, -0.3, -0.4),
-                rapier_sph::math::Vector::new(3.9, 2.0, 0.4),
-                25.0,
-                25.0,
+            // From above the near side, looking down the course.
+            let camera = Camera::orbit(
+                rapier_sph::math::Vector::new(1.9, 0.8, 0.0),
+                5.2,
+                20.0,
+                35.0,
             );
             Some((
                 dir.clone(),
