@@ -587,8 +587,8 @@ fn relax_overlaps(
         ..crate::solver::Pbf::default()
     };
     // Overlap means denser than the fluid's own spawn lattice (what `add_block` makes): for
-    // SI presets that is ρ0 to 0.003 %; the paper's preset rests at about 11 ρ0 on its
-    // lattice and is left as the paper has it.
+    // SI presets that is ρ0 to 0.003 %; the paper's preset is at 5.5 ρ0 on its lattice and
+    // is left as the paper has it.
     let lattice_density = {
         let s = p.particle_spacing;
         let r = (h / s).ceil() as i32;
