@@ -122,6 +122,7 @@ pub mod snapshot;
 pub mod solver;
 #[cfg(feature = "surface")]
 pub mod surface;
+pub mod validation;
 pub mod world;
 
 pub use diagnostics::{Stage, StageTimings, StepReport};
