@@ -32,7 +32,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Error columns of the CSV, in order (a scene fills those it measures).
-const ERROR_COLUMNS: [&str; 8] = [
+const ERROR_COLUMNS: [&str; 11] = [
     "front_rms",
     "front_rms_t3",
     "height_rms",
@@ -41,6 +41,9 @@ const ERROR_COLUMNS: [&str; 8] = [
     "pressure_rms",
     "mean_density_error",
     "settled_max_density_error",
+    "band_rms",
+    "peak",
+    "peak_time",
 ];
 
 struct Args {
@@ -304,8 +307,26 @@ fn curve_panel(
     x_desc: &str,
     y_desc: &str,
     ritter: bool,
+    band: Option<(
+        &rapier_sph::validation::Curve,
+        &rapier_sph::validation::Curve,
+    )>,
+    x_range: Option<(f64, f64)>,
 ) -> DrawResult {
-    let x_max = reference.points.iter().map(|p| p.0).fold(0.0, f64::max) * 1.1;
+    let (x_min, x_max) = x_range.unwrap_or((
+        0.0,
+        reference.points.iter().map(|p| p.0).fold(0.0, f64::max) * 1.1,
+    ));
+    // With a band (many points), the reference is a line and the y axis is capped at 1.6×
+    // the band's top: simulated values above are drawn at the cap (said in the title).
+    let y_cap = band.map(|(_, hi)| {
+        hi.points
+            .iter()
+            .filter(|p| p.0 >= x_min && p.0 <= x_max)
+            .map(|p| p.1)
+            .fold(0.0, f64::max)
+            * 1.6
+    });
     let sims: Vec<(&RunRecord, Vec<(f64, f64)>)> = runs
         .iter()
         .filter(|r| r.policy == TimePolicy::Adaptive)
@@ -316,25 +337,32 @@ fn curve_panel(
                     c.points
                         .iter()
                         .copied()
-                        .filter(|p| p.0 <= x_max)
+                        .filter(|p| p.0 >= x_min && p.0 <= x_max)
+                        .map(|p| (p.0, y_cap.map_or(p.1, |cap| p.1.min(cap))))
                         .collect::<Vec<_>>(),
                 )
             })
         })
         .collect();
-    let y_max = reference
-        .points
-        .iter()
-        .map(|p| p.1)
-        .chain(sims.iter().flat_map(|s| s.1.iter().map(|p| p.1)))
-        .fold(0.0, f64::max)
-        * 1.1;
+    let y_max = y_cap.unwrap_or_else(|| {
+        reference
+            .points
+            .iter()
+            .map(|p| p.1)
+            .chain(sims.iter().flat_map(|s| s.1.iter().map(|p| p.1)))
+            .fold(0.0, f64::max)
+            * 1.1
+    });
+    let title = match y_cap {
+        Some(cap) => format!("{title}, values above {cap:.1} drawn at {cap:.1}"),
+        None => title.to_string(),
+    };
     let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", 18))
+        .caption(title, ("sans-serif", 16))
         .margin(8)
         .x_label_area_size(36)
         .y_label_area_size(46)
-        .build_cartesian_2d(0.0..x_max, 0.0..y_max)?;
+        .build_cartesian_2d(x_min..x_max, 0.0..y_max)?;
     chart
         .configure_mesh()
         .x_desc(x_desc)
@@ -355,6 +383,10 @@ fn curve_panel(
         let mut mine: Vec<&(&RunRecord, Vec<(f64, f64)>)> =
             sims.iter().filter(|s| s.0.method == *name).collect();
         mine.sort_by_key(|s| s.0.resolution);
+        if band.is_some() {
+            // Pressure signals are noisy: only the finest run of each solver, to stay legible.
+            mine.retain(|s| s.0.resolution == max_res);
+        }
         for s in mine {
             let shade = 0.35 + 0.65 * s.0.resolution as f64 / max_res as f64;
             let style = c
@@ -366,15 +398,32 @@ fn curve_panel(
                 .legend(move |(x, y)| PathElement::new([(x - 8, y), (x + 8, y)], style));
         }
     }
-    chart
-        .draw_series(
-            reference
-                .points
+    if let Some((lo, hi)) = band {
+        let inside = |c: &rapier_sph::validation::Curve| -> Vec<(f64, f64)> {
+            c.points
                 .iter()
-                .map(|&p| Circle::new(p, 4, BLACK.filled())),
-        )?
-        .label(reference.label.clone())
-        .legend(|(x, y)| Circle::new((x, y), 4, BLACK.filled()));
+                .copied()
+                .filter(|p| p.0 >= x_min && p.0 <= x_max)
+                .collect()
+        };
+        for c in [lo, hi] {
+            chart.draw_series(LineSeries::new(inside(c), BLACK.mix(0.35)))?;
+        }
+        chart
+            .draw_series(LineSeries::new(inside(reference), BLACK.stroke_width(2)))?
+            .label(format!("{} (grey: 2.5–97.5 % band)", reference.label))
+            .legend(|(x, y)| PathElement::new([(x - 8, y), (x + 8, y)], BLACK.stroke_width(2)));
+    } else {
+        chart
+            .draw_series(
+                reference
+                    .points
+                    .iter()
+                    .map(|&p| Circle::new(p, 4, BLACK.filled())),
+            )?
+            .label(reference.label.clone())
+            .legend(|(x, y)| Circle::new((x, y), 4, BLACK.filled()));
+    }
     chart
         .configure_series_labels()
         .position(SeriesLabelPosition::UpperLeft)
@@ -439,57 +488,89 @@ fn draw_report(
     records: &[RunRecord],
     method_names: &[&'static str],
 ) -> DrawResult {
-    let (w, h) = (2000u32, 1050u32);
+    let (w, h) = (2000u32, 1575u32);
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
         root.fill(&WHITE)?;
-        let rows = root.split_evenly((2, 4));
-        for (k, scene) in scenes.iter().enumerate().take(4) {
-            let runs: Vec<&RunRecord> =
-                records.iter().filter(|r| r.scene == scene.name()).collect();
-            error_panel(&rows[k], *scene, &runs, method_names)?;
+        // The error panels (one per scene), then the fronts, the heights and Lobovský's
+        // pressure, left to right and top to bottom.
+        let cells = root.split_evenly((3, 4));
+        let mut next = 0;
+        let runs_of = |scene: Scene| -> Vec<&RunRecord> {
+            records.iter().filter(|r| r.scene == scene.name()).collect()
+        };
+        for scene in Scene::ALL {
+            if scenes.contains(&scene) {
+                error_panel(&cells[next], scene, &runs_of(scene), method_names)?;
+                next += 1;
+            }
         }
-        let mut panel = 4;
-        let curves: [(Scene, fn() -> rapier_sph::SphResult<vdb::Case>); 3] = [
+        let cases: [(Scene, fn() -> rapier_sph::SphResult<vdb::Case>); 3] = [
             (Scene::MartinMoyceSquare, vdb::Case::martin_moyce_square),
             (Scene::MartinMoyceN2, vdb::Case::martin_moyce_n2),
             (Scene::KoshizukaOka, vdb::Case::koshizuka_oka),
         ];
-        for (scene, case) in curves {
+        let mut heights = Vec::new();
+        for (scene, case) in cases {
             if !scenes.contains(&scene) {
                 continue;
             }
             let case = case()?;
-            let runs: Vec<&RunRecord> =
-                records.iter().filter(|r| r.scene == scene.name()).collect();
             curve_panel(
-                &rows[panel],
+                &cells[next],
                 &format!("{}: surge front (adaptive runs)", scene.name()),
                 &case.front,
                 "front",
-                &runs,
+                &runs_of(scene),
                 method_names,
                 "T",
                 "Z = x/a",
                 true,
+                None,
+                None,
             )?;
-            panel += 1;
-            if scene == Scene::MartinMoyceN2
-                && let Some(hc) = &case.height
-            {
-                curve_panel(
-                    &rows[7],
-                    &format!("{}: residual height (adaptive runs)", scene.name()),
-                    hc,
-                    "height",
-                    &runs,
-                    method_names,
-                    "τ = t·sqrt(g/a)",
-                    "H = h/(2a)",
-                    false,
-                )?;
+            next += 1;
+            if let Some(hc) = case.height.clone() {
+                heights.push((scene, hc));
             }
+        }
+        for (scene, hc) in heights {
+            let (x_desc, y_desc) = if scene == Scene::MartinMoyceN2 {
+                ("τ = t·sqrt(g/a)", "H = h/(2a)")
+            } else {
+                ("T = t·sqrt(g/a)", "H = h/a")
+            };
+            curve_panel(
+                &cells[next],
+                &format!("{}: residual height (adaptive runs)", scene.name()),
+                &hc,
+                "height",
+                &runs_of(scene),
+                method_names,
+                x_desc,
+                y_desc,
+                false,
+                None,
+                None,
+            )?;
+            next += 1;
+        }
+        if scenes.contains(&Scene::Lobovsky) {
+            let data = rapier_sph::validation::lobovsky::Sensor2::load()?;
+            curve_panel(
+                &cells[next],
+                "lobovsky: sensor 2 (15 mm), adaptive runs",
+                &data.median,
+                "sensor_2",
+                &runs_of(Scene::Lobovsky),
+                method_names,
+                "T = t·sqrt(g/H)",
+                "p/(ρgH)",
+                false,
+                Some((&data.low, &data.high)),
+                Some(rapier_sph::validation::lobovsky::WINDOW),
+            )?;
         }
         root.present()?;
     }

@@ -10,7 +10,7 @@
 //! average removes the residual acoustic ringing, which a pressure gauge would also average):
 //! - `bottom_pressure`: [`crate::scenes::HydrostaticTank::bottom_pressure_error`], signed;
 //! - `pressure_rms`: [`crate::scenes::HydrostaticTank::pressure_profile_rms`];
-//! - `mean_density_error`, `max_density_error`: mean and largest compression
+//! - `mean_density_error`, `settled_max_density_error`: mean and largest compression
 //!   `max(ρ − ρ0, 0)/ρ0` over the particles (as the step report counts it).
 
 use super::{DriveSpec, Method, Metric, RunRecord, SimCurve, TimePolicy, drive};
@@ -131,7 +131,7 @@ pub fn run(
             value: avg(2),
         },
         Metric {
-            name: "max_density_error",
+            name: "settled_max_density_error",
             value: if count == 0 { f64::NAN } else { max_settled },
         },
     ];

@@ -9,6 +9,7 @@
 //! | [`Scene::MartinMoyceSquare`] | Martin & Moyce 1952, square column (n² = 1) | surge front Z(T), residual height H(T), Ritter bound |
 //! | [`Scene::MartinMoyceN2`] | Martin & Moyce 1952, column 2a tall (n² = 2) | surge front Z(T), residual height H(τ), Ritter bound |
 //! | [`Scene::KoshizukaOka`] | Koshizuka & Oka 1996, experiment | surge front Z(T), Ritter bound |
+//! | [`Scene::Lobovsky`] | Lobovský et al. 2014, sensor 2 median and band | impact pressure: RMS against the median, first peak's height and time |
 //!
 //! Every scene is built with the public API (the same [`crate::FluidWorld`],
 //! [`crate::FluidParamsBuilder::water`] preset and rapier colliders a user would use) and is
@@ -19,6 +20,7 @@
 pub mod dam_break;
 pub mod data;
 pub mod hydrostatic;
+pub mod lobovsky;
 
 use crate::fluid::FluidHandle;
 use crate::math::{Real, Vector};
@@ -165,12 +167,12 @@ impl RunRecord {
         self.errors.iter().find(|m| m.name == name).map(|m| m.value)
     }
 
-    /// The scene's primary error (the first), NaN if the run was not stable.
+    /// The magnitude of the scene's primary error (the first), NaN if the run was not stable.
     pub fn primary_error(&self) -> f64 {
         if !self.stable {
             return f64::NAN;
         }
-        self.errors.first().map_or(f64::NAN, |m| m.value)
+        self.errors.first().map_or(f64::NAN, |m| m.value.abs())
     }
 }
 
@@ -185,6 +187,8 @@ pub enum Scene {
     MartinMoyceN2,
     /// Koshizuka & Oka 1996 dam-break front, quasi-2D.
     KoshizukaOka,
+    /// Lobovský et al. 2014 impact pressure on the downstream wall, quasi-2D.
+    Lobovsky,
 }
 
 /// How thorough a sweep is: which resolutions each scene runs at.
@@ -200,11 +204,12 @@ pub enum Depth {
 
 impl Scene {
     /// All scenes, in report order.
-    pub const ALL: [Scene; 4] = [
+    pub const ALL: [Scene; 5] = [
         Scene::Hydrostatic,
         Scene::MartinMoyceSquare,
         Scene::MartinMoyceN2,
         Scene::KoshizukaOka,
+        Scene::Lobovsky,
     ];
 
     /// Name printed in reports.
@@ -214,18 +219,22 @@ impl Scene {
             Scene::MartinMoyceSquare => "martin_moyce_n2_1",
             Scene::MartinMoyceN2 => "martin_moyce_n2_2",
             Scene::KoshizukaOka => "koshizuka_oka",
+            Scene::Lobovsky => "lobovsky",
         }
     }
 
     /// The resolutions (particles across the reference length: the tank's width for the
-    /// hydrostatic tank, the column's width for the dam breaks) swept at `depth`, coarsest
-    /// first.
+    /// hydrostatic tank, the column's width for the dam breaks, the water height for
+    /// Lobovský's) swept at `depth`, coarsest first.
     pub fn resolutions(self, depth: Depth) -> Vec<usize> {
         match (self, depth) {
-            (Scene::Hydrostatic, Depth::Quick) => vec![4, 5, 6],
+            (Scene::Hydrostatic, Depth::Quick) => vec![3, 4, 5],
             (Scene::Hydrostatic, Depth::Default) => vec![6, 8, 12],
             (Scene::Hydrostatic, Depth::Full) => vec![6, 8, 12, 16],
-            (_, Depth::Quick) => vec![6, 8, 10],
+            (Scene::Lobovsky, Depth::Quick) => vec![6, 8, 10],
+            (Scene::Lobovsky, Depth::Default) => vec![10, 15, 20],
+            (Scene::Lobovsky, Depth::Full) => vec![10, 15, 20, 30, 40],
+            (_, Depth::Quick) => vec![4, 5, 6],
             (_, Depth::Default) => vec![8, 12, 16],
             (_, Depth::Full) => vec![8, 12, 16, 24, 32],
         }
@@ -240,6 +249,7 @@ impl Scene {
     pub fn primary_error_name(self) -> &'static str {
         match self {
             Scene::Hydrostatic => "bottom_pressure",
+            Scene::Lobovsky => "band_rms",
             _ => "front_rms",
         }
     }
@@ -275,6 +285,7 @@ impl Scene {
                 policy,
                 progress,
             ),
+            Scene::Lobovsky => lobovsky::run(method, resolution, policy, progress),
         }
     }
 }
