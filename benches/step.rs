@@ -7,7 +7,13 @@
 //! cargo bench --bench step                 # all cases
 //! cargo bench --bench step -- --quick      # 2,500 and 20,000 only, fewer steps
 //! cargo bench --bench step -- --preset paper
+//! cargo bench --bench step -- --salva      # only the peer-comparison scene below
 //! ```
+//!
+//! The peer-comparison scene (issue 3's speed target, salva3d's own benchmark): DFSPH with walls
+//! counting in the density, spacing 0.05 m, h = 0.1 m, fixed dt = 0.005 s, the dam break's
+//! first simulated second, reported as wall seconds per simulated second, with the solver's
+//! iterations and density error and the particles that left the tank.
 //!
 //! Each case runs 3 times (2 with `--quick`) from the same initial state; the fastest run is
 //! reported, because timing on a shared VM varies by ±25 % from run to run.
@@ -25,6 +31,10 @@ struct Case {
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let quick = args.iter().any(|a| a == "--quick");
+    if args.iter().any(|a| a == "--salva") {
+        salva_scene(quick);
+        return;
+    }
     let repeats = if quick { 2 } else { 3 };
     let paper = args
         .windows(2)
@@ -85,6 +95,81 @@ fn main() {
                 .unwrap();
             best.print(case, t);
         }
+    }
+    println!();
+    salva_scene(quick);
+}
+
+/// The peer-comparison scene (see the module docs), on 2 threads, fastest of 2 runs.
+fn salva_scene(quick: bool) {
+    use rapier_sph::{Solver, TimeStepping};
+    let counts: &[usize] = if quick {
+        &[2_500, 20_000]
+    } else {
+        &[2_500, 20_000, 64_000]
+    };
+    println!(
+        "salva3d's scene: DFSPH + wall density, spacing 0.05 m, h = 0.1 m, dt = 0.005 s fixed, first simulated second, 2 threads"
+    );
+    println!();
+    println!(
+        "| particles | wall s per simulated s | steps/s | M particle-steps/s | density iterations/step | divergence iterations/step | mean compression | escaped |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    for &n in counts {
+        let run = || {
+            let params = FluidParamsBuilder::water(0.05)
+                .solver(Solver::dfsph())
+                .wall_density(true)
+                .build()
+                .unwrap();
+            let config = DamBreakConfig::tower(params, DamBreakConfig::scale_for(n));
+            let mut scene = dam_break(&config).unwrap();
+            scene.world.pipeline.time_stepping = TimeStepping::Fixed;
+            scene.world.physics.integration_parameters.dt = 0.005;
+            scene.world.physics.step();
+            let steps = 200;
+            let (mut it, mut div, mut err) = (0u64, 0u64, 0.0f64);
+            let t0 = Instant::now();
+            for _ in 0..steps {
+                let r = scene.world.step_fluids().unwrap();
+                it += r.solver_iterations as u64;
+                div += r.divergence_iterations as u64;
+                err += r.mean_density_error as f64;
+            }
+            let wall = t0.elapsed().as_secs_f64();
+            let particles = scene.world.fluids.num_particles();
+            (
+                wall,
+                particles,
+                it,
+                div,
+                err / steps as f64,
+                scene.escaped(),
+                steps,
+            )
+        };
+        let best = (0..2)
+            .map(|_| pool.install(run))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .unwrap();
+        let (wall, particles, it, div, err, escaped, steps) = best;
+        let sps = steps as f64 / wall;
+        println!(
+            "| {} | {:.2} | {:.1} | {:.3} | {:.2} | {:.2} | {:.2} % | {} |",
+            particles,
+            wall / (steps as f64 * 0.005),
+            sps,
+            sps * particles as f64 / 1e6,
+            it as f64 / steps as f64,
+            div as f64 / steps as f64,
+            100.0 * err,
+            escaped
+        );
     }
 }
 

@@ -28,6 +28,8 @@ enum SolverArg {
     Wcsph,
     /// Divergence-free SPH (Bender & Koschier 2017).
     Dfsph,
+    /// Position-based fluids (Macklin & Müller 2013): fixed iterations, any time step.
+    Pbf,
 }
 
 #[derive(Parser, Debug)]
@@ -159,6 +161,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     match args.solver {
         Some(SolverArg::Wcsph) => builder = builder.solver(Solver::Wcsph),
         Some(SolverArg::Dfsph) => builder = builder.solver(Solver::dfsph()),
+        Some(SolverArg::Pbf) => builder = builder.solver(Solver::pbf()),
         None => {}
     }
     if args.walls {

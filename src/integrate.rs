@@ -71,6 +71,55 @@ pub fn advance_positions(
     (bad, vmax2.sqrt())
 }
 
+/// `v = (x − previous)/dt`: the velocity of position-based solvers after their position
+/// solve. Returns the number of particles whose state is not finite, and the largest speed.
+pub fn velocities_from_positions(
+    dt: Real,
+    positions: &[Vector],
+    previous: &[Vector],
+    velocities: &mut [Vector],
+) -> (usize, Real) {
+    let inv_dt = 1.0 / dt;
+    let chunks = crate::par_chunks_mut!(velocities, CHUNK)
+        .enumerate()
+        .map(|(c, v)| {
+            let base = c * CHUNK;
+            let mut bad = 0usize;
+            let mut vmax2: Real = 0.0;
+            for (k, v) in v.iter_mut().enumerate() {
+                let x = positions[base + k];
+                *v = (x - previous[base + k]) * inv_dt;
+                if !is_finite(x) || !is_finite(*v) {
+                    bad += 1;
+                } else {
+                    vmax2 = vmax2.max(v.length_squared());
+                }
+            }
+            (bad, vmax2)
+        });
+    let (bad, vmax2) = chunks.reduce_with_identity();
+    (bad, vmax2.sqrt())
+}
+
+/// `previous = x`, `x += v·dt` without any check (the prediction of position-based solvers).
+pub fn predict_positions(
+    dt: Real,
+    velocities: &[Vector],
+    positions: &mut [Vector],
+    previous: &mut [Vector],
+) {
+    crate::par_chunks_mut!(positions, CHUNK)
+        .zip(crate::par_chunks_mut!(previous, CHUNK))
+        .enumerate()
+        .for_each(|(c, (x, prev))| {
+            let base = c * CHUNK;
+            for k in 0..x.len() {
+                prev[k] = x[k];
+                x[k] += velocities[base + k] * dt;
+            }
+        });
+}
+
 /// `v += a·dt` only (the prediction step of the DFSPH solver).
 pub fn add_accelerations(dt: Real, accelerations: &[Vector], velocities: &mut [Vector]) {
     crate::par_chunks_mut!(velocities, CHUNK)

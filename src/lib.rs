@@ -121,6 +121,7 @@ pub mod scenes;
 #[cfg(feature = "snapshot")]
 pub mod snapshot;
 pub mod solver;
+pub mod stability;
 #[cfg(feature = "surface")]
 pub mod surface;
 pub mod validation;

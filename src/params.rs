@@ -178,14 +178,42 @@ impl FluidParams {
             });
         }
         non_negative("friction", self.friction)?;
+        if let Solver::Pbf(b) = &self.solver {
+            if b.iterations == 0 {
+                return Err(SphError::InvalidParameter {
+                    field: "iterations",
+                    value: 0.0,
+                    reason: "PBF needs at least one iteration",
+                });
+            }
+            non_negative("relaxation", b.relaxation)?;
+            non_negative("artificial_pressure", b.artificial_pressure)?;
+            if !(b.artificial_pressure_distance > 0.0 && b.artificial_pressure_distance < 1.0) {
+                return Err(SphError::InvalidParameter {
+                    field: "artificial_pressure_distance",
+                    value: b.artificial_pressure_distance as f64,
+                    reason: "must be a fraction of the support radius, in (0, 1)",
+                });
+            }
+            if !(1..=16).contains(&b.artificial_pressure_exponent) {
+                return Err(SphError::InvalidParameter {
+                    field: "artificial_pressure_exponent",
+                    value: b.artificial_pressure_exponent as f64,
+                    reason: "must be between 1 and 16",
+                });
+            }
+        }
         if let Solver::Dfsph(d) = &self.solver {
             positive("max_density_error", d.max_density_error)?;
             positive("max_divergence_error", d.max_divergence_error)?;
-            if d.max_iterations == 0 || d.min_iterations > d.max_iterations {
+            if d.max_iterations == 0
+                || d.min_iterations > d.max_iterations
+                || d.min_divergence_iterations > d.max_iterations
+            {
                 return Err(SphError::InvalidParameter {
                     field: "max_iterations",
                     value: d.max_iterations as f64,
-                    reason: "must be at least 1 and at least min_iterations",
+                    reason: "must be at least 1 and at least both minimum iteration counts",
                 });
             }
         }

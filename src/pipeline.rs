@@ -5,6 +5,8 @@
 //! particles ─▶ 1 neighbour search ─▶ 2 wall density ─▶ 3 density
 //!   WCSPH: ─▶ 4 pressure (EOS) ─▶ 5 pressure force ─▶ 6 viscosity ─▶ 7 gravity ─▶ 8 particle update
 //!   DFSPH: ─▶ 4 divergence solve ─▶ 5 viscosity ─▶ 6 gravity ─▶ 7 density solve ─▶ 8 particle update
+//!   PBF:   (gravity and position prediction before 1) ─▶ 7 position solve ─▶ 8 velocity update
+//!          ─▶ 6 viscosity
 //!        ─▶ 9 collider contact
 //! ```
 //!
@@ -38,7 +40,9 @@ pub enum TimeStepping {
     /// - every solver: `dt ≤ courant · spacing / (v_max + |g|·dt)` (a particle moves at
     ///   most `courant` spacings per substep), and the explicit viscosity limit
     ///   `dt ≤ ρ0·h²/(30·ε)`;
-    /// - WCSPH also the acoustic limit `dt ≤ courant · h / (c + v_max)`.
+    /// - WCSPH also the acoustic limit `dt ≤ courant · h / (c + v_max)`;
+    /// - DFSPH under gravity also `g·dt² ≤ 5·max_density_error·spacing`: gravity's
+    ///   compression within one substep stays a few times the solve's error target.
     ///
     /// The frame is split into equal substeps that meet the limits; at most `max_substeps`
     /// of them. When the cap binds the substeps are longer than the limits ask and the report
@@ -255,9 +259,21 @@ fn stable_time_step(fluid: &Fluid, gravity: Vector, courant: Real, remaining: Re
         let h = p.smoothing_length;
         limit = limit.min(p.rest_density * h * h / (30.0 * p.viscosity));
     }
-    if p.solver == Solver::Wcsph {
-        let c = p.equation_of_state.speed_of_sound();
-        limit = limit.min(courant * p.smoothing_length / (c + v));
+    match p.solver {
+        Solver::Wcsph => {
+            let c = p.equation_of_state.speed_of_sound();
+            limit = limit.min(courant * p.smoothing_length / (c + v));
+        }
+        Solver::Dfsph(d) if g > 0.0 => {
+            // The density solve undoes, every substep, the compression that gravity makes in
+            // it (a displacement of about g·dt²). Keeping that displacement within
+            // 5·max_density_error spacings keeps the work per substep a few times the error
+            // the solve is asked to reach; without it a fluid at rest takes CFL substeps of
+            // ~30 ms (nothing moves yet), far outside the solve's linearisation. At the
+            // default 0.1 % target this is 5 ms for 5 cm particles and 3.2 ms for 2 cm.
+            limit = limit.min((5.0 * d.max_density_error * s / g).sqrt());
+        }
+        Solver::Dfsph(_) | Solver::Pbf(_) => {}
     }
     limit.min(remaining)
 }
@@ -286,7 +302,11 @@ fn step_fluid(
     let h = p.smoothing_length;
     let dfsph_settings = match p.solver {
         Solver::Dfsph(d) => Some(d),
-        Solver::Wcsph => None,
+        _ => None,
+    };
+    let pbf_settings = match p.solver {
+        Solver::Pbf(b) => Some(b),
+        _ => None,
     };
     let Fluid {
         positions,
@@ -301,6 +321,21 @@ fn step_fluid(
         ..
     } = fluid;
 
+    // 0. PBF predicts first (gravity, then positions) and searches neighbours at the
+    //    predicted positions (Macklin & Müller 2013, Alg. 1 lines 2–4).
+    if pbf_settings.is_some() {
+        ws.previous_positions.resize(n, Vector::ZERO);
+        if gravity != Vector::ZERO {
+            timed(report, Stage::ExternalForces, || {
+                accelerations.fill(gravity);
+                integrate::add_accelerations(dt, accelerations, velocities);
+            });
+        }
+        timed(report, Stage::ParticleUpdate, || {
+            integrate::predict_positions(dt, velocities, positions, &mut ws.previous_positions)
+        });
+    }
+
     // 1. Neighbour search: sort by cell (every per-particle array follows), cells, lists.
     timed(report, Stage::NeighbourSearch, || {
         if ws.grid.sort(positions, h) {
@@ -312,6 +347,9 @@ fn step_fluid(
                 par::permute(warm_density, &mut ws.scratch_reals, perm);
                 par::permute(warm_divergence, &mut ws.scratch_reals, perm);
             }
+            if pbf_settings.is_some() {
+                par::permute(&mut ws.previous_positions, &mut ws.scratch_vectors, perm);
+            }
         }
         ws.grid.build_cells();
         ws.neighbors.build(&ws.grid, positions, h);
@@ -319,10 +357,10 @@ fn step_fluid(
     report.neighbour_pairs += ws.neighbors.total_pairs();
 
     // 2. Wall density: colliders within the kernel support count in the density.
-    let force_kernel = if dfsph_settings.is_some() {
-        p.density_kernel
-    } else {
+    let force_kernel = if p.solver == Solver::Wcsph {
         p.pressure_kernel
+    } else {
+        p.density_kernel
     };
     match colliders {
         Some((bvh, colliders, bodies)) if p.wall_density => {
@@ -351,8 +389,21 @@ fn step_fluid(
 
     ws.inv_densities.resize(n, 0.0);
     ws.previous_positions.resize(n, Vector::ZERO);
-    let (non_finite, max_speed) = match dfsph_settings {
-        None => step_wcsph(
+    let (non_finite, max_speed) = match (dfsph_settings, pbf_settings) {
+        (_, Some(settings)) => step_pbf(
+            &p,
+            &settings,
+            dt,
+            wall,
+            positions,
+            velocities,
+            accelerations,
+            densities,
+            pressures,
+            ws,
+            report,
+        ),
+        (None, None) => step_wcsph(
             &p,
             gravity,
             dt,
@@ -365,7 +416,7 @@ fn step_fluid(
             ws,
             report,
         ),
-        Some(settings) => step_dfsph(
+        (Some(settings), None) => step_dfsph(
             &p,
             &settings,
             gravity,
@@ -599,16 +650,88 @@ fn step_dfsph(
     report.solver_iterations += stats.iterations;
     report.solver_density_error = report.solver_density_error.max(stats.error);
     report.solver_capped += stats.capped as u32;
-    for ((pr, &w), &rho) in pressures
+    // The pressure reported is all the pressure the step applied: the constant-density and
+    // the divergence solves' values (both are `π = p/ρ²` applied over the same `dt`).
+    for (((pr, &w), &wv), &rho) in pressures
         .iter_mut()
         .zip(warm_density.iter())
+        .zip(warm_divergence.iter())
         .zip(ctx.densities)
     {
-        *pr = w * rho * rho;
+        *pr = (w + wv) * rho * rho;
     }
 
     // 8. Particle update: the velocities are final; move.
     timed(report, Stage::ParticleUpdate, || {
         integrate::advance_positions(dt, velocities, positions, &mut ws.previous_positions)
     })
+}
+
+/// Stages 3–8 of PBF (see [`crate::solver::pbf`]); gravity and the position prediction ran
+/// before the neighbour search. Returns `(non-finite count, max speed)`.
+#[allow(clippy::too_many_arguments)]
+fn step_pbf(
+    p: &crate::FluidParams,
+    settings: &crate::solver::Pbf,
+    dt: Real,
+    wall: Option<&crate::boundary::WallWorkspace>,
+    positions: &mut [Vector],
+    velocities: &mut [Vector],
+    accelerations: &mut [Vector],
+    densities: &mut [Real],
+    pressures: &mut [Real],
+    ws: &mut crate::fluid::Workspace,
+    report: &mut StepReport,
+) -> (usize, Real) {
+    let h = p.smoothing_length;
+    let ctx = crate::solver::pbf::PbfContext {
+        neighbors: &ws.neighbors,
+        wall,
+        mass: p.particle_mass,
+        h,
+        spacing: p.particle_spacing,
+        rest_density: p.rest_density,
+    };
+    // 3–5. The position solve (densities are measured in its first pass).
+    let stats = timed(report, Stage::DensitySolve, || {
+        crate::with_kernel!(p.density_kernel, K => crate::solver::pbf::solve::<K>(
+            &ctx, settings, &mut ws.pbf, positions, densities, &mut ws.inv_densities))
+    });
+    report.solver_iterations += stats.iterations;
+    report.solver_density_error = report.solver_density_error.max(stats.error);
+    // The pressure the corrections stand for: Δx = dt²·a with a = −Σ m (π_i + π_j) ∇W gives
+    // π = −Σλ/(ρ0·dt²).
+    let scale = -1.0 / (p.rest_density * dt * dt);
+    for ((pr, &l), &rho) in pressures
+        .iter_mut()
+        .zip(ws.pbf.lambda_sum.iter())
+        .zip(densities.iter())
+    {
+        *pr = l * scale * rho * rho;
+    }
+
+    // 8. Velocities from the corrected positions.
+    let (mut non_finite, mut max_speed) = timed(report, Stage::ParticleUpdate, || {
+        integrate::velocities_from_positions(dt, positions, &ws.previous_positions, velocities)
+    });
+
+    // 6. Viscosity on the new velocities (the paper's XSPH role).
+    if p.viscosity > 0.0 {
+        timed(report, Stage::ViscosityForce, || {
+            accelerations.fill(Vector::ZERO);
+            forces::viscosity::add_accelerations(
+                positions,
+                velocities,
+                &ws.inv_densities,
+                &ws.neighbors,
+                p.particle_mass,
+                p.viscosity,
+                h,
+                accelerations,
+            );
+            integrate::add_accelerations(dt, accelerations, velocities);
+        });
+        (non_finite, max_speed) = integrate::scan(positions, velocities);
+    }
+    (non_finite, max_speed)
 }

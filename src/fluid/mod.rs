@@ -23,6 +23,8 @@ pub(crate) struct Workspace {
     pub wall: WallWorkspace,
     /// DFSPH factors and iteration buffers.
     pub dfsph: DfsphBuffers,
+    /// PBF iteration buffers.
+    pub pbf: crate::solver::pbf::PbfBuffers,
     /// Kernel gradients of every neighbour pair (DFSPH computes them once per substep).
     pub gradients: crate::solver::pairs::PairGradients,
     pub scratch_reals: Vec<Real>,
@@ -331,6 +333,7 @@ impl Fluid {
             + ws.wall.heap_bytes()
             + ws.dfsph.heap_bytes()
             + ws.gradients.heap_bytes()
+            + ws.pbf.heap_bytes()
             + ws.scratch_reals.capacity() * 4
             + ws.grid.heap_bytes()
             + ws.neighbors.heap_bytes()

@@ -5,12 +5,15 @@
 //! | solver | idea | cost per step | use it for |
 //! |---|---|---|---|
 //! | [`Solver::Wcsph`] | pressure from an equation of state (Müller et al. 2003; the Unity paper) | 3 neighbour passes, small time steps (`dt ≤ 0.4·h/c`) | reproducing the paper |
-//! | [`Solver::Dfsph`] | pressure solved for: divergence-free and constant-density (Bender & Koschier 2017) | 1 + 2 per iteration, large time steps | accuracy (the default of the water preset) |
+//! | [`Solver::Dfsph`] | pressure solved for: divergence-free and constant-density (Bender & Koschier 2017) | 1 + 2 per iteration, large time steps | accuracy |
+//! | [`Solver::Pbf`] | incompressibility as a position constraint, a fixed number of Jacobi iterations (Macklin & Müller 2013) | 2 per iteration (default 4 iterations) + viscosity, any time step | games: fixed cost, never diverges |
 
 pub mod dfsph;
 pub(crate) mod pairs;
+pub mod pbf;
 
 pub use dfsph::Dfsph;
+pub use pbf::Pbf;
 
 /// Which pressure solver a fluid uses.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -21,6 +24,8 @@ pub enum Solver {
     Wcsph,
     /// Divergence-free SPH with the given settings.
     Dfsph(Dfsph),
+    /// Position-based fluids with the given settings.
+    Pbf(Pbf),
 }
 
 impl Solver {
@@ -29,11 +34,17 @@ impl Solver {
         match self {
             Solver::Wcsph => "WCSPH",
             Solver::Dfsph(_) => "DFSPH",
+            Solver::Pbf(_) => "PBF",
         }
     }
 
     /// DFSPH with default settings (0.1 % density error, 1 % divergence error).
     pub fn dfsph() -> Self {
         Solver::Dfsph(Dfsph::default())
+    }
+
+    /// PBF with default settings (4 iterations, artificial pressure k = 0.1, n = 4, Δq = 0.2h).
+    pub fn pbf() -> Self {
+        Solver::Pbf(Pbf::default())
     }
 }

@@ -1,0 +1,707 @@
+//! The stability suite: named stiff and extreme cases, each run with every solver that supports
+//! it, each judged by the same verdict. Shared by `examples/stability.rs` (the whole table) and
+//! `tests/stability.rs` (the quick subset), built with the public API only.
+//!
+//! **Verdict** of a run: it passes when
+//! - no particle became NaN/inf (none quarantined, none reported non-finite),
+//! - no particle left the closed container or crossed a wall (each case says what "escaped"
+//!   means for it),
+//! - no particle was lost (the count is conserved: nothing here creates or drains particles),
+//! - the kinetic energy never exceeds the initial energy by more than 5 %: at every frame
+//!   `KE(t) ≤ 1.05·(PE0 + KE0)`, with the gravitational potential energy measured from the
+//!   container's floor. The containers are closed and nothing moves in them, so nothing works
+//!   on the fluid: motion can only come from falling. (A case that starts compressed —
+//!   overlapping spawn, particles inside a solid — holds energy this does not count; a method
+//!   that turns the overlap into violent motion fails, as it should for a game.)
+//! - and a solver with an error target met it: DFSPH ended no solve at its iteration cap.
+//!   (WCSPH and PBF have no density target; their density error is reported only.)
+//!
+//! Cases (the numbering): 1 the paper's stiffness sweep, 2 the paper's rest-density
+//! change, 3 particle counts, 4 whole frames at the stiffest settings, 5 very high viscosity,
+//! 6 overlapping spawns, 7 a body immersed at start, 8 a 30 m/s jet into a 2 mm plate and into
+//! a zero-thickness triangle mesh, 9 a fluid 10 km from the origin and one spread over a square
+//! kilometre, 10 the same column in tanks of several lengths.
+
+use crate::math::{Real, Vector};
+use crate::params::{FluidParams, FluidParamsBuilder};
+use crate::pipeline::TimeStepping;
+use crate::scenes::{DamBreak, DamBreakConfig, add_closed_box, dam_break};
+use crate::solver::{Dfsph, Pbf, Solver};
+use crate::world::FluidWorld;
+use crate::{Fluid, FluidHandle, SphResult};
+use rapier3d::prelude::{ColliderBuilder, RigidBodyBuilder};
+use std::time::Instant;
+
+/// How big the cases are.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum SuiteSize {
+    /// A few hundred to a few thousand particles, short runs: the subset `cargo test` runs.
+    Quick,
+    /// The sizes (4,000, 20,000 and 100,000 particles, whole seconds).
+    Full,
+}
+
+/// The solvers the suite runs (each case says which of them it supports).
+pub fn solvers() -> [Solver; 3] {
+    [Solver::Wcsph, Solver::dfsph(), Solver::pbf()]
+}
+
+/// One named case.
+#[derive(Copy, Clone, Debug)]
+pub struct Case {
+    /// Short name, as printed in the table.
+    pub name: &'static str,
+    /// What it checks.
+    pub description: &'static str,
+    /// Part of the quick subset.
+    pub quick: bool,
+    build: fn(&Solver, SuiteSize) -> Option<SphResult<Setup>>,
+}
+
+/// What a run measured, and its verdict.
+#[derive(Clone, Debug)]
+pub struct CaseResult {
+    /// Case name.
+    pub case: &'static str,
+    /// Solver name.
+    pub solver: &'static str,
+    /// Particles at the start.
+    pub particles: usize,
+    /// Frames stepped and substeps taken.
+    pub frames: usize,
+    /// Substeps over all frames.
+    pub steps: u64,
+    /// Largest particle speed seen (m/s).
+    pub max_speed: Real,
+    /// Largest relative compression seen at any particle (`max(ρ−ρ0, 0)/ρ0`).
+    pub max_density_error: Real,
+    /// Largest average compression a step ended with (the solvers' own error measure).
+    pub mean_density_error: Real,
+    /// `max_t KE(t)/(PE0 + KE0)`: the largest kinetic energy against the initial energy
+    /// (the verdict allows 1.05).
+    pub energy_ratio: f64,
+    /// Particles that escaped (the case's own definition), at the worst frame.
+    pub escaped: usize,
+    /// Particles that became NaN/inf (quarantined or reported non-finite).
+    pub non_finite: usize,
+    /// Particles lost (initial count minus final count, minus quarantined).
+    pub lost: usize,
+    /// DFSPH solves ended by the iteration cap.
+    pub capped: u32,
+    /// Substep-cap hits (the frame was longer than the stable limit allowed).
+    pub substep_cap_hits: u32,
+    /// Wall time of the run (s).
+    pub wall_time: f64,
+    /// `None` when the run passed, else why it failed.
+    pub failure: Option<String>,
+}
+
+impl CaseResult {
+    /// `true` when the verdict is a pass.
+    pub fn passed(&self) -> bool {
+        self.failure.is_none()
+    }
+}
+
+/// A built case, ready to step.
+struct Setup {
+    world: FluidWorld,
+    fluid: FluidHandle,
+    frames: usize,
+    /// Floor height for the potential energy.
+    floor: Real,
+    /// Particles that escaped, for the current state.
+    escaped: Box<dyn Fn(&Fluid) -> usize>,
+    /// Something to do before a given frame (the rest-density change).
+    event: Option<(usize, Box<dyn Fn(&mut Fluid) -> SphResult<()>>)>,
+}
+
+/// Every case.
+pub fn cases() -> Vec<Case> {
+    vec![
+        Case {
+            name: "1 stiffness k=3",
+            description: "the paper's 2,500-particle dam break, its stiffness",
+            quick: true,
+            build: |s, z| stiffness(s, z, 3.0),
+        },
+        Case {
+            name: "1 stiffness k=30",
+            description: "10x the paper's stiffness",
+            quick: false,
+            build: |s, z| stiffness(s, z, 30.0),
+        },
+        Case {
+            name: "1 stiffness k=300",
+            description: "100x the paper's stiffness",
+            quick: false,
+            build: |s, z| stiffness(s, z, 300.0),
+        },
+        Case {
+            name: "1 stiffness k=3000",
+            description: "1000x the paper's stiffness",
+            quick: true,
+            build: |s, z| stiffness(s, z, 3000.0),
+        },
+        Case {
+            name: "2 rest density 8->200",
+            description: "the paper's Figure 8: rest density raised 25x mid-run",
+            quick: true,
+            build: rest_density_change,
+        },
+        Case {
+            name: "3 particles 4k",
+            description: "4,000 particles (the paper went unstable above 4,000)",
+            quick: true,
+            build: |s, z| count(s, z, 4_000),
+        },
+        Case {
+            name: "3 particles 20k",
+            description: "20,000 particles",
+            quick: false,
+            build: |s, z| count(s, z, 20_000),
+        },
+        Case {
+            name: "3 particles 100k",
+            description: "100,000 particles",
+            quick: false,
+            build: |s, z| count(s, z, 100_000),
+        },
+        Case {
+            name: "4 frame 1/30 stiffest",
+            description: "whole 1/30 s frames passed to step, stiffest settings",
+            quick: true,
+            build: stiffest_frames,
+        },
+        Case {
+            name: "5 viscosity x1000",
+            description: "viscosity 1000x the water preset's",
+            quick: true,
+            build: high_viscosity,
+        },
+        Case {
+            name: "6 spawn at half spacing",
+            description: "a block sampled at half the spacing (8x the rest density)",
+            quick: true,
+            build: half_spacing,
+        },
+        Case {
+            name: "6 spawn at one point",
+            description: "500 particles at one point",
+            quick: true,
+            build: one_point,
+        },
+        Case {
+            name: "7 body immersed",
+            description: "particles spawned inside a ball collider",
+            quick: true,
+            build: immersed,
+        },
+        Case {
+            name: "8 jet into 2 mm plate",
+            description: "a 30 m/s jet into a 2 mm thick plate",
+            quick: true,
+            build: |s, z| jet(s, z, false),
+        },
+        Case {
+            name: "8 jet into trimesh",
+            description: "a 30 m/s jet into a zero-thickness triangle mesh",
+            quick: true,
+            build: |s, z| jet(s, z, true),
+        },
+        Case {
+            name: "9 far from origin",
+            description: "a dam break 10 km from the origin",
+            quick: true,
+            build: far_away,
+        },
+        Case {
+            name: "9 spread over 1 km2",
+            description: "particles scattered over a square kilometre",
+            quick: true,
+            build: spread,
+        },
+        Case {
+            name: "10 tank length 1.5",
+            description: "the column in a tank 1.5 column widths long",
+            quick: false,
+            build: |s, z| tank_length(s, z, 1.5),
+        },
+        Case {
+            name: "10 tank length 4",
+            description: "the column in a tank 4 column widths long",
+            quick: true,
+            build: |s, z| tank_length(s, z, 4.0),
+        },
+        Case {
+            name: "10 tank length 10",
+            description: "the column in a tank 10 column widths long",
+            quick: false,
+            build: |s, z| tank_length(s, z, 10.0),
+        },
+    ]
+}
+
+/// Runs `case` with `solver`. `None` when the solver does not support the case.
+pub fn run(case: &Case, solver: &Solver, size: SuiteSize) -> Option<SphResult<CaseResult>> {
+    let setup = (case.build)(solver, size)?;
+    Some(setup.and_then(|s| execute(case.name, solver, s)))
+}
+
+fn potential_energy(fluid: &Fluid, floor: Real, g: Real) -> f64 {
+    let m = fluid.params().particle_mass as f64;
+    fluid
+        .positions()
+        .iter()
+        .map(|x| m * g as f64 * (x.y - floor) as f64)
+        .sum()
+}
+
+fn execute(case: &'static str, solver: &Solver, mut s: Setup) -> SphResult<CaseResult> {
+    let t0 = Instant::now();
+    let g = s.world.physics.gravity.length();
+    let n0 = s.world.fluids[s.fluid].len();
+    let f0 = &s.world.fluids[s.fluid];
+    let e0 = potential_energy(f0, s.floor, g) + f0.kinetic_energy();
+    let mut r = CaseResult {
+        case,
+        solver: solver.name(),
+        particles: n0,
+        frames: s.frames,
+        steps: 0,
+        max_speed: 0.0,
+        max_density_error: 0.0,
+        mean_density_error: 0.0,
+        energy_ratio: 0.0,
+        escaped: 0,
+        non_finite: 0,
+        lost: 0,
+        capped: 0,
+        substep_cap_hits: 0,
+        wall_time: 0.0,
+        failure: None,
+    };
+    for frame in 0..s.frames {
+        if let Some((at, event)) = &s.event {
+            if *at == frame {
+                event(&mut s.world.fluids[s.fluid])?;
+            }
+        }
+        let rep = s.world.step()?.clone();
+        r.steps += rep.substeps as u64;
+        r.max_speed = r.max_speed.max(rep.max_speed);
+        r.max_density_error = r.max_density_error.max(rep.max_density_error);
+        r.mean_density_error = r.mean_density_error.max(rep.solver_density_error);
+        r.non_finite += rep.quarantined.max(rep.non_finite);
+        r.capped += rep.solver_capped;
+        r.substep_cap_hits += rep.substep_cap_hit as u32;
+        let f = &s.world.fluids[s.fluid];
+        r.escaped = r.escaped.max((s.escaped)(f));
+        let ke = f.kinetic_energy();
+        let ratio = if ke.is_finite() && e0 > 0.0 {
+            ke / e0
+        } else {
+            f64::INFINITY
+        };
+        r.energy_ratio = r.energy_ratio.max(ratio);
+    }
+    let f = &s.world.fluids[s.fluid];
+    r.lost = n0.saturating_sub(f.len() + f.quarantined());
+    r.wall_time = t0.elapsed().as_secs_f64();
+    let mut why = Vec::new();
+    if r.non_finite > 0 {
+        why.push(format!("{} NaN/inf", r.non_finite));
+    }
+    if r.escaped > 0 {
+        why.push(format!("{} escaped", r.escaped));
+    }
+    if r.lost > 0 {
+        why.push(format!("{} lost", r.lost));
+    }
+    if r.energy_ratio > 1.05 {
+        why.push(format!("KE {:.3e} x the initial energy", r.energy_ratio));
+    }
+    if r.capped > 0 {
+        why.push(format!("{} solves capped", r.capped));
+    }
+    if !why.is_empty() {
+        r.failure = Some(why.join(", "));
+    }
+    Ok(r)
+}
+
+/// Particles outside the dam break's tank.
+fn tank_escape(d: &DamBreak) -> Box<dyn Fn(&Fluid) -> usize> {
+    let (min, max) = (d.tank_min, d.tank_max);
+    let eps = 1e-4 * (max - min).max_element();
+    Box::new(move |f: &Fluid| {
+        f.positions()
+            .iter()
+            .filter(|p| {
+                !(p.cmpge(min - Vector::splat(eps)).all()
+                    && p.cmple(max + Vector::splat(eps)).all())
+            })
+            .count()
+    })
+}
+
+fn from_dam_break(d: DamBreak, frames: usize, frame_dt: Real) -> Setup {
+    let escaped = tank_escape(&d);
+    let mut world = d.world;
+    world.physics.integration_parameters.dt = frame_dt;
+    Setup {
+        floor: d.tank_min.y,
+        fluid: d.fluid,
+        world,
+        frames,
+        escaped,
+        event: None,
+    }
+}
+
+fn water(solver: &Solver, spacing: Real) -> FluidParamsBuilder {
+    FluidParamsBuilder::water(spacing)
+        .solver(*solver)
+        .wall_density(*solver != Solver::Wcsph)
+}
+
+fn water_dam_break(
+    params: FluidParams,
+    particles: usize,
+    seconds: Real,
+    length_ratio: Real,
+) -> SphResult<Setup> {
+    let mut config = DamBreakConfig::tower(params, DamBreakConfig::scale_for(particles));
+    config.tank_length_ratio = length_ratio;
+    let d = dam_break(&config)?;
+    let frame_dt = 1.0 / 60.0;
+    Ok(from_dam_break(
+        d,
+        (seconds / frame_dt).round() as usize,
+        frame_dt,
+    ))
+}
+
+fn seconds(size: SuiteSize, quick: Real, full: Real) -> Real {
+    match size {
+        SuiteSize::Quick => quick,
+        SuiteSize::Full => full,
+    }
+}
+
+fn stiffness(solver: &Solver, size: SuiteSize, k: Real) -> Option<SphResult<Setup>> {
+    // The stiffness belongs to WCSPH's equation of state; the incompressible solvers have none.
+    if *solver != Solver::Wcsph {
+        return None;
+    }
+    Some((|| {
+        let params = FluidParamsBuilder::paper().stiffness(k).build()?;
+        let d = dam_break(&DamBreakConfig::tower(params, 1.0))?;
+        Ok(from_dam_break(
+            d,
+            (seconds(size, 1.0, 4.0) * 60.0) as usize,
+            1.0 / 60.0,
+        ))
+    })())
+}
+
+fn rest_density_change(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>> {
+    // The paper's experiment is about its equation of state.
+    if *solver != Solver::Wcsph {
+        return None;
+    }
+    Some((|| {
+        let params = FluidParamsBuilder::paper().build()?;
+        let d = dam_break(&DamBreakConfig::tower(params.clone(), 1.0))?;
+        let frames = (seconds(size, 1.5, 4.0) * 60.0) as usize;
+        let mut s = from_dam_break(d, frames, 1.0 / 60.0);
+        let mut changed = params;
+        changed.rest_density = 200.0;
+        s.event = Some((
+            frames / 3,
+            Box::new(move |f: &mut Fluid| f.set_params(changed.clone())),
+        ));
+        Ok(s)
+    })())
+}
+
+fn count(solver: &Solver, size: SuiteSize, n: usize) -> Option<SphResult<Setup>> {
+    let secs = match (size, n) {
+        (SuiteSize::Quick, _) => 0.5,
+        (SuiteSize::Full, n) if n >= 100_000 => 1.0,
+        (SuiteSize::Full, _) => 2.0,
+    };
+    Some((|| {
+        water_dam_break(water(solver, 0.05).build()?, n, secs, 4.0)
+    })())
+}
+
+fn stiffest_frames(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>> {
+    Some((|| {
+        let b = match solver {
+            // 10x the preset's speed of sound: 100x its stiffness.
+            Solver::Wcsph => {
+                FluidParamsBuilder::water(0.05).equation_of_state(crate::EquationOfState::Tait {
+                    speed_of_sound: 300.0,
+                    exponent: 7.0,
+                })
+            }
+            Solver::Dfsph(_) => water(solver, 0.05).solver(Solver::Dfsph(Dfsph {
+                max_density_error: 1e-4,
+                max_divergence_error: 1e-3,
+                ..Dfsph::default()
+            })),
+            Solver::Pbf(_) => water(solver, 0.05).solver(Solver::Pbf(Pbf {
+                iterations: 10,
+                relaxation: 1e-3,
+                ..Pbf::default()
+            })),
+        };
+        let n = if size == SuiteSize::Quick {
+            1_500
+        } else {
+            4_000
+        };
+        let mut s = water_dam_break(b.build()?, n, seconds(size, 1.0, 2.0), 4.0)?;
+        s.world.physics.integration_parameters.dt = 1.0 / 30.0;
+        s.frames /= 2;
+        s.world.pipeline.time_stepping = TimeStepping::default();
+        Ok(s)
+    })())
+}
+
+fn high_viscosity(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>> {
+    Some((|| {
+        let params = water(solver, 0.05).viscosity(500.0).build()?;
+        let n = if size == SuiteSize::Quick {
+            1_500
+        } else {
+            4_000
+        };
+        water_dam_break(params, n, seconds(size, 0.5, 2.0), 4.0)
+    })())
+}
+
+/// A closed box with one fluid in it, stepped in 1/60 s frames.
+fn boxed(
+    params: FluidParams,
+    min: Vector,
+    max: Vector,
+    positions: &[Vector],
+    velocities: Option<&[Vector]>,
+    frames: usize,
+) -> SphResult<Setup> {
+    let mut world = FluidWorld::new();
+    add_closed_box(&mut world, min, max, 0.1);
+    let mut fluid = Fluid::new(params)?;
+    fluid.add_particles_with_velocities(positions, velocities)?;
+    let fluid = world.fluids.insert(fluid);
+    let eps = 1e-4 * (max - min).max_element();
+    Ok(Setup {
+        world,
+        fluid,
+        frames,
+        floor: min.y,
+        escaped: Box::new(move |f: &Fluid| {
+            f.positions()
+                .iter()
+                .filter(|p| {
+                    !(p.cmpge(min - Vector::splat(eps)).all()
+                        && p.cmple(max + Vector::splat(eps)).all())
+                })
+                .count()
+        }),
+        event: None,
+    })
+}
+
+fn half_spacing(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>> {
+    Some((|| {
+        let s = 0.05;
+        let params = water(solver, s).build()?;
+        let k = if size == SuiteSize::Quick { 10 } else { 20 };
+        let pos = crate::fluid::lattice(Vector::splat(0.2), k, k, k, 0.5 * s);
+        let frames = (seconds(size, 0.5, 2.0) * 60.0) as usize;
+        boxed(
+            params,
+            Vector::ZERO,
+            Vector::new(2.0, 2.0, 1.0),
+            &pos,
+            None,
+            frames,
+        )
+    })())
+}
+
+fn one_point(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>> {
+    Some((|| {
+        let params = water(solver, 0.05).build()?;
+        let pos = vec![Vector::new(0.5, 0.5, 0.5); 500];
+        let frames = (seconds(size, 0.5, 2.0) * 60.0) as usize;
+        boxed(
+            params,
+            Vector::ZERO,
+            Vector::new(1.0, 1.0, 1.0),
+            &pos,
+            None,
+            frames,
+        )
+    })())
+}
+
+fn immersed(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>> {
+    Some((|| {
+        let s = 0.05;
+        let params = water(solver, s).build()?;
+        let k = if size == SuiteSize::Quick { 12 } else { 20 };
+        let side = k as Real * s;
+        let pos = crate::fluid::lattice(Vector::splat(0.5 * s), k, k, k, s);
+        let frames = (seconds(size, 0.5, 2.0) * 60.0) as usize;
+        let mut setup = boxed(
+            params,
+            Vector::ZERO,
+            Vector::new(side, 2.0 * side, side),
+            &pos,
+            None,
+            frames,
+        )?;
+        // A ball in the middle of the block: the particles inside it start in a solid.
+        let centre = Vector::splat(0.5 * side);
+        let radius = 0.25 * side;
+        let body = setup.world.physics.insert_body(RigidBodyBuilder::fixed());
+        setup.world.physics.insert_collider(
+            ColliderBuilder::ball(radius).translation(centre),
+            Some(body),
+        );
+        let (lo, hi) = (Vector::ZERO, Vector::new(side, 2.0 * side, side));
+        let eps = 1e-4 * side;
+        setup.escaped = Box::new(move |f: &Fluid| {
+            f.positions()
+                .iter()
+                .filter(|p| {
+                    // Outside the box, or still inside the ball after the first frame.
+                    !(p.cmpge(lo - Vector::splat(eps)).all()
+                        && p.cmple(hi + Vector::splat(eps)).all())
+                        || (**p - centre).length() < radius - eps
+                })
+                .count()
+        });
+        Ok(setup)
+    })())
+}
+
+fn jet(solver: &Solver, size: SuiteSize, trimesh: bool) -> Option<SphResult<Setup>> {
+    Some((|| {
+        let s = 0.02;
+        // A column of fluid flying at 30 m/s along +x at a wall at x = 0.6: a 2 mm plate or a
+        // zero-thickness square of two triangles. Nothing may reach x > 0.6.
+        let params = water(solver, s).build()?;
+        let k = if size == SuiteSize::Quick { 6 } else { 12 };
+        let pos = crate::fluid::lattice(Vector::new(0.1, 0.4, 0.4), 3 * k, k, k, s);
+        let vel = vec![Vector::new(30.0, 0.0, 0.0); pos.len()];
+        let frames = (seconds(size, 0.25, 1.0) * 60.0) as usize;
+        let (min, max) = (Vector::ZERO, Vector::new(1.2, 1.2, 1.2));
+        let mut setup = boxed(params, min, max, &pos, Some(&vel), frames)?;
+        let body = setup.world.physics.insert_body(RigidBodyBuilder::fixed());
+        let plate_x = 0.6;
+        let collider = if trimesh {
+            let v = [
+                Vector::new(plate_x, 0.0, 0.0),
+                Vector::new(plate_x, 1.2, 0.0),
+                Vector::new(plate_x, 1.2, 1.2),
+                Vector::new(plate_x, 0.0, 1.2),
+            ];
+            ColliderBuilder::trimesh(v.to_vec(), vec![[0, 1, 2], [0, 2, 3]]).map_err(|_| {
+                crate::SphError::InvalidParameter {
+                    field: "trimesh",
+                    value: 0.0,
+                    reason: "the plate mesh was refused by parry",
+                }
+            })?
+        } else {
+            ColliderBuilder::cuboid(0.001, 0.6, 0.6).translation(Vector::new(
+                plate_x + 0.001,
+                0.6,
+                0.6,
+            ))
+        };
+        setup.world.physics.insert_collider(collider, Some(body));
+        let eps = 1e-4;
+        setup.escaped = Box::new(move |f: &Fluid| {
+            f.positions()
+                .iter()
+                .filter(|p| {
+                    p.x > plate_x + eps
+                        || !(p.cmpge(min - Vector::splat(eps)).all()
+                            && p.cmple(max + Vector::splat(eps)).all())
+                })
+                .count()
+        });
+        Ok(setup)
+    })())
+}
+
+fn far_away(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>> {
+    Some((|| {
+        // The dam break translated by 10 km along every axis. f32 positions there resolve
+        // about 1 mm, a fiftieth of the spacing.
+        let params = water(solver, 0.05).build()?;
+        let n = if size == SuiteSize::Quick {
+            1_000
+        } else {
+            4_000
+        };
+        let mut config = DamBreakConfig::tower(params, DamBreakConfig::scale_for(n));
+        config.tank_length_ratio = 4.0;
+        let offset = Vector::splat(10_000.0);
+        let d = dam_break(&config)?;
+        let (tmin, tmax) = (d.tank_min + offset, d.tank_max + offset);
+        let f = &d.world.fluids[d.fluid];
+        let pos: Vec<Vector> = f.positions().iter().map(|p| *p + offset).collect();
+        let params = f.params().clone();
+        let frames = (seconds(size, 0.5, 2.0) * 60.0) as usize;
+        boxed(params, tmin, tmax, &pos, None, frames)
+    })())
+}
+
+fn spread(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>> {
+    Some((|| {
+        // Small clumps scattered over a square kilometre, falling onto one floor: the hashed
+        // grid holds cells a kilometre apart.
+        let params = water(solver, 0.05).build()?;
+        let clumps = if size == SuiteSize::Quick { 20 } else { 200 };
+        let mut pos = Vec::new();
+        for c in 0..clumps {
+            // A fixed scattering (Weyl sequence), so the case is deterministic.
+            let u = (c as f64 * 0.618_033_988_75).fract() as Real;
+            let v = (c as f64 * 0.754_877_666_25).fract() as Real;
+            let origin = Vector::new(-500.0 + 1000.0 * u, 0.3, -500.0 + 1000.0 * v);
+            pos.extend(crate::fluid::lattice(origin, 4, 4, 4, 0.05));
+        }
+        let frames = (seconds(size, 0.5, 2.0) * 60.0) as usize;
+        boxed(
+            params,
+            Vector::new(-501.0, 0.0, -501.0),
+            Vector::new(501.0, 2.0, 501.0),
+            &pos,
+            None,
+            frames,
+        )
+    })())
+}
+
+fn tank_length(solver: &Solver, size: SuiteSize, ratio: Real) -> Option<SphResult<Setup>> {
+    Some((|| {
+        let n = if size == SuiteSize::Quick {
+            1_500
+        } else {
+            4_000
+        };
+        water_dam_break(
+            water(solver, 0.05).build()?,
+            n,
+            seconds(size, 1.0, 3.0),
+            ratio,
+        )
+    })())
+}

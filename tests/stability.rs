@@ -1,0 +1,102 @@
+//! The quick subset of the stability suite (`rapier_sph::stability`; the whole table is
+//! `cargo run --release --example stability`). Each run's verdict: no NaN, no particle escaped
+//! or lost, kinetic energy never above 1.05 × the initial energy, DFSPH never capped.
+//!
+//! Runs that fail today are not hidden here: they are listed in `KNOWN_FAILURES` with the
+//! reason, printed by the example and recorded in the README, and this test checks that the
+//! list is still true (a run that starts passing must be moved back into the suite).
+
+use rapier_sph::stability::{self, SuiteSize};
+
+/// (case, solver): runs whose verdict is FAIL today, and why (measured with
+/// `cargo run --release --example stability -- --quick`).
+const KNOWN_FAILURES: &[(&str, &str, &str)] = &[
+    (
+        "1 stiffness k=3000",
+        "WCSPH",
+        "the paper's tower starts at about 11 ρ0: at 1000x its stiffness that compression is \
+         released as motion",
+    ),
+    (
+        "6 spawn at half spacing",
+        "WCSPH",
+        "8x overlap released as pressure",
+    ),
+    (
+        "6 spawn at half spacing",
+        "DFSPH",
+        "the solve removes 8x overlap in one step",
+    ),
+    (
+        "6 spawn at half spacing",
+        "PBF",
+        "the projection removes 8x overlap in one step",
+    ),
+    (
+        "6 spawn at one point",
+        "DFSPH",
+        "coincident particles: the solve hits its iteration cap",
+    ),
+    (
+        "7 body immersed",
+        "WCSPH",
+        "particles pushed out of the ball pile up on its surface",
+    ),
+    (
+        "7 body immersed",
+        "DFSPH",
+        "particles pushed out of the ball pile up on its surface",
+    ),
+    (
+        "7 body immersed",
+        "PBF",
+        "particles pushed out of the ball pile up on its surface",
+    ),
+];
+
+/// Runs that take 10–35 s each: left to the example (their verdicts are in the README).
+const SLOW: &[(&str, &str)] = &[
+    ("4 frame 1/30 stiffest", "WCSPH"),
+    ("6 spawn at half spacing", "WCSPH"),
+    ("6 spawn at one point", "DFSPH"),
+    ("6 spawn at one point", "PBF"),
+];
+
+#[test]
+fn quick_stability_cases_pass_and_known_failures_are_still_known() {
+    let mut checked = 0;
+    let mut report = Vec::new();
+    for case in stability::cases().into_iter().filter(|c| c.quick) {
+        for solver in stability::solvers() {
+            let key = (case.name, solver.name());
+            if SLOW.contains(&key) {
+                continue;
+            }
+            let Some(result) = stability::run(&case, &solver, SuiteSize::Quick) else {
+                continue;
+            };
+            let r = result.unwrap_or_else(|e| panic!("{key:?}: {e}"));
+            let known = KNOWN_FAILURES.iter().any(|(c, s, _)| (*c, *s) == key);
+            report.push(format!(
+                "{:<26} {:<6} KE/E0 {:>10.3} esc {} NaN {} {}",
+                r.case,
+                r.solver,
+                r.energy_ratio,
+                r.escaped,
+                r.non_finite,
+                r.failure.as_deref().unwrap_or("pass")
+            ));
+            if known {
+                assert!(
+                    !r.passed(),
+                    "{key:?} passes now: take it off KNOWN_FAILURES and the README's list"
+                );
+            } else {
+                assert!(r.passed(), "{key:?} failed: {}", r.failure.unwrap());
+            }
+            checked += 1;
+        }
+    }
+    eprintln!("{}", report.join("\n"));
+    assert!(checked >= 20, "only {checked} runs");
+}
