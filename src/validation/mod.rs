@@ -57,6 +57,11 @@ pub fn methods() -> Vec<Method> {
             solver: Solver::dfsph(),
             wall_density: true,
         },
+        Method {
+            name: Solver::pbf().name(),
+            solver: Solver::pbf(),
+            wall_density: true,
+        },
     ]
 }
 
@@ -291,7 +296,8 @@ impl Scene {
 }
 
 /// The step the adaptive policy takes for `params` at speed `v` under gravity `g`
-/// (the same limits as [`TimeStepping::Adaptive`] with Courant 0.4).
+/// (the same limits as [`TimeStepping::Adaptive`] with Courant 0.4; keep in step with
+/// the pipeline's `stable_time_step`).
 pub fn reference_step(params: &crate::FluidParams, v: Real, g: Real) -> Real {
     let courant = 0.4;
     let cs = courant * params.particle_spacing;
@@ -300,9 +306,15 @@ pub fn reference_step(params: &crate::FluidParams, v: Real, g: Real) -> Real {
         let h = params.smoothing_length;
         dt = dt.min(params.rest_density * h * h / (30.0 * params.viscosity));
     }
-    if params.solver == Solver::Wcsph {
-        let c = params.equation_of_state.speed_of_sound();
-        dt = dt.min(courant * params.smoothing_length / (c + v));
+    match params.solver {
+        Solver::Wcsph => {
+            let c = params.equation_of_state.speed_of_sound();
+            dt = dt.min(courant * params.smoothing_length / (c + v));
+        }
+        Solver::Dfsph(d) if g > 0.0 => {
+            dt = dt.min((5.0 * d.max_density_error * params.particle_spacing / g).sqrt());
+        }
+        _ => {}
     }
     dt
 }
