@@ -209,3 +209,39 @@ fn every_scene_conserves_mass_and_keeps_its_particles() {
         }
     }
 }
+
+/// The front and height measurements ignore a lone droplet and a small spray cluster ahead of
+/// the liquid, but follow a cluster big enough to be liquid (more than `MIN_NEIGHBOURS`
+/// neighbours within h). Geometry only, no physics: exact up to f32 round-off of positions
+/// of order 1 m (1e-6 m allowed).
+#[test]
+fn front_and_height_ignore_droplets() {
+    use rapier_sph::fluid::{Fluid, lattice};
+    use rapier_sph::math::Vector;
+    let s = 0.01;
+    let params = rapier_sph::FluidParamsBuilder::water(s).build().unwrap();
+    let column = lattice(Vector::splat(0.5 * s), 10, 20, 4, s);
+    let measure = |extra: &[Vector]| {
+        let mut f = Fluid::new(params.clone()).unwrap();
+        f.add_particles(&column).unwrap();
+        f.add_particles(extra).unwrap();
+        dam_break::measure(&f)
+    };
+    let close = |a: Real, b: Real| (a - b).abs() < 1e-6;
+    let (front, height) = measure(&[]);
+    assert!(close(front, 0.1) && close(height, 0.2), "{front} {height}");
+    // A droplet 5 cm ahead and one 5 cm above the column's back edge.
+    let (front, height) = measure(&[
+        Vector::new(0.15, 0.005, 0.02),
+        Vector::new(0.005, 0.25, 0.02),
+    ]);
+    assert!(close(front, 0.1) && close(height, 0.2), "{front} {height}");
+    // A spray cluster of 4 particles (3 neighbours each) ahead: still ignored.
+    let cluster = lattice(Vector::new(0.2, 0.005, 0.015), 2, 1, 2, s);
+    let (front, _) = measure(&cluster);
+    assert!(close(front, 0.1), "{front}");
+    // A blob of 3 × 2 × 4 = 24 particles ahead is liquid: the front jumps to its edge.
+    let blob = lattice(Vector::new(0.2, 0.005, 0.005), 3, 2, 4, s);
+    let (front, _) = measure(&blob);
+    assert!(close(front, 0.2 + 2.0 * s + 0.5 * s), "{front}");
+}
