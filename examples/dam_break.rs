@@ -30,6 +30,8 @@ enum SolverArg {
     Dfsph,
     /// Position-based fluids (Macklin & Müller 2013): fixed iterations, any time step.
     Pbf,
+    /// Double-density relaxation (Clavet et al. 2005).
+    Clavet,
 }
 
 #[derive(Parser, Debug)]
@@ -162,6 +164,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(SolverArg::Wcsph) => builder = builder.solver(Solver::Wcsph),
         Some(SolverArg::Dfsph) => builder = builder.solver(Solver::dfsph()),
         Some(SolverArg::Pbf) => builder = builder.solver(Solver::pbf()),
+        Some(SolverArg::Clavet) => builder = builder.solver(Solver::clavet()),
         None => {}
     }
     if args.walls {

@@ -203,6 +203,19 @@ impl FluidParams {
                 });
             }
         }
+        if let Solver::Clavet(c) = &self.solver {
+            non_negative("stiffness", c.stiffness)?;
+            if let Some(k) = c.near_stiffness {
+                non_negative("near_stiffness", k)?;
+            }
+            if self.wall_density {
+                return Err(SphError::InvalidParameter {
+                    field: "wall_density",
+                    value: 1.0,
+                    reason: "the Clavet solver meets walls through contact only",
+                });
+            }
+        }
         if let Solver::Dfsph(d) = &self.solver {
             positive("max_density_error", d.max_density_error)?;
             positive("max_divergence_error", d.max_divergence_error)?;

@@ -5,8 +5,8 @@
 //! particles ─▶ 1 neighbour search ─▶ 2 wall density ─▶ 3 density
 //!   WCSPH: ─▶ 4 pressure (EOS) ─▶ 5 pressure force ─▶ 6 viscosity ─▶ 7 gravity ─▶ 8 particle update
 //!   DFSPH: ─▶ 4 divergence solve ─▶ 5 viscosity ─▶ 6 gravity ─▶ 7 density solve ─▶ 8 particle update
-//!   PBF:   (gravity and position prediction before 1) ─▶ 7 position solve ─▶ 8 velocity update
-//!          ─▶ 6 viscosity
+//!   PBF, Clavet: (gravity and position prediction before 1) ─▶ 7 position solve (PBF) or
+//!          relaxation (Clavet) ─▶ 8 velocity update ─▶ 6 viscosity
 //!        ─▶ 9 collider contact
 //! ```
 //!
@@ -40,7 +40,8 @@ pub enum TimeStepping {
     /// - every solver: `dt ≤ courant · spacing / (v_max + |g|·dt)` (a particle moves at
     ///   most `courant` spacings per substep), and the explicit viscosity limit
     ///   `dt ≤ ρ0·h²/(30·ε)`;
-    /// - WCSPH also the acoustic limit `dt ≤ courant · h / (c + v_max)`;
+    /// - WCSPH also the acoustic limit `dt ≤ courant · h / (c + v_max)`, Clavet the same with
+    ///   `c·√k` (its stiffness `k` is in units of `c²/(h·ρ0)`);
     /// - DFSPH under gravity also `g·dt² ≤ 5·max_density_error·spacing`: gravity's
     ///   compression within one substep stays a few times the solve's error target.
     ///
@@ -264,6 +265,16 @@ fn stable_time_step(fluid: &Fluid, gravity: Vector, courant: Real, remaining: Re
             let c = p.equation_of_state.speed_of_sound();
             limit = limit.min(courant * p.smoothing_length / (c + v));
         }
+        Solver::Clavet(cl) => {
+            // The relaxation pushes like an equation of state whose speed of sound is
+            // `c·√k` (its stiffnesses are in units of c²/(h·ρ0)).
+            let c = p.equation_of_state.speed_of_sound()
+                * cl.stiffness
+                    .max(cl.near_stiffness.unwrap_or(cl.stiffness))
+                    .max(1e-6)
+                    .sqrt();
+            limit = limit.min(courant * p.smoothing_length / (c + v));
+        }
         Solver::Dfsph(d) if g > 0.0 => {
             // The density solve undoes, every substep, the compression that gravity makes in
             // it (a displacement of about g·dt²). Keeping that displacement within
@@ -308,6 +319,11 @@ fn step_fluid(
         Solver::Pbf(b) => Some(b),
         _ => None,
     };
+    let clavet_settings = match p.solver {
+        Solver::Clavet(c) => Some(c),
+        _ => None,
+    };
+    let position_based = pbf_settings.is_some() || clavet_settings.is_some();
     let Fluid {
         positions,
         velocities,
@@ -321,9 +337,10 @@ fn step_fluid(
         ..
     } = fluid;
 
-    // 0. PBF predicts first (gravity, then positions) and searches neighbours at the
-    //    predicted positions (Macklin & Müller 2013, Alg. 1 lines 2–4).
-    if pbf_settings.is_some() {
+    // 0. PBF and Clavet predict first (gravity, then positions) and search neighbours at the
+    //    predicted positions (Macklin & Müller 2013, Alg. 1 lines 2–4; Clavet et al. 2005,
+    //    Alg. 1).
+    if position_based {
         ws.previous_positions.resize(n, Vector::ZERO);
         if gravity != Vector::ZERO {
             timed(report, Stage::ExternalForces, || {
@@ -347,7 +364,7 @@ fn step_fluid(
                 par::permute(warm_density, &mut ws.scratch_reals, perm);
                 par::permute(warm_divergence, &mut ws.scratch_reals, perm);
             }
-            if pbf_settings.is_some() {
+            if position_based {
                 par::permute(&mut ws.previous_positions, &mut ws.scratch_vectors, perm);
             }
         }
@@ -390,6 +407,18 @@ fn step_fluid(
     ws.inv_densities.resize(n, 0.0);
     ws.previous_positions.resize(n, Vector::ZERO);
     let (non_finite, max_speed) = match (dfsph_settings, pbf_settings) {
+        _ if clavet_settings.is_some() => step_clavet(
+            &p,
+            &clavet_settings.unwrap_or_default(),
+            dt,
+            positions,
+            velocities,
+            accelerations,
+            densities,
+            pressures,
+            ws,
+            report,
+        ),
         (_, Some(settings)) => step_pbf(
             &p,
             &settings,
@@ -716,6 +745,71 @@ fn step_pbf(
     });
 
     // 6. Viscosity on the new velocities (the paper's XSPH role).
+    if p.viscosity > 0.0 {
+        timed(report, Stage::ViscosityForce, || {
+            accelerations.fill(Vector::ZERO);
+            forces::viscosity::add_accelerations(
+                positions,
+                velocities,
+                &ws.inv_densities,
+                &ws.neighbors,
+                p.particle_mass,
+                p.viscosity,
+                h,
+                accelerations,
+            );
+            integrate::add_accelerations(dt, accelerations, velocities);
+        });
+        (non_finite, max_speed) = integrate::scan(positions, velocities);
+    }
+    (non_finite, max_speed)
+}
+
+/// Stages 3–8 of the double-density relaxation (see [`crate::solver::clavet`]); gravity and
+/// the position prediction ran before the neighbour search. Returns `(non-finite count, max
+/// speed)`.
+#[allow(clippy::too_many_arguments)]
+fn step_clavet(
+    p: &crate::FluidParams,
+    settings: &crate::solver::Clavet,
+    dt: Real,
+    positions: &mut [Vector],
+    velocities: &mut [Vector],
+    accelerations: &mut [Vector],
+    densities: &mut [Real],
+    pressures: &mut [Real],
+    ws: &mut crate::fluid::Workspace,
+    report: &mut StepReport,
+) -> (usize, Real) {
+    let h = p.smoothing_length;
+    let c = p.equation_of_state.speed_of_sound();
+    let ctx = crate::solver::clavet::ClavetContext {
+        neighbors: &ws.neighbors,
+        h,
+        spacing: p.particle_spacing,
+        speed_of_sound: c,
+        dt,
+    };
+    let error = timed(report, Stage::DensitySolve, || {
+        crate::solver::clavet::relax(&ctx, settings, &mut ws.clavet, positions, densities)
+    });
+    report.solver_iterations += 1;
+    report.solver_density_error = report.solver_density_error.max(error);
+    // Densities: the relative density times ρ0; pressures: a linear equation of state with the
+    // fluid's speed of sound at that density (the acceleration the relaxation applies).
+    for ((rho, pr), inv) in densities
+        .iter_mut()
+        .zip(pressures.iter_mut())
+        .zip(ws.inv_densities.iter_mut())
+    {
+        let rel = *rho;
+        *rho = rel * p.rest_density;
+        *inv = 1.0 / rho.max(Real::MIN_POSITIVE);
+        *pr = settings.stiffness * p.rest_density * c * c * (rel - 1.0);
+    }
+    let (mut non_finite, mut max_speed) = timed(report, Stage::ParticleUpdate, || {
+        integrate::velocities_from_positions(dt, positions, &ws.previous_positions, velocities)
+    });
     if p.viscosity > 0.0 {
         timed(report, Stage::ViscosityForce, || {
             accelerations.fill(Vector::ZERO);

@@ -14,7 +14,7 @@
 //!   overlapping spawn, particles inside a solid — holds energy this does not count; a method
 //!   that turns the overlap into violent motion fails, as it should for a game.)
 //! - and a solver with an error target met it: DFSPH ended no solve at its iteration cap.
-//!   (WCSPH and PBF have no density target; their density error is reported only.)
+//!   (WCSPH, PBF and Clavet have no density target; their density error is reported only.)
 //!
 //! Cases (the numbering): 1 the paper's stiffness sweep, 2 the paper's rest-density
 //! change, 3 particle counts, 4 whole frames at the stiffest settings, 5 very high viscosity,
@@ -26,7 +26,7 @@ use crate::math::{Real, Vector};
 use crate::params::{FluidParams, FluidParamsBuilder};
 use crate::pipeline::TimeStepping;
 use crate::scenes::{DamBreak, DamBreakConfig, add_closed_box, dam_break};
-use crate::solver::{Dfsph, Pbf, Solver};
+use crate::solver::{Clavet, Dfsph, Pbf, Solver};
 use crate::world::FluidWorld;
 use crate::{Fluid, FluidHandle, SphResult};
 use rapier3d::prelude::{ColliderBuilder, RigidBodyBuilder};
@@ -42,8 +42,13 @@ pub enum SuiteSize {
 }
 
 /// The solvers the suite runs (each case says which of them it supports).
-pub fn solvers() -> [Solver; 3] {
-    [Solver::Wcsph, Solver::dfsph(), Solver::pbf()]
+pub fn solvers() -> [Solver; 4] {
+    [
+        Solver::Wcsph,
+        Solver::dfsph(),
+        Solver::pbf(),
+        Solver::clavet(),
+    ]
 }
 
 /// One named case.
@@ -362,7 +367,7 @@ fn from_dam_break(d: DamBreak, frames: usize, frame_dt: Real) -> Setup {
 fn water(solver: &Solver, spacing: Real) -> FluidParamsBuilder {
     FluidParamsBuilder::water(spacing)
         .solver(*solver)
-        .wall_density(*solver != Solver::Wcsph)
+        .wall_density(matches!(solver, Solver::Dfsph(_) | Solver::Pbf(_)))
 }
 
 fn water_dam_break(
@@ -455,6 +460,11 @@ fn stiffest_frames(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>>
                 iterations: 10,
                 relaxation: 1e-3,
                 ..Pbf::default()
+            })),
+            // 100x the default stiffnesses: 10x the speed of sound.
+            Solver::Clavet(_) => water(solver, 0.05).solver(Solver::Clavet(Clavet {
+                stiffness: 100.0,
+                near_stiffness: None,
             })),
         };
         let n = if size == SuiteSize::Quick {

@@ -237,7 +237,12 @@ fn adaptive_substeps_meet_the_limits_and_report_the_cap() {
 /// reaches its neighbours.
 #[test]
 fn non_finite_particles_are_quarantined() {
-    for solver in [Solver::Wcsph, Solver::dfsph(), Solver::pbf()] {
+    for solver in [
+        Solver::Wcsph,
+        Solver::dfsph(),
+        Solver::pbf(),
+        Solver::clavet(),
+    ] {
         let params = FluidParamsBuilder::water(0.05)
             .solver(solver)
             .build()
@@ -273,8 +278,20 @@ fn non_finite_particles_are_quarantined() {
 /// between neighbours, a large fraction of the exchange.
 #[test]
 fn pbf_conserves_momentum_of_an_isolated_blob() {
+    position_based_blob_conserves_momentum(Solver::pbf(), 4);
+}
+
+/// The double-density relaxation's Jacobi form gives each particle of a pair the same
+/// displacement with opposite signs, `∓½dt²[(P_i + P_j)(1 − q) + (P_i^near + P_j^near)(1 − q)²] r̂`:
+/// momentum is conserved to round-off, with the same bound as PBF above.
+#[test]
+fn clavet_conserves_momentum_of_an_isolated_blob() {
+    position_based_blob_conserves_momentum(Solver::clavet(), 1);
+}
+
+fn position_based_blob_conserves_momentum(solver: Solver, iterations: u32) {
     let params = FluidParamsBuilder::water(0.05)
-        .solver(Solver::pbf())
+        .solver(solver)
         .viscosity(0.0)
         .build()
         .unwrap();
@@ -323,7 +340,7 @@ fn pbf_conserves_momentum_of_an_isolated_blob() {
                 &bp,
             )
             .unwrap();
-        assert_eq!(rep.solver_iterations, 4);
+        assert_eq!(rep.solver_iterations, iterations);
         let f = &fluids[h];
         exchange += f
             .velocities()
@@ -334,7 +351,7 @@ fn pbf_conserves_momentum_of_an_isolated_blob() {
     }
     let p = fluids[h].linear_momentum();
     let drift = (0..3).map(|c| (p[c] - p0[c]).abs()).fold(0.0, f64::max);
-    eprintln!("PBF drift {drift:e}, exchange {exchange:e}");
+    eprintln!("{} drift {drift:e}, exchange {exchange:e}", solver.name());
     assert!(
         exchange > 1.0,
         "the blob must actually exchange momentum ({exchange})"

@@ -52,6 +52,21 @@ const KNOWN_FAILURES: &[(&str, &str, &str)] = &[
         "PBF",
         "particles pushed out of the ball pile up on its surface",
     ),
+    (
+        "6 spawn at half spacing",
+        "Clavet",
+        "the relaxation removes 8x overlap in one step",
+    ),
+    (
+        "7 body immersed",
+        "Clavet",
+        "particles pushed out of the ball pile up on its surface",
+    ),
+    (
+        "4 frame 1/30 stiffest",
+        "Clavet",
+        "at 100x stiffness the relaxation overshoots even at the acoustic step (in SLOW)",
+    ),
 ];
 
 /// Runs that take 10–35 s each: left to the example (their verdicts are in the README).
@@ -60,6 +75,7 @@ const SLOW: &[(&str, &str)] = &[
     ("6 spawn at half spacing", "WCSPH"),
     ("6 spawn at one point", "DFSPH"),
     ("6 spawn at one point", "PBF"),
+    ("4 frame 1/30 stiffest", "Clavet"),
 ];
 
 #[test]

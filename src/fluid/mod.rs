@@ -23,6 +23,8 @@ pub(crate) struct Workspace {
     pub wall: WallWorkspace,
     /// DFSPH factors and iteration buffers.
     pub dfsph: DfsphBuffers,
+    /// Clavet relaxation buffers.
+    pub clavet: crate::solver::clavet::ClavetBuffers,
     /// PBF iteration buffers.
     pub pbf: crate::solver::pbf::PbfBuffers,
     /// Kernel gradients of every neighbour pair (DFSPH computes them once per substep).
@@ -334,6 +336,7 @@ impl Fluid {
             + ws.dfsph.heap_bytes()
             + ws.gradients.heap_bytes()
             + ws.pbf.heap_bytes()
+            + ws.clavet.heap_bytes()
             + ws.scratch_reals.capacity() * 4
             + ws.grid.heap_bytes()
             + ws.neighbors.heap_bytes()

@@ -6,12 +6,15 @@
 //! |---|---|---|---|
 //! | [`Solver::Wcsph`] | pressure from an equation of state (Müller et al. 2003; the Unity paper) | 3 neighbour passes, small time steps (`dt ≤ 0.4·h/c`) | reproducing the paper |
 //! | [`Solver::Dfsph`] | pressure solved for: divergence-free and constant-density (Bender & Koschier 2017) | 1 + 2 per iteration, large time steps | accuracy |
+//! | [`Solver::Clavet`] | double-density relaxation of predicted positions (Clavet et al. 2005) | 2 + viscosity, acoustic time steps | games wanting cohesive, splashy liquid; the paper's future work |
 //! | [`Solver::Pbf`] | incompressibility as a position constraint, a fixed number of Jacobi iterations (Macklin & Müller 2013) | 2 per iteration (default 4 iterations) + viscosity, any time step | games: fixed cost, never diverges |
 
+pub mod clavet;
 pub mod dfsph;
 pub(crate) mod pairs;
 pub mod pbf;
 
+pub use clavet::Clavet;
 pub use dfsph::Dfsph;
 pub use pbf::Pbf;
 
@@ -26,6 +29,8 @@ pub enum Solver {
     Dfsph(Dfsph),
     /// Position-based fluids with the given settings.
     Pbf(Pbf),
+    /// Clavet et al.'s double-density relaxation with the given settings.
+    Clavet(Clavet),
 }
 
 impl Solver {
@@ -35,6 +40,7 @@ impl Solver {
             Solver::Wcsph => "WCSPH",
             Solver::Dfsph(_) => "DFSPH",
             Solver::Pbf(_) => "PBF",
+            Solver::Clavet(_) => "Clavet",
         }
     }
 
@@ -46,5 +52,11 @@ impl Solver {
     /// PBF with default settings (4 iterations, artificial pressure k = 0.1, n = 4, Δq = 0.2h).
     pub fn pbf() -> Self {
         Solver::Pbf(Pbf::default())
+    }
+
+    /// Double-density relaxation with default settings (stiffness 1 in units of `c²/(h·ρ0)`,
+    /// near stiffness balancing a flat free surface).
+    pub fn clavet() -> Self {
+        Solver::Clavet(Clavet::default())
     }
 }

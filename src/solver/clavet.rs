@@ -1,0 +1,254 @@
+//! Double-density relaxation: Clavet, Beaudoin & Poulin, "Particle-based Viscoelastic Fluid
+//! Simulation", SCA 2005 (the Unity paper's future work). Algorithm numbers are that paper's.
+//!
+//! Positions are predicted (`x += dt·v` after gravity), then relaxed once (Alg. 2) with two
+//! densities of the kernels `(1 − q)²` and `(1 − q)³`, `q = r/h`:
+//!
+//! ```text
+//! ρ_i = Σ_j (1 − q_ij)²      ρ_i^near = Σ_j (1 − q_ij)³               (eqs. 1, 4)
+//! P_i = k (ρ_i − ρ0)          P_i^near = k_near ρ_i^near               (eqs. 2, 5)
+//! Δx_i = −½ dt² Σ_j [ (P_i + P_j)(1 − q_ij) + (P_i^near + P_j^near)(1 − q_ij)² ] r̂_ij
+//! ```
+//!
+//! and the velocity is `(x − x_old)/dt`. The paper displaces both particles of a pair by `D/2`
+//! in a sequential loop; here every particle gathers the displacement its pairs give it in one
+//! Jacobi pass (the `P_i + P_j` above is the sum of the two half-displacements the sequential
+//! loop applies to the pair), so it runs in parallel, deterministically, and conserves
+//! momentum pair by pair. The pressure may be negative (the fluid holds together: surface
+//! tension), the near pressure is a short-range repulsion that keeps particles apart.
+//!
+//! Units: the paper's `k` and `ρ0` are in its own units. Here `ρ0` is the value of `Σ(1 − q)²`
+//! in the fluid's rest lattice (spacing `s`, support `h`), and the stiffnesses are multiples of
+//! `c²/(h·ρ0)`, `c` the fluid's speed of sound, so that a relative compression `δ` pushes with
+//! an acceleration of about `c²·δ/h`, like an equation of state with that speed of sound; the
+//! time step obeys the same acoustic limit as WCSPH. Viscosity is the fluid's own viscosity
+//! stage (the paper's pairwise viscosity impulses and viscoelastic springs are not
+//! implemented). Walls take part through contact only.
+
+use crate::math::{Real, Vector};
+use crate::neighbors::NeighborLists;
+use crate::par::CHUNK;
+#[cfg(feature = "parallel")]
+use rayon::prelude::*;
+
+/// Settings of the double-density relaxation.
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub struct Clavet {
+    /// Stiffness `k`, as a multiple of `c²/(h·ρ0)` (default 1).
+    pub stiffness: Real,
+    /// Near stiffness `k_near`, same units. `None` (default): the value that makes a flat
+    /// free surface of the rest lattice an equilibrium (see
+    /// [`surface_equilibrium_near_ratio`]; about 1.07·k at `h = 2s`), so a resting pool
+    /// neither boils off its top layer (near pressure too strong: the paper's ratio 2.5 did,
+    /// the fluid expanded at once) nor pulls it in.
+    pub near_stiffness: Option<Real>,
+}
+
+impl Default for Clavet {
+    fn default() -> Self {
+        Self {
+            stiffness: 1.0,
+            near_stiffness: None,
+        }
+    }
+}
+
+/// Densities `(Σ(1 − q)², Σ(1 − q)³)` of a lattice particle `depth` layers below a flat free
+/// surface (`depth ≥ h/s`: the interior value).
+fn layer_densities(h: Real, s: Real, depth: i32) -> (Real, Real) {
+    let r = (h / s).ceil() as i32;
+    let (mut rho, mut near) = (0.0, 0.0);
+    for x in -r..=r {
+        for y in -r..=r {
+            for z in -r..=r {
+                if y > depth {
+                    continue; // above the surface
+                }
+                let d = Vector::new(x as Real, y as Real, z as Real).length() * s;
+                if d > 0.0 && d < h {
+                    let a = 1.0 - d / h;
+                    rho += a * a;
+                    near += a * a * a;
+                }
+            }
+        }
+    }
+    (rho, near)
+}
+
+/// `k_near/k` for which a particle in the top layer of the rest lattice (spacing `s`, support
+/// `h`) under a flat free surface feels no net push: the surface layer's negative pressure
+/// (it has fewer neighbours) pulls it in exactly as much as the near pressure pushes it out.
+pub fn surface_equilibrium_near_ratio(h: Real, s: Real) -> Real {
+    let r = (h / s).ceil() as i32;
+    let deep = layer_densities(h, s, r + 1);
+    let rho0 = deep.0;
+    let layer = |depth: i32| layer_densities(h, s, depth);
+    let top = layer(0);
+    let (mut a, mut b) = (0.0, 0.0);
+    for x in -r..=r {
+        for y in -r..=0 {
+            for z in -r..=r {
+                let d = Vector::new(x as Real, y as Real, z as Real).length() * s;
+                if d == 0.0 || d >= h {
+                    continue;
+                }
+                let q = 1.0 - d / h;
+                let ry = y as Real * s / d;
+                let (rj, nj) = layer(-y);
+                a += ((top.0 - rho0) + (rj - rho0)) * q * ry;
+                b += (top.1 + nj) * q * q * ry;
+            }
+        }
+    }
+    if b != 0.0 { (-a / b).max(0.0) } else { 0.0 }
+}
+
+/// Buffers of the relaxation (indexed like the sorted particles).
+#[derive(Clone, Debug, Default)]
+pub struct ClavetBuffers {
+    /// `(P_i, P_i^near)`.
+    pub pressure: Vec<(Real, Real)>,
+    /// Displacements.
+    pub displacement: Vec<Vector>,
+    /// Per-chunk partial sums.
+    pub partials: Vec<f64>,
+}
+
+impl ClavetBuffers {
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        self.pressure.capacity() * 8
+            + self.displacement.capacity() * 12
+            + self.partials.capacity() * 8
+    }
+}
+
+/// `Σ (1 − q)²` over the neighbours of a particle in a full lattice of spacing `s` (the rest
+/// density `ρ0` of the method).
+pub fn lattice_rest_density(h: Real, s: Real) -> Real {
+    let r = (h / s).ceil() as i32;
+    let mut rho = 0.0;
+    for x in -r..=r {
+        for y in -r..=r {
+            for z in -r..=r {
+                let d = Vector::new(x as Real, y as Real, z as Real).length() * s;
+                if d > 0.0 && d < h {
+                    let a = 1.0 - d / h;
+                    rho += a * a;
+                }
+            }
+        }
+    }
+    rho
+}
+
+/// Inputs of one relaxation.
+pub struct ClavetContext<'a> {
+    /// Neighbour lists of the predicted positions.
+    pub neighbors: &'a NeighborLists,
+    /// Support radius.
+    pub h: Real,
+    /// Particle spacing.
+    pub spacing: Real,
+    /// Speed of sound of the fluid (m/s).
+    pub speed_of_sound: Real,
+    /// Time step.
+    pub dt: Real,
+}
+
+/// One double-density relaxation of the predicted `positions` (Alg. 2). Writes
+/// `Σ(1 − q)²/ρ0` (the density relative to rest) into `relative_density`. Returns the average
+/// compression `max(ρ/ρ0 − 1, 0)` before the relaxation.
+pub fn relax(
+    ctx: &ClavetContext<'_>,
+    settings: &Clavet,
+    buffers: &mut ClavetBuffers,
+    positions: &mut [Vector],
+    relative_density: &mut [Real],
+) -> Real {
+    let n = positions.len();
+    let h = ctx.h;
+    let inv_h = 1.0 / h;
+    let rho0 = lattice_rest_density(h, ctx.spacing);
+    let unit = ctx.speed_of_sound * ctx.speed_of_sound / (h * rho0);
+    let near = settings
+        .near_stiffness
+        .unwrap_or_else(|| settings.stiffness * surface_equilibrium_near_ratio(h, ctx.spacing));
+    let (k, k_near) = (settings.stiffness * unit, near * unit);
+    let ClavetBuffers {
+        pressure,
+        displacement,
+        partials,
+    } = buffers;
+    pressure.resize(n, (0.0, 0.0));
+    displacement.resize(n, Vector::ZERO);
+    partials.resize(n.div_ceil(CHUNK), 0.0);
+    {
+        let positions: &[Vector] = positions;
+        crate::par_chunks_mut!(pressure, CHUNK)
+            .zip(crate::par_chunks_mut!(relative_density, CHUNK))
+            .zip(crate::par_iter_mut!(partials))
+            .enumerate()
+            .for_each(|(c, ((pr, rel), sum))| {
+                let base = c * CHUNK;
+                let mut s = 0.0f64;
+                for k_ in 0..pr.len() {
+                    let i = base + k_;
+                    let xi = positions[i];
+                    let (mut rho, mut near) = (0.0, 0.0);
+                    for &j in ctx.neighbors.of(i) {
+                        let d = (xi - positions[j as usize]).length();
+                        let a = (1.0 - d * inv_h).max(0.0);
+                        rho += a * a;
+                        near += a * a * a;
+                    }
+                    pr[k_] = (k * (rho - rho0), k_near * near);
+                    rel[k_] = rho / rho0;
+                    s += (rho / rho0 - 1.0).max(0.0) as f64;
+                }
+                *sum = s;
+            });
+    }
+    let error = (partials.iter().sum::<f64>() / n.max(1) as f64) as Real;
+    let half_dt2 = 0.5 * ctx.dt * ctx.dt;
+    {
+        let positions: &[Vector] = positions;
+        let pressure: &[(Real, Real)] = pressure;
+        crate::par_chunks_mut!(displacement, CHUNK)
+            .enumerate()
+            .for_each(|(c, out)| {
+                let base = c * CHUNK;
+                for (k_, dx) in out.iter_mut().enumerate() {
+                    let i = base + k_;
+                    let xi = positions[i];
+                    let (p, pn) = pressure[i];
+                    let mut acc = Vector::ZERO;
+                    for &j in ctx.neighbors.of(i) {
+                        let r = positions[j as usize] - xi;
+                        let d = r.length();
+                        if d <= 1e-6 * h {
+                            // Coincident: no direction to push along; the neighbours around
+                            // them separate them over the next steps.
+                            continue;
+                        }
+                        let a = (1.0 - d * inv_h).max(0.0);
+                        let (pj, pnj) = pressure[j as usize];
+                        acc += r * (((p + pj) * a + (pn + pnj) * a * a) / d);
+                    }
+                    *dx = acc * -half_dt2;
+                }
+            });
+    }
+    let displacement: &[Vector] = displacement;
+    crate::par_chunks_mut!(positions, CHUNK)
+        .enumerate()
+        .for_each(|(c, x)| {
+            let base = c * CHUNK;
+            for (k_, x) in x.iter_mut().enumerate() {
+                *x += displacement[base + k_];
+            }
+        });
+    error
+}
