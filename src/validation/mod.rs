@@ -33,7 +33,8 @@ use std::time::Instant;
 pub use data::Curve;
 
 /// A pressure solver as the validation runs it: the solver and whether walls count in the
-/// density (the DFSPH tests and benchmarks use walls; WCSPH, the paper's method, does not).
+/// density (as the stability suite runs them: DFSPH and PBF with walls; WCSPH, the paper's
+/// method, and Clavet without).
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct Method {
     /// Name printed in reports (the solver's name).
@@ -61,6 +62,11 @@ pub fn methods() -> Vec<Method> {
             name: Solver::pbf().name(),
             solver: Solver::pbf(),
             wall_density: true,
+        },
+        Method {
+            name: Solver::clavet().name(),
+            solver: Solver::clavet(),
+            wall_density: false,
         },
     ]
 }
@@ -309,6 +315,14 @@ pub fn reference_step(params: &crate::FluidParams, v: Real, g: Real) -> Real {
     match params.solver {
         Solver::Wcsph => {
             let c = params.equation_of_state.speed_of_sound();
+            dt = dt.min(courant * params.smoothing_length / (c + v));
+        }
+        Solver::Clavet(cl) => {
+            let c = params.equation_of_state.speed_of_sound()
+                * cl.stiffness
+                    .max(cl.near_stiffness.unwrap_or(cl.stiffness))
+                    .max(1e-6)
+                    .sqrt();
             dt = dt.min(courant * params.smoothing_length / (c + v));
         }
         Solver::Dfsph(d) if g > 0.0 => {
