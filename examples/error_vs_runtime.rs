@@ -640,6 +640,9 @@ fn draw_scaling(out: &Path, points: &[ScalingPoint], method_names: &[&'static st
 fn main() {
     let args = parse_args();
     std::fs::create_dir_all(&args.out).expect("create the output folder");
+    // Taken before the runs: the revision the runs were made with.
+    let machine = machine();
+    let git = git_revision();
     let started = Instant::now();
     let methods = methods();
     let method_names: Vec<&'static str> = methods.iter().map(|m| m.name).collect();
@@ -733,8 +736,6 @@ fn main() {
         .map(|e| e.0)
         .collect();
 
-    let machine = machine();
-    let git = git_revision();
     let command = format!(
         "cargo run --release --features report --example error_vs_runtime{}",
         depth_flag(args.depth)
