@@ -18,63 +18,15 @@ const KNOWN_FAILURES: &[(&str, &str, &str)] = &[
          released as motion",
     ),
     (
-        "6 spawn at half spacing",
-        "WCSPH",
-        "8x overlap released as pressure",
-    ),
-    (
-        "6 spawn at half spacing",
-        "DFSPH",
-        "the solve removes 8x overlap in one step",
-    ),
-    (
-        "6 spawn at half spacing",
-        "PBF",
-        "the projection removes 8x overlap in one step",
-    ),
-    (
-        "6 spawn at one point",
-        "DFSPH",
-        "coincident particles: the solve hits its iteration cap",
-    ),
-    (
-        "7 body immersed",
-        "WCSPH",
-        "particles pushed out of the ball pile up on its surface",
-    ),
-    (
-        "7 body immersed",
-        "DFSPH",
-        "particles pushed out of the ball pile up on its surface",
-    ),
-    (
-        "7 body immersed",
-        "PBF",
-        "particles pushed out of the ball pile up on its surface",
-    ),
-    (
-        "6 spawn at half spacing",
-        "Clavet",
-        "the relaxation removes 8x overlap in one step",
-    ),
-    (
-        "7 body immersed",
-        "Clavet",
-        "particles pushed out of the ball pile up on its surface",
-    ),
-    (
         "4 frame 1/30 stiffest",
         "Clavet",
         "at 100x stiffness the relaxation overshoots even at the acoustic step (in SLOW)",
     ),
 ];
 
-/// Runs that take 10–35 s each: left to the example (their verdicts are in the README).
+/// Runs that take 10–30 s each: left to the example (their verdicts are in the README).
 const SLOW: &[(&str, &str)] = &[
     ("4 frame 1/30 stiffest", "WCSPH"),
-    ("6 spawn at half spacing", "WCSPH"),
-    ("6 spawn at one point", "DFSPH"),
-    ("6 spawn at one point", "PBF"),
     ("4 frame 1/30 stiffest", "Clavet"),
 ];
 
