@@ -252,6 +252,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut mean_err_sum = 0.0f64;
     let mut non_finite = 0;
     let mut fallbacks = 0;
+    let mut relaxed = 0;
     let (mut substeps, mut iterations, mut div_iterations) = (0u64, 0u64, 0u64);
     let t0 = Instant::now();
     for step in 1..=args.steps {
@@ -261,6 +262,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         mean_err_sum += report.mean_density_error as f64;
         non_finite += report.non_finite;
         fallbacks += report.contact_fallbacks;
+        relaxed = relaxed.max(report.relaxed);
         substeps += report.substeps as u64;
         iterations += report.solver_iterations as u64;
         div_iterations += report.divergence_iterations as u64;
@@ -343,6 +345,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     println!("escaped              {}", scene.escaped());
     println!("contact fallbacks    {fallbacks}");
+    println!("overlap relaxation   {relaxed} particles moved at most (spawn overlaps)");
     println!("NaN/inf particles    {non_finite}");
     println!(
         "memory               {:.0} bytes/particle",

@@ -142,6 +142,9 @@ pub struct StepReport {
     pub solver_capped: u32,
     /// Particles with a collider within their kernel support (walls counting in density).
     pub particles_near_walls: usize,
+    /// Most particles moved by one round of overlap relaxation (particles just added, or pushed
+    /// out of a solid, overlapping beyond 1 % compression; 0 when nothing overlapped).
+    pub relaxed: usize,
     /// Particles removed because their position or velocity was no longer finite (they are
     /// taken out before they can poison their neighbours; see [`crate::Fluid::quarantined`]).
     pub quarantined: usize,

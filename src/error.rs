@@ -38,6 +38,13 @@ pub enum SphError {
         /// Number of colliders in the `ColliderSet`.
         colliders: usize,
     },
+    /// Reference data of a validation scene could not be read (see [`crate::validation`]).
+    ReferenceData {
+        /// The file or folder.
+        path: String,
+        /// What went wrong.
+        reason: String,
+    },
 }
 
 impl fmt::Display for SphError {
@@ -62,6 +69,9 @@ impl fmt::Display for SphError {
                 "the rapier broad-phase is empty but the collider set holds {colliders} colliders: \
                  step the rapier world once after inserting colliders"
             ),
+            SphError::ReferenceData { path, reason } => {
+                write!(f, "reference data {path}: {reason}")
+            }
         }
     }
 }

@@ -82,6 +82,7 @@
 //! | `surface` | no | `surface`: liquid surface meshes (splashsurf_lib) |
 //! | `viewer` | no | `examples/viewer.rs`: a kiss3d window for scene files |
 //! | `cli` | no | the `rapier-sph` binary: `run` and `validate` scene files (clap, indicatif) |
+//! | `report` | no | `examples/error_vs_runtime.rs`: the error-vs-run-time report's plots (plotters, resvg) and progress bar (indicatif) |
 //!
 //! None of the optional features changes the simulation; the default build pulls none of
 //! their dependencies.
@@ -130,6 +131,7 @@ pub mod solver;
 pub mod stability;
 #[cfg(feature = "surface")]
 pub mod surface;
+pub mod validation;
 pub mod world;
 
 pub use diagnostics::{Stage, StageTimings, StepReport};

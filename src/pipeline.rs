@@ -336,6 +336,9 @@ fn step_fluid(
     if n == 0 {
         return 0.0;
     }
+    if fluid.needs_depenetration {
+        relax_overlaps(fluid, colliders, report);
+    }
     // Moving bodies near this fluid during this substep (none: nothing more is done).
     let mut coupling = match colliders {
         Some((_, colliders, _)) if !coupling.is_off() => {
@@ -544,57 +547,255 @@ fn step_fluid(
     report.max_density_error = report.max_density_error.max(max_err);
 
     // 9. Collider contact.
-    if let Some((bvh, colliders, _)) = colliders {
-        let counts = timed(report, Stage::Contact, || {
-            ws.contact.gather(
-                &ws.grid,
-                &ws.previous_positions,
-                positions,
-                p.particle_radius,
-                bvh,
-                colliders,
-                p.collision_groups,
-                coupling.as_deref(),
-            );
-            if !ws.contact.any() {
-                return contact::ContactCounts::default();
-            }
-            let response = ContactResponse {
-                radius: p.particle_radius,
-                restitution: p.restitution,
-                friction: p.friction,
-            };
-            contact::resolve(
-                &ws.grid,
-                &ws.contact,
-                colliders,
-                response,
-                fluid.needs_depenetration,
-                &ws.previous_positions,
-                positions,
-                velocities,
-                coupling.as_deref().map(|c| Movers {
-                    table: c.table(),
-                    mass: p.particle_mass,
-                    records: &mut ws.impulses,
-                }),
-            )
-        });
-        if let Some(c) = coupling
-            && !c.table().is_empty()
-        {
-            timed(report, Stage::Contact, || {
-                c.exchange(&ws.impulses, velocities, p.particle_mass)
-            });
-        }
-        report.contacts += counts.contacts;
-        report.contact_fallbacks += counts.fallbacks;
-        report.depenetrated += counts.depenetrated;
-    } else {
-        ws.contact.clear();
-    }
-    fluid.needs_depenetration = false;
+    let depenetrated = collider_contact(
+        &p,
+        ws,
+        colliders,
+        fluid.needs_depenetration,
+        positions,
+        velocities,
+        report,
+        coupling.as_deref_mut(),
+    );
+    // Particles pushed out of a solid land on its surface, on top of each other: relax them
+    // (and check for more) before the next substep gives them dynamics (`relax_overlaps`).
+    fluid.needs_depenetration = depenetrated > 0;
     mean_err
+}
+
+/// Collider contact of every particle, swept from `ws.previous_positions` to `positions`.
+/// Returns the number of particles pushed out of a solid.
+fn collider_contact(
+    p: &crate::FluidParams,
+    ws: &mut crate::fluid::Workspace,
+    colliders: Option<(&parry3d::partitioning::Bvh, &ColliderSet, &RigidBodySet)>,
+    depenetrate: bool,
+    positions: &mut [Vector],
+    velocities: &mut [Vector],
+    report: &mut StepReport,
+    coupling: Option<&mut Coupling>,
+) -> usize {
+    let Some((bvh, colliders, _)) = colliders else {
+        ws.contact.clear();
+        return 0;
+    };
+    let counts = timed(report, Stage::Contact, || {
+        ws.contact.gather(
+            &ws.grid,
+            &ws.previous_positions,
+            positions,
+            p.particle_radius,
+            bvh,
+            colliders,
+            p.collision_groups,
+            coupling.as_deref(),
+        );
+        if !ws.contact.any() {
+            return contact::ContactCounts::default();
+        }
+        let response = ContactResponse {
+            radius: p.particle_radius,
+            restitution: p.restitution,
+            friction: p.friction,
+        };
+        contact::resolve(
+            &ws.grid,
+            &ws.contact,
+            colliders,
+            response,
+            depenetrate,
+            &ws.previous_positions,
+            positions,
+            velocities,
+            coupling.as_deref().map(|c| Movers {
+                table: c.table(),
+                mass: p.particle_mass,
+                records: &mut ws.impulses,
+            }),
+        )
+    });
+    // Fluid → body: the impulses contact recorded on dynamic bodies.
+    if let Some(c) = coupling
+        && !c.table().is_empty()
+    {
+        timed(report, Stage::Contact, || {
+            c.exchange(&ws.impulses, velocities, p.particle_mass)
+        });
+    }
+    report.contacts += counts.contacts;
+    report.contact_fallbacks += counts.fallbacks;
+    report.depenetrated += counts.depenetrated;
+    counts.depenetrated
+}
+
+/// Most relaxation rounds per substep (each: neighbour search, one projection).
+const RELAX_ROUNDS: u32 = 50;
+/// Compression the relaxation leaves alone (1 %: the fluid's own rest lattice is within
+/// 0.003 % of ρ0, and WCSPH is designed for about 1 %).
+const RELAX_TOLERANCE: Real = 0.01;
+/// Largest move of a particle per relaxation round, in spacings (a position-based
+/// safeguard: the projection's linearisation holds for small moves).
+const RELAX_MAX_MOVE: Real = 0.2;
+
+/// Pre-stabilisation (Macklin et al. 2014, "Unified particle physics for real-time
+/// applications", section 4.4): particles that were just placed (`add_particles`) or pushed out
+/// of a solid may overlap far beyond any compression a flow produces (denser than the fluid's
+/// own rest lattice). Every solver would turn
+/// that overlap into velocity within one step (an explosion). Instead, the overlap beyond
+/// [`RELAX_TOLERANCE`] is projected out of the *positions* only, with the PBF density
+/// constraint (unilateral, no artificial pressure, moves of at most [`RELAX_MAX_MOVE`] spacings
+/// per round, up to [`RELAX_ROUNDS`] rounds with a fresh neighbour search each), then the whole
+/// move is swept through collider contact. Velocities are left as they were. Runs only when
+/// particles were added or depenetrated; otherwise it costs one flag check.
+fn relax_overlaps(
+    fluid: &mut Fluid,
+    colliders: Option<(&parry3d::partitioning::Bvh, &ColliderSet, &RigidBodySet)>,
+    report: &mut StepReport,
+) {
+    let p = fluid.params().clone();
+    let h = p.smoothing_length;
+    let depenetrate = fluid.needs_depenetration;
+    let Fluid {
+        positions,
+        velocities,
+        ids,
+        warm_density,
+        warm_divergence,
+        densities,
+        workspace: ws,
+        ..
+    } = fluid;
+    let n = positions.len();
+    ws.previous_positions.resize(n, Vector::ZERO);
+    ws.previous_positions.copy_from_slice(positions);
+    ws.inv_densities.resize(n, 0.0);
+    let settings = crate::solver::Pbf {
+        iterations: 1,
+        relaxation: 0.01,
+        artificial_pressure: 0.0,
+        ..crate::solver::Pbf::default()
+    };
+    // Overlap means denser than the fluid's own spawn lattice (what `add_block` makes): for
+    // SI presets that is ρ0 to 0.003 %; the paper's preset is at 5.5 ρ0 on its lattice and
+    // is left as the paper has it.
+    let lattice_density = {
+        let s = p.particle_spacing;
+        let r = (h / s).ceil() as i32;
+        let mut sum = 0.0;
+        for x in -r..=r {
+            for y in -r..=r {
+                for z in -r..=r {
+                    let d = Vector::new(x as Real, y as Real, z as Real).length() * s;
+                    sum += p.density_kernel.w(d, h);
+                }
+            }
+        }
+        (sum * p.particle_mass).max(p.rest_density)
+    };
+    let mut moved = false;
+    for round in 0..RELAX_ROUNDS {
+        timed(report, Stage::NeighbourSearch, || {
+            if ws.grid.sort(positions, h) {
+                let perm = ws.grid.permutation();
+                par::permute(positions, &mut ws.scratch_vectors, perm);
+                par::permute(velocities, &mut ws.scratch_vectors, perm);
+                par::permute(ids, &mut ws.scratch_ids, perm);
+                par::permute(warm_density, &mut ws.scratch_reals, perm);
+                par::permute(warm_divergence, &mut ws.scratch_reals, perm);
+                par::permute(&mut ws.previous_positions, &mut ws.scratch_vectors, perm);
+            }
+            ws.grid.build_cells();
+            ws.neighbors.build(&ws.grid, positions, h);
+        });
+        if round == 0 {
+            // Particles at exactly the same place have no separation to push along (the
+            // smooth kernels' gradients vanish at 0): move each one that has a coincident
+            // neighbour by a small offset that depends only on its id (deterministic).
+            let s = p.particle_spacing;
+            let mut any = false;
+            for i in 0..n {
+                let xi = positions[i];
+                let hit = ws
+                    .neighbors
+                    .of(i)
+                    .iter()
+                    .any(|&j| (xi - positions[j as usize]).length() < 1e-3 * s);
+                if hit {
+                    let id = ids[i];
+                    let frac = ((id as f64 * 0.618_033_988_75).fract() as Real) * 0.9 + 0.1;
+                    let dir = crate::math::coincident_direction(id, u32::MAX)
+                        + crate::math::coincident_direction(id.wrapping_mul(3), u32::MAX - 1) * 0.5;
+                    positions[i] += dir * (0.05 * s * frac);
+                    any = true;
+                }
+            }
+            if any {
+                ws.grid.build_cells();
+                ws.neighbors.build(&ws.grid, positions, h);
+            }
+        }
+        if round == 0 && depenetrate {
+            // Out of the solids first: a particle inside one would be pushed by the wall's
+            // density from the inside.
+            collider_contact(&p, ws, colliders, true, positions, velocities, report, None);
+            ws.previous_positions.copy_from_slice(positions);
+        }
+        // Walls that count in the density count here too (a particle on a solid's surface
+        // is compressed by the wall as much as by fluid).
+        let wall = match colliders {
+            Some((bvh, colliders, bodies)) if p.wall_density => {
+                timed(report, Stage::WallDensity, || {
+                    ws.wall.update(
+                        &ws.grid,
+                        positions,
+                        p.density_kernel,
+                        p.density_kernel,
+                        h,
+                        p.particle_spacing,
+                        p.rest_density,
+                        bvh,
+                        colliders,
+                        bodies,
+                        p.collision_groups,
+                        None,
+                    )
+                });
+                ws.wall.any().then_some(&ws.wall)
+            }
+            _ => None,
+        };
+        let ctx = crate::solver::pbf::PbfContext {
+            neighbors: &ws.neighbors,
+            wall,
+            mass: p.particle_mass,
+            h,
+            spacing: p.particle_spacing,
+            rest_density: lattice_density,
+            tolerance: RELAX_TOLERANCE,
+            max_move: RELAX_MAX_MOVE * p.particle_spacing,
+        };
+        let stats = timed(report, Stage::DensitySolve, || {
+            crate::with_kernel!(p.density_kernel, K => crate::solver::pbf::solve::<K>(
+                &ctx, &settings, &mut ws.pbf, positions, densities, &mut ws.inv_densities))
+        });
+        if stats.moved == 0 {
+            break;
+        }
+        moved = true;
+        report.relaxed = report.relaxed.max(stats.moved);
+    }
+    if moved {
+        collider_contact(
+            &p,
+            ws,
+            colliders,
+            depenetrate,
+            positions,
+            velocities,
+            report,
+            None,
+        );
+    }
 }
 
 /// Stages 3–8 of WCSPH (the Unity paper). Returns `(non-finite count, max speed)`.
@@ -806,6 +1007,8 @@ fn step_pbf(
         h,
         spacing: p.particle_spacing,
         rest_density: p.rest_density,
+        tolerance: 0.0,
+        max_move: Real::INFINITY,
     };
     // 3–5. The position solve (densities are measured in its first pass).
     let stats = timed(report, Stage::DensitySolve, || {

@@ -228,14 +228,24 @@ impl HydrostaticTank {
     /// spacing of the floor) against `ρ0·g·depth`, depth measured from the free surface at
     /// [`Self::fluid_height`]: `(mean measured − mean expected)/mean expected`.
     pub fn bottom_pressure_error(&self) -> Real {
-        let f = &self.world.fluids[self.fluid];
+        Self::bottom_pressure_error_of(&self.world, self.fluid, self.fluid_height)
+    }
+
+    /// [`Self::bottom_pressure_error`] of `fluid` in `world` with its free surface at
+    /// `fluid_height` (for callers that hold the world apart from the tank).
+    pub fn bottom_pressure_error_of(
+        world: &FluidWorld,
+        fluid: FluidHandle,
+        fluid_height: Real,
+    ) -> Real {
+        let f = &world.fluids[fluid];
         let p = f.params();
-        let g = self.world.physics.gravity.length();
+        let g = world.physics.gravity.length();
         let (mut measured, mut expected) = (0.0f64, 0.0f64);
         for (x, pr) in f.positions().iter().zip(f.pressures()) {
             if x.y < p.particle_spacing {
                 measured += *pr as f64;
-                expected += (p.rest_density * g * (self.fluid_height - x.y)) as f64;
+                expected += (p.rest_density * g * (fluid_height - x.y)) as f64;
             }
         }
         if expected == 0.0 {
@@ -247,18 +257,28 @@ impl HydrostaticTank {
     /// RMS over depth of the relative pressure error, in layers one spacing thick (the top
     /// layer, where the expected pressure goes to zero, left out).
     pub fn pressure_profile_rms(&self) -> Real {
-        let f = &self.world.fluids[self.fluid];
+        Self::pressure_profile_rms_of(&self.world, self.fluid, self.fluid_height)
+    }
+
+    /// [`Self::pressure_profile_rms`] of `fluid` in `world` with its free surface at
+    /// `fluid_height`.
+    pub fn pressure_profile_rms_of(
+        world: &FluidWorld,
+        fluid: FluidHandle,
+        fluid_height: Real,
+    ) -> Real {
+        let f = &world.fluids[fluid];
         let p = f.params();
         let s = p.particle_spacing;
-        let g = self.world.physics.gravity.length();
-        let layers = (self.fluid_height / s).round() as usize;
+        let g = world.physics.gravity.length();
+        let layers = (fluid_height / s).round() as usize;
         let mut sums = vec![(0.0f64, 0.0f64); layers];
         for (x, pr) in f.positions().iter().zip(f.pressures()) {
             let k = (x.y / s).floor();
             if k >= 0.0 && (k as usize) + 1 < layers {
                 let e = &mut sums[k as usize];
                 e.0 += *pr as f64;
-                e.1 += (p.rest_density * g * (self.fluid_height - x.y)) as f64;
+                e.1 += (p.rest_density * g * (fluid_height - x.y)) as f64;
             }
         }
         let errs: Vec<f64> = sums

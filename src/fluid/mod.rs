@@ -38,6 +38,7 @@ pub(crate) struct Workspace {
     pub max_speed: Real,
     /// Particles that became non-finite during the last substep.
     pub non_finite: usize,
+
     /// Positions at the start of the current step (written by the particle update, swept
     /// from by collider contact).
     pub previous_positions: Vec<Vector>,

@@ -102,6 +102,8 @@ pub struct PbfStats {
     /// Average compression `max(ρ/ρ0 − 1, 0)` measured at the start of the last iteration
     /// (before its correction).
     pub error: Real,
+    /// Particles the last iteration moved (those with a violated constraint or next to one).
+    pub moved: usize,
 }
 
 /// `Σ_k |∇_k C_i|²·ρ0²` of a particle inside a full lattice of spacing `s` (the scale of the
@@ -142,6 +144,11 @@ pub struct PbfContext<'a> {
     pub spacing: Real,
     /// Rest density.
     pub rest_density: Real,
+    /// Compression left alone: the constraint is `max(ρ/ρ0 − 1 − tolerance, 0)` (0 for the
+    /// solver; the pipeline's overlap relaxation uses 1 %).
+    pub tolerance: Real,
+    /// Largest move of a particle per iteration (infinite for the solver).
+    pub max_move: Real,
 }
 
 /// Corrects the predicted `positions` in `settings.iterations` Jacobi iterations. Writes the
@@ -245,7 +252,7 @@ pub fn solve<K: Kernel>(
                             grad += gw;
                         }
                         let denom = grad.length_squared() + ctx.mass * ctx.mass * g2;
-                        let constraint = (rho * inv_rho0 - 1.0).max(0.0);
+                        let constraint = (rho * inv_rho0 - 1.0 - ctx.tolerance).max(0.0);
                         let l = -constraint * rho0 * rho0 / (denom + eps);
                         lam[k] = l;
                         lsum[k] += l;
@@ -302,18 +309,30 @@ pub fn solve<K: Kernel>(
                         if let Some(wall) = ctx.wall {
                             d += wall.gradient[i] * li;
                         }
-                        *dx = d * inv_rho0;
+                        let d = d * inv_rho0;
+                        let len = d.length();
+                        *dx = if len > ctx.max_move {
+                            d * (ctx.max_move / len)
+                        } else {
+                            d
+                        };
                     }
                 });
         }
         crate::par_chunks_mut!(positions, CHUNK)
+            .zip(crate::par_iter_mut!(partials))
             .enumerate()
-            .for_each(|(c, x)| {
+            .for_each(|(c, (x, partial))| {
                 let base = c * CHUNK;
+                let mut moved = 0usize;
                 for (k, x) in x.iter_mut().enumerate() {
-                    *x += correction[base + k];
+                    let d = correction[base + k];
+                    moved += (d != Vector::ZERO) as usize;
+                    *x += d;
                 }
+                *partial = (moved as f64, 0.0);
             });
+        stats.moved = reduce_partials(partials).0 as usize;
         stats.iterations += 1;
     }
     stats

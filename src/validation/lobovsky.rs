@@ -1,0 +1,245 @@
+//! Lobovský et al. (2014): impact pressure of a dam break on the downstream wall, H = 0.3 m,
+//! against the experiment's sensor 2 (15 mm above the floor): median and 2.5–97.5 % band of
+//! the repeated runs (`lobovsky_2014/sensor2_percentiles.csv`), `p/(ρ g H)` against
+//! `T = t·sqrt(g/H)`.
+//!
+//! ## Set-up (as the data's README gives it)
+//!
+//! Tank 1.610 m long and 0.6 m tall (AQUAgpusph's 2D case), a water column 0.600 m long and
+//! H = 0.300 m high against the back wall, released at `t = 0`. Quasi-2D like the other dam
+//! breaks: a slab of [`super::dam_break::LAYERS`] particle layers between two walls. Water
+//! preset at spacing `H / resolution`, the run's solver. Runs to T = 4.5: the first impact
+//! (T ≈ 2.4–3) and the run-up that follows, before the reflected wave returns.
+//!
+//! ## Measurement
+//!
+//! The pressure at a sensor is read from the fluid next to the wall, as SPH codes do: the
+//! Shepard (kernel-weighted) average `Σ p_j W_j / Σ W_j` of the pressures of the particles
+//! within the kernel support of the sensor's point on the wall (zero when no particle is
+//! there: the sensor is dry).
+//!
+//! Errors over the first impact, `2.0 ≤ T ≤ 4.5`:
+//! - `band_rms`: RMS of `(p_sim − p_median)` at the data's times, over the median's peak;
+//! - `peak`: relative error of the first peak's height, `(max p_sim − max p_median)/max p_median`;
+//! - `peak_time`: `T` of the simulated peak minus `T` of the median's peak.
+
+use super::data::{Curve, read_curve};
+use super::{DriveSpec, Method, Metric, RunRecord, SimCurve, TimePolicy, drive, interpolate};
+use crate::error::{SphError, SphResult};
+use crate::fluid::{Fluid, lattice};
+use crate::kernel::KernelKind;
+use crate::math::{Real, Vector};
+use crate::params::FluidParamsBuilder;
+use crate::scenes::add_closed_box;
+use crate::world::FluidWorld;
+
+/// Water height H (m).
+pub const H: Real = 0.3;
+/// Tank length, back wall to the downstream wall (m).
+pub const TANK_LENGTH: Real = 1.61;
+/// Column length (m).
+pub const COLUMN_LENGTH: Real = 0.6;
+/// Tank height (m).
+pub const TANK_HEIGHT: Real = 0.6;
+/// Heights of sensors 1–4 above the floor on the downstream wall (m).
+pub const SENSOR_HEIGHTS: [Real; 4] = [0.003, 0.015, 0.030, 0.080];
+/// The first impact: `T` range of the errors.
+pub const WINDOW: (f64, f64) = (2.0, 4.5);
+
+const G: Real = 9.81;
+
+/// Sensor 2's data: median and the 2.5 % and 97.5 % percentiles, `p/(ρ g H)` against T.
+#[derive(Clone, Debug)]
+pub struct Sensor2 {
+    /// Median of the repeated runs.
+    pub median: Curve,
+    /// 2.5th percentile.
+    pub low: Curve,
+    /// 97.5th percentile.
+    pub high: Curve,
+}
+
+impl Sensor2 {
+    /// Reads `lobovsky_2014/sensor2_percentiles.csv`.
+    pub fn load() -> SphResult<Self> {
+        let read = |col: &str, label: &str| {
+            read_curve(
+                "lobovsky_2014",
+                "sensor2_percentiles.csv",
+                "T_t_sqrt_g_over_H",
+                col,
+                None,
+                label,
+            )
+        };
+        Ok(Self {
+            median: read(
+                "p_over_rho_g_H_median",
+                "Lobovský et al. 2014, sensor 2, median",
+            )?,
+            low: read("p_over_rho_g_H_p2.5", "2.5 %")?,
+            high: read("p_over_rho_g_H_p97.5", "97.5 %")?,
+        })
+    }
+
+    /// `(T, p)` of the median's highest point inside [`WINDOW`].
+    pub fn peak(&self) -> (f64, f64) {
+        self.median
+            .points
+            .iter()
+            .copied()
+            .filter(|p| p.0 >= WINDOW.0 && p.0 <= WINDOW.1)
+            .fold((0.0, f64::MIN), |a, p| if p.1 > a.1 { p } else { a })
+    }
+}
+
+/// The pressure at `point` read from `fluid` (Shepard average over the kernel support; 0 when
+/// no particle is within it).
+pub fn probe(fluid: &Fluid, point: Vector) -> Real {
+    let h = fluid.params().smoothing_length;
+    let (mut pw, mut w) = (0.0f64, 0.0f64);
+    for (x, p) in fluid.positions().iter().zip(fluid.pressures()) {
+        let d = (*x - point).length();
+        if d < h {
+            let k = KernelKind::CubicSpline.w(d, h) as f64;
+            pw += k * *p as f64;
+            w += k;
+        }
+    }
+    if w > 0.0 { (pw / w) as Real } else { 0.0 }
+}
+
+/// Runs the scene once (see [`super::Scene::run`]). `resolution` is the number of particles
+/// across H.
+pub fn run(
+    method: &Method,
+    resolution: usize,
+    policy: TimePolicy,
+    progress: &mut dyn FnMut(Real),
+) -> SphResult<RunRecord> {
+    if resolution < 2 {
+        return Err(SphError::InvalidParameter {
+            field: "resolution",
+            value: resolution as f64,
+            reason: "at least 2 particles across the water height",
+        });
+    }
+    let data = Sensor2::load()?;
+    let params = FluidParamsBuilder::water(H / resolution as Real)
+        .solver(method.solver)
+        .wall_density(method.wall_density)
+        .build()?;
+    let s = params.particle_spacing;
+    let layers = super::dam_break::LAYERS;
+    let tank_max = Vector::new(TANK_LENGTH, TANK_HEIGHT, layers as Real * s);
+    let mut world = FluidWorld::new();
+    add_closed_box(&mut world, Vector::ZERO, tank_max, (4.0 * s).max(0.05));
+    world.physics.step();
+    let mut fluid = Fluid::new(params.clone())?;
+    let nx = (COLUMN_LENGTH / s).round() as usize;
+    fluid.add_particles(&lattice(Vector::splat(0.5 * s), nx, resolution, layers, s))?;
+    let particles = fluid.len();
+    let energy_bound: f64 = fluid
+        .positions()
+        .iter()
+        .map(|p| (params.particle_mass * G * p.y) as f64)
+        .sum();
+    let fluid = world.fluids.insert(fluid);
+    let dt_ref = super::reference_step(&params, 2.0 * (G * H).sqrt(), G);
+    let scale = (G as f64 / H as f64).sqrt();
+    let duration = (WINDOW.1 / scale) as Real;
+    let p_ref = params.rest_density as f64 * G as f64 * H as f64;
+    let eps = 1e-4 * tank_max.max_element();
+    let inside = move |p: Vector| {
+        p.cmpge(Vector::splat(-eps)).all() && p.cmple(tank_max + Vector::splat(eps)).all()
+    };
+    let mut sensors: Vec<Vec<(f64, f64)>> = vec![Vec::new(); SENSOR_HEIGHTS.len()];
+    let driven = drive(
+        &mut world,
+        fluid,
+        &DriveSpec {
+            duration,
+            sample_dt: duration / 400.0,
+            dt_ref,
+            policy,
+            energy_bound,
+            inside: &inside,
+        },
+        &mut |t, world| {
+            let f = &world.fluids[fluid];
+            for (k, &y) in SENSOR_HEIGHTS.iter().enumerate() {
+                let p = probe(f, Vector::new(TANK_LENGTH, y, 0.5 * tank_max.z));
+                sensors[k].push((t as f64 * scale, p as f64 / p_ref));
+            }
+        },
+        progress,
+    )?;
+    let sim = &sensors[1];
+    let (t_peak_ref, p_peak_ref) = data.peak();
+    let reached = sim.last().is_some_and(|p| p.0 >= WINDOW.1 - 1e-6);
+    let (band_rms, peak, peak_time) = if reached {
+        let mut sum = 0.0;
+        let mut n = 0usize;
+        for &(t, p) in &data.median.points {
+            if t < WINDOW.0 || t > WINDOW.1 {
+                continue;
+            }
+            if let Some(v) = interpolate(sim, t) {
+                sum += (v - p).powi(2);
+                n += 1;
+            }
+        }
+        let (t_sim, p_sim) = sim
+            .iter()
+            .copied()
+            .filter(|p| p.0 >= WINDOW.0 && p.0 <= WINDOW.1)
+            .fold((0.0, f64::MIN), |a, p| if p.1 > a.1 { p } else { a });
+        (
+            (sum / n.max(1) as f64).sqrt() / p_peak_ref,
+            (p_sim - p_peak_ref) / p_peak_ref,
+            t_sim - t_peak_ref,
+        )
+    } else {
+        (f64::NAN, f64::NAN, f64::NAN)
+    };
+    let names = ["sensor_1", "sensor_2", "sensor_3", "sensor_4"];
+    Ok(RunRecord {
+        scene: super::Scene::Lobovsky.name(),
+        method: method.name,
+        resolution,
+        spacing: s,
+        particles,
+        particles_end: driven.particles_end,
+        escaped: driven.escaped,
+        policy,
+        dt_ref,
+        dt_mean: driven.simulated / driven.substeps.max(1) as Real,
+        simulated: driven.simulated,
+        duration,
+        wall_seconds: driven.wall_seconds,
+        substeps: driven.substeps,
+        particle_steps: driven.particle_steps,
+        errors: vec![
+            Metric {
+                name: "band_rms",
+                value: band_rms,
+            },
+            Metric {
+                name: "peak",
+                value: peak,
+            },
+            Metric {
+                name: "peak_time",
+                value: peak_time,
+            },
+        ],
+        max_density_error: driven.max_density_error,
+        stable: driven.note.is_empty(),
+        note: driven.note,
+        curves: sensors
+            .into_iter()
+            .zip(names)
+            .map(|(points, name)| SimCurve { name, points })
+            .collect(),
+    })
+}

@@ -1,0 +1,244 @@
+//! Validation against experiments and analytic solutions (`rapier_sph::validation`), the
+//! checks that keep the error-vs-run-time report honest. Release mode; each run is a few
+//! seconds (small particle counts, dam breaks stopped at T = 3 where only the front is
+//! checked).
+//!
+//! Reference data are read from `../shared/validation/` beside the crate; a missing folder
+//! fails with an error naming the path.
+
+use rapier_sph::math::Real;
+use rapier_sph::validation::{Depth, Method, RunRecord, Scene, TimePolicy, dam_break, methods};
+
+fn method(name: &str) -> Method {
+    methods()
+        .into_iter()
+        .find(|m| m.name == name)
+        .unwrap_or_else(|| panic!("no solver named {name} in validation::methods()"))
+}
+
+/// The solver a fluid gets when nobody chooses: the water preset's.
+fn default_method() -> Method {
+    let solver = rapier_sph::FluidParamsBuilder::water(0.05)
+        .build()
+        .unwrap()
+        .solver;
+    methods()
+        .into_iter()
+        .find(|m| m.solver == solver)
+        .expect("the default solver is in validation::methods()")
+}
+
+/// The solvers the committed report recommends (`report/recommended.txt`, written by
+/// `examples/error_vs_runtime.rs`).
+fn recommended() -> Vec<Method> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("report/recommended.txt");
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| {
+        panic!(
+            "{}: {e} (run the error_vs_runtime example to make the report)",
+            path.display()
+        )
+    });
+    let list: Vec<Method> = text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with('#'))
+        .map(method)
+        .collect();
+    assert!(
+        !list.is_empty(),
+        "{}: no solver recommended",
+        path.display()
+    );
+    list
+}
+
+fn no_progress() -> impl FnMut(Real) {
+    |_| {}
+}
+
+/// A Martin & Moyce dam break at `resolution`, run only to T = `t_end` (front scaling).
+fn martin_moyce(case: dam_break::Case, m: &Method, resolution: usize, t_end: Real) -> RunRecord {
+    let mut case = case;
+    case.duration = t_end / (case.front_time_factor * (9.81 / case.width).sqrt());
+    dam_break::run(
+        &case,
+        m,
+        resolution,
+        TimePolicy::Adaptive,
+        &mut no_progress(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn assert_conserved(r: &RunRecord) {
+    let label = format!(
+        "{} {} N={} {}",
+        r.scene,
+        r.method,
+        r.resolution,
+        r.policy.name()
+    );
+    assert!(r.stable, "{label}: not stable: {}", r.note);
+    // Mass: every particle has the same mass and nothing removes particles but a sink (none
+    // here), so the mass is conserved exactly iff the count is.
+    assert_eq!(r.particles_end, r.particles, "{label}: particles lost");
+    assert_eq!(r.escaped, 0, "{label}: particles outside the tank");
+}
+
+/// Hydrostatic tank, default solver, default resolution: the bottom layer's pressure within
+/// 2 % of `ρ0·g·depth` once settled.
+///
+/// Tolerance (the issue's): at rest the weakly-compressible density error is `(v/c)² ≈ 0`,
+/// and the bottom layer's depth is known to a quarter of a spacing of the 16-layer column
+/// (about 1.5 %), so a correct solver and wall treatment meet 2 %; a wrong wall treatment
+/// (a missing half kernel at the floor) errs by tens of per cent.
+#[test]
+#[ignore = "not met yet: measured +27 % (WCSPH, N = 8, adaptive; DFSPH +14 %, PBF +29 %): see README"]
+fn hydrostatic_bottom_pressure_within_2_percent() {
+    let r = Scene::Hydrostatic
+        .run(
+            &default_method(),
+            Scene::Hydrostatic.default_resolution(),
+            TimePolicy::Adaptive,
+            &mut no_progress(),
+        )
+        .unwrap();
+    assert_conserved(&r);
+    let e = r.error("bottom_pressure").unwrap();
+    assert!(e.abs() <= 0.02, "bottom pressure error {e:+.4}");
+}
+
+/// Martin & Moyce's surge front, both columns, every recommended solver at the default
+/// resolution (12 particles across the column) with the adaptive step: RMS relative deviation
+/// over the measured points with T ≤ 3 within 10 %, and the front never ahead of Ritter's
+/// bound `Z ≤ 1 + 2T`.
+///
+/// Tolerance (the 10 %), from what the comparison cannot resolve: the transcribed
+/// points carry 1–3 % error; Martin & Moyce's two column sizes differ by up to 4 % in scaled
+/// time (scale effects the model leaves out: surface tension, floor friction, the gate's
+/// opening); and the measured front is the tip particle's edge, quantised to about half a
+/// spacing, 4 % of Z at Z = 1 at this resolution. A solver that gets the collapse wrong (too
+/// stiff, too viscous, a front held back by the floor) is off by 20 % or more.
+///
+/// Ritter's bound is a theorem of the shallow-water equations for an ideal fluid on a dry
+/// frictionless bed, so it holds with no tolerance: the front starts on it (Z = 1 at T = 0,
+/// excess 0) and must never get ahead.
+#[test]
+fn dam_break_front_within_10_percent_of_martin_moyce_for_recommended_solvers() {
+    let res = Scene::MartinMoyceN2.default_resolution();
+    for m in recommended() {
+        for case in [
+            dam_break::Case::martin_moyce_square().unwrap(),
+            dam_break::Case::martin_moyce_n2().unwrap(),
+        ] {
+            let r = martin_moyce(case, &m, res, 3.05);
+            assert_conserved(&r);
+            let e = r.error("front_rms_t3").unwrap();
+            let label = format!("{} {} N={res}", r.scene, m.name);
+            assert!(e <= 0.10, "{label}: front RMS error {e:.4} over T ≤ 3");
+            let excess = r.error("ritter_excess").unwrap();
+            assert!(
+                excess <= 0.0,
+                "{label}: front ahead of Ritter's bound by {excess:.4}"
+            );
+        }
+    }
+}
+
+/// Convergence, default solver: halving the spacing (8 → 16 particles across the column)
+/// does not make the front error over T ≤ 3 grow, for either column.
+///
+/// Tolerance: the finer run may exceed the coarser run's RMS by at most 0.01 (1 % of Z), the
+/// smallest error the data's own transcription carries: below that the two runs cannot be
+/// ranked against these data.
+#[test]
+fn dam_break_front_error_does_not_grow_when_spacing_halves() {
+    let m = default_method();
+    for case in [
+        dam_break::Case::martin_moyce_square().unwrap(),
+        dam_break::Case::martin_moyce_n2().unwrap(),
+    ] {
+        let coarse = martin_moyce(case.clone(), &m, 8, 3.05);
+        let fine = martin_moyce(case, &m, 16, 3.05);
+        assert_conserved(&coarse);
+        assert_conserved(&fine);
+        let (ec, ef) = (
+            coarse.error("front_rms_t3").unwrap(),
+            fine.error("front_rms_t3").unwrap(),
+        );
+        assert!(
+            ef <= ec + 0.01,
+            "{} {}: front error grew from {ec:.4} (N = 8) to {ef:.4} (N = 16)",
+            coarse.scene,
+            m.name
+        );
+    }
+}
+
+/// Every scene, every solver, every time-step policy at the quick sweep's coarsest
+/// resolution: a stable run keeps its mass exactly (no particle lost) and every particle in
+/// its tank; a run that became unstable stopped and says why (nothing is lost silently).
+/// The solvers the report recommends must be stable at every step but `fixed 2dt`, which is
+/// beyond the stability limit on purpose.
+#[test]
+fn every_scene_conserves_mass_and_keeps_its_particles() {
+    let recommended: Vec<&str> = recommended().iter().map(|m| m.name).collect();
+    for scene in Scene::ALL {
+        let res = scene.resolutions(Depth::Quick)[0];
+        for m in methods() {
+            for policy in TimePolicy::ALL {
+                let r = scene.run(&m, res, policy, &mut no_progress()).unwrap();
+                let label = format!("{} {} {}", r.scene, m.name, policy.name());
+                if r.stable {
+                    assert_conserved(&r);
+                } else {
+                    assert!(
+                        !r.note.is_empty() && r.simulated < r.duration,
+                        "{label}: unstable without a reason"
+                    );
+                    assert!(
+                        policy == TimePolicy::FixedLarge || !recommended.contains(&m.name),
+                        "{label}: a recommended solver is unstable at a stable step: {}",
+                        r.note
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// The front and height measurements ignore a lone droplet and a small spray cluster ahead of
+/// the liquid, but follow a cluster big enough to be liquid (more than `MIN_NEIGHBOURS`
+/// neighbours within h). Geometry only, no physics: exact up to f32 round-off of positions
+/// of order 1 m (1e-6 m allowed).
+#[test]
+fn front_and_height_ignore_droplets() {
+    use rapier_sph::fluid::{Fluid, lattice};
+    use rapier_sph::math::Vector;
+    let s = 0.01;
+    let params = rapier_sph::FluidParamsBuilder::water(s).build().unwrap();
+    let column = lattice(Vector::splat(0.5 * s), 10, 20, 4, s);
+    let measure = |extra: &[Vector]| {
+        let mut f = Fluid::new(params.clone()).unwrap();
+        f.add_particles(&column).unwrap();
+        f.add_particles(extra).unwrap();
+        dam_break::measure(&f)
+    };
+    let close = |a: Real, b: Real| (a - b).abs() < 1e-6;
+    let (front, height) = measure(&[]);
+    assert!(close(front, 0.1) && close(height, 0.2), "{front} {height}");
+    // A droplet 5 cm ahead and one 5 cm above the column's back edge.
+    let (front, height) = measure(&[
+        Vector::new(0.15, 0.005, 0.02),
+        Vector::new(0.005, 0.25, 0.02),
+    ]);
+    assert!(close(front, 0.1) && close(height, 0.2), "{front} {height}");
+    // A spray cluster of 4 particles (3 neighbours each) ahead: still ignored.
+    let cluster = lattice(Vector::new(0.2, 0.005, 0.015), 2, 1, 2, s);
+    let (front, _) = measure(&cluster);
+    assert!(close(front, 0.1), "{front}");
+    // A blob of 3 × 2 × 4 = 24 particles ahead is liquid: the front jumps to its edge.
+    let blob = lattice(Vector::new(0.2, 0.005, 0.005), 3, 2, 4, s);
+    let (front, _) = measure(&blob);
+    assert!(close(front, 0.2 + 2.0 * s + 0.5 * s), "{front}");
+}
