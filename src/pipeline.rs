@@ -400,21 +400,17 @@ fn step_fluid(
 
     // 1. Neighbour search: sort by cell (every per-particle array follows), cells, lists.
     timed(report, Stage::NeighbourSearch, || {
-        if ws.grid.sort(positions, h) {
-            let perm = ws.grid.permutation();
-            par::permute(positions, &mut ws.scratch_vectors, perm);
-            par::permute(velocities, &mut ws.scratch_vectors, perm);
-            par::permute(ids, &mut ws.scratch_ids, perm);
-            if dfsph_settings.is_some() {
-                par::permute(warm_density, &mut ws.scratch_reals, perm);
-                par::permute(warm_divergence, &mut ws.scratch_reals, perm);
-            }
-            if position_based {
-                par::permute(&mut ws.previous_positions, &mut ws.scratch_vectors, perm);
-            }
-        }
-        ws.grid.build_cells();
-        ws.neighbors.build(&ws.grid, positions, h);
+        search_neighbours(
+            h,
+            positions,
+            velocities,
+            ids,
+            dfsph_settings
+                .is_some()
+                .then_some((warm_density, warm_divergence)),
+            position_based,
+            ws,
+        )
     });
     report.neighbour_pairs += ws.neighbors.total_pairs();
 
@@ -563,6 +559,35 @@ fn step_fluid(
     mean_err
 }
 
+/// Stage 1: sorts the particles by cell (every per-particle array named here follows the
+/// permutation: the DFSPH warm starts when given, `ws.previous_positions` when `previous`),
+/// then builds the cells and the neighbour lists.
+fn search_neighbours(
+    h: Real,
+    positions: &mut Vec<Vector>,
+    velocities: &mut Vec<Vector>,
+    ids: &mut Vec<u32>,
+    warm: Option<(&mut Vec<Real>, &mut Vec<Real>)>,
+    previous: bool,
+    ws: &mut crate::fluid::Workspace,
+) {
+    if ws.grid.sort(positions, h) {
+        let perm = ws.grid.permutation();
+        par::permute(positions, &mut ws.scratch_vectors, perm);
+        par::permute(velocities, &mut ws.scratch_vectors, perm);
+        par::permute(ids, &mut ws.scratch_ids, perm);
+        if let Some((density, divergence)) = warm {
+            par::permute(density, &mut ws.scratch_reals, perm);
+            par::permute(divergence, &mut ws.scratch_reals, perm);
+        }
+        if previous {
+            par::permute(&mut ws.previous_positions, &mut ws.scratch_vectors, perm);
+        }
+    }
+    ws.grid.build_cells();
+    ws.neighbors.build(&ws.grid, positions, h);
+}
+
 /// Collider contact of every particle, swept from `ws.previous_positions` to `positions`.
 /// Returns the number of particles pushed out of a solid.
 fn collider_contact(
@@ -695,17 +720,15 @@ fn relax_overlaps(
     let mut moved = false;
     for round in 0..RELAX_ROUNDS {
         timed(report, Stage::NeighbourSearch, || {
-            if ws.grid.sort(positions, h) {
-                let perm = ws.grid.permutation();
-                par::permute(positions, &mut ws.scratch_vectors, perm);
-                par::permute(velocities, &mut ws.scratch_vectors, perm);
-                par::permute(ids, &mut ws.scratch_ids, perm);
-                par::permute(warm_density, &mut ws.scratch_reals, perm);
-                par::permute(warm_divergence, &mut ws.scratch_reals, perm);
-                par::permute(&mut ws.previous_positions, &mut ws.scratch_vectors, perm);
-            }
-            ws.grid.build_cells();
-            ws.neighbors.build(&ws.grid, positions, h);
+            search_neighbours(
+                h,
+                positions,
+                velocities,
+                ids,
+                Some((&mut *warm_density, &mut *warm_divergence)),
+                true,
+                ws,
+            )
         });
         if round == 0 {
             // Particles at exactly the same place have no separation to push along (the
@@ -1028,30 +1051,7 @@ fn step_pbf(
         *pr = l * scale * rho * rho;
     }
 
-    // 8. Velocities from the corrected positions.
-    let (mut non_finite, mut max_speed) = timed(report, Stage::ParticleUpdate, || {
-        integrate::velocities_from_positions(dt, positions, &ws.previous_positions, velocities)
-    });
-
-    // 6. Viscosity on the new velocities (the paper's XSPH role).
-    if p.viscosity > 0.0 {
-        timed(report, Stage::ViscosityForce, || {
-            accelerations.fill(Vector::ZERO);
-            forces::viscosity::add_accelerations(
-                positions,
-                velocities,
-                &ws.inv_densities,
-                &ws.neighbors,
-                p.particle_mass,
-                p.viscosity,
-                h,
-                accelerations,
-            );
-            integrate::add_accelerations(dt, accelerations, velocities);
-        });
-        (non_finite, max_speed) = integrate::scan(positions, velocities);
-    }
-    (non_finite, max_speed)
+    finish_position_step(p, dt, positions, velocities, accelerations, ws, report)
 }
 
 /// Stages 3–8 of the double-density relaxation (see [`crate::solver::clavet`]); gravity and
@@ -1096,6 +1096,21 @@ fn step_clavet(
         *inv = 1.0 / rho.max(Real::MIN_POSITIVE);
         *pr = settings.stiffness * p.rest_density * c * c * (rel - 1.0);
     }
+    finish_position_step(p, dt, positions, velocities, accelerations, ws, report)
+}
+
+/// Stages 8 and 6 of the position-based solvers (PBF, Clavet): velocities from the corrected
+/// positions, then viscosity on the new velocities (the role XSPH plays in Macklin & Müller).
+/// Returns `(non-finite count, max speed)`.
+fn finish_position_step(
+    p: &crate::FluidParams,
+    dt: Real,
+    positions: &[Vector],
+    velocities: &mut [Vector],
+    accelerations: &mut [Vector],
+    ws: &mut crate::fluid::Workspace,
+    report: &mut StepReport,
+) -> (usize, Real) {
     let (mut non_finite, mut max_speed) = timed(report, Stage::ParticleUpdate, || {
         integrate::velocities_from_positions(dt, positions, &ws.previous_positions, velocities)
     });
@@ -1109,7 +1124,7 @@ fn step_clavet(
                 &ws.neighbors,
                 p.particle_mass,
                 p.viscosity,
-                h,
+                p.smoothing_length,
                 accelerations,
             );
             integrate::add_accelerations(dt, accelerations, velocities);
