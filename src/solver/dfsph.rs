@@ -406,6 +406,18 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
         )
     };
     let alpha: &[Real] = alpha;
+    let rate = |velocities: &[Vector], pi: &mut [Real], partials: &mut [(f64, Real)]| {
+        rate_pass(
+            velocities,
+            ctx.neighbors,
+            ctx.gradients,
+            ctx.mass,
+            ctx.wall,
+            pi,
+            partials,
+            |i, r| finish(alpha, i, r),
+        )
+    };
     match warm_start {
         WarmStart::Half => {
             for w in warm.iter_mut() {
@@ -415,16 +427,7 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
         WarmStart::WhereCompressing(fraction) => {
             if warm.iter().any(|&w| w != 0.0) {
                 // One rate pass without any pressure: which particles still compress.
-                rate_pass(
-                    velocities,
-                    ctx.neighbors,
-                    ctx.gradients,
-                    ctx.mass,
-                    ctx.wall,
-                    pi,
-                    partials,
-                    |i, rate| finish(alpha, i, rate),
-                );
+                rate(velocities, pi, partials);
                 for (w, &p) in warm.iter_mut().zip(pi.iter()) {
                     *w = if p > 0.0 { *w * fraction } else { 0.0 };
                 }
@@ -436,16 +439,7 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
     }
     let mut stats = SolveStats::default();
     loop {
-        rate_pass(
-            velocities,
-            ctx.neighbors,
-            ctx.gradients,
-            ctx.mass,
-            ctx.wall,
-            pi,
-            partials,
-            |i, rate| finish(alpha, i, rate),
-        );
+        rate(velocities, pi, partials);
         let (sum, _) = reduce_partials(partials);
         stats.error = (sum / n as f64) as Real * error_scale;
         let done = stats.error <= target;
