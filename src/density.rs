@@ -1,6 +1,7 @@
 //! Stage 2: density by kernel summation (Müller et al. 2003, eq. 3; the Unity paper's eq. 9):
 //! `ρ_i = Σ_j m·W(|x_i − x_j|, h)`, the particle itself included.
 
+use crate::domain::{Open, Separation};
 use crate::kernel::Kernel;
 use crate::math::{Real, Vector};
 use crate::neighbors::NeighborLists;
@@ -20,6 +21,30 @@ pub fn compute<K: Kernel>(
     densities: &mut [Real],
     inv_densities: &mut [Real],
 ) {
+    compute_in::<K, Open>(
+        positions,
+        neighbors,
+        mass,
+        h,
+        wall,
+        densities,
+        inv_densities,
+        Open,
+    );
+}
+
+/// [`compute`] with the separations formed by `sep` (see [`crate::domain`]).
+#[allow(clippy::too_many_arguments)]
+pub fn compute_in<K: Kernel, S: Separation>(
+    positions: &[Vector],
+    neighbors: &NeighborLists,
+    mass: Real,
+    h: Real,
+    wall: Option<&[Real]>,
+    densities: &mut [Real],
+    inv_densities: &mut [Real],
+    sep: S,
+) {
     let kernel = K::new(h);
     let self_term = mass * kernel.w(0.0);
     crate::par_chunks_mut!(densities, CHUNK)
@@ -38,7 +63,7 @@ pub fn compute<K: Kernel>(
                 for block in &mut blocks {
                     let mut d = [0.0; LANES];
                     for l in 0..LANES {
-                        d[l] = (xi - positions[block[l] as usize]).length_squared();
+                        d[l] = sep.sep(xi, positions[block[l] as usize]).length_squared();
                     }
                     for l in 0..LANES {
                         acc[l] += kernel.w(d[l].sqrt());
@@ -46,7 +71,7 @@ pub fn compute<K: Kernel>(
                 }
                 let mut sum = lane_sum(acc);
                 for &j in blocks.remainder() {
-                    sum += kernel.w((xi - positions[j as usize]).length());
+                    sum += kernel.w(sep.sep(xi, positions[j as usize]).length());
                 }
                 *rho = self_term + mass * sum + wall.map_or(0.0, |w| w[i]);
                 *inv = 1.0 / *rho;

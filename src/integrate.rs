@@ -193,3 +193,16 @@ pub fn bounds(positions: &[Vector]) -> (Vector, Vector) {
     #[cfg(not(feature = "parallel"))]
     chunks.fold(id(), merge)
 }
+
+/// Wraps every position into the periodic box `domain` (a particle that left through one face
+/// re-enters through the opposite one; none is added or lost). Non-finite positions are left
+/// as they are, for the quarantine to remove.
+pub fn wrap_positions(domain: &crate::domain::MinimumImage, positions: &mut [Vector]) {
+    crate::par_chunks_mut!(positions, CHUNK).for_each(|chunk| {
+        for x in chunk {
+            if is_finite(*x) {
+                *x = domain.wrap(*x);
+            }
+        }
+    });
+}

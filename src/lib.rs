@@ -103,6 +103,7 @@
 pub mod boundary;
 pub mod density;
 pub mod diagnostics;
+pub mod domain;
 pub mod emitter;
 pub mod error;
 pub mod fluid;
@@ -135,6 +136,7 @@ pub mod validation;
 pub mod world;
 
 pub use diagnostics::{Stage, StageTimings, StepReport};
+pub use domain::Domain;
 pub use emitter::{Emitter, EmitterHandle, Nozzle, Sink, SinkHandle, SinkRegion};
 pub use error::{SphError, SphResult};
 pub use fluid::{Fluid, FluidHandle, FluidSet};

@@ -99,6 +99,9 @@ pub struct FluidParams {
     /// clump along walls. Both presets: off (the paper's walls only reflect); not yet the
     /// default, see the README's status table.
     pub wall_density: bool,
+    /// Where the particles live: open space (default) or a periodic box (see
+    /// [`crate::domain`]). Both presets: open.
+    pub domain: crate::domain::Domain,
 }
 
 impl FluidParams {
@@ -178,6 +181,7 @@ impl FluidParams {
             });
         }
         non_negative("friction", self.friction)?;
+        self.domain.validate(self.smoothing_length)?;
         if let Solver::Pbf(b) = &self.solver {
             if b.iterations == 0 {
                 return Err(SphError::InvalidParameter {
@@ -293,6 +297,7 @@ impl FluidParamsBuilder {
                 collision_groups: InteractionGroups::all(),
                 solver: Solver::Wcsph,
                 wall_density: false,
+                domain: crate::domain::Domain::Open,
             },
             mass_given: false,
         }
@@ -321,9 +326,24 @@ impl FluidParamsBuilder {
                 collision_groups: InteractionGroups::all(),
                 solver: Solver::Wcsph,
                 wall_density: false,
+                domain: crate::domain::Domain::Open,
             },
             mass_given: true,
         }
+    }
+
+    /// A periodic box `[min, max)` along all three axes (see [`crate::domain`]): particles
+    /// leaving through a face re-enter through the opposite one. Validated by
+    /// [`Self::build`]: finite corners, every edge at least 3 smoothing lengths.
+    pub fn periodic(mut self, min: crate::math::Vector, max: crate::math::Vector) -> Self {
+        self.params.domain = crate::domain::Domain::Periodic { min, max };
+        self
+    }
+
+    /// The domain (open or periodic; see [`crate::domain`]).
+    pub fn domain(mut self, domain: crate::domain::Domain) -> Self {
+        self.params.domain = domain;
+        self
     }
 
     /// The pressure solver.

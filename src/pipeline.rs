@@ -17,6 +17,7 @@
 use crate::boundary::Coupling;
 use crate::boundary::contact::{self, ContactResponse, Movers};
 use crate::diagnostics::{Stage, StepReport};
+use crate::domain::{MinimumImage, Separation};
 use crate::error::{SphError, SphResult};
 use crate::fluid::{Fluid, FluidSet};
 use crate::math::{Real, Vector};
@@ -356,6 +357,7 @@ fn step_fluid(
     };
     let p = fluid.params().clone();
     let h = p.smoothing_length;
+    let domain = p.domain.minimum_image();
     let dfsph_settings = match p.solver {
         Solver::Dfsph(d) => Some(d),
         _ => None,
@@ -402,6 +404,7 @@ fn step_fluid(
     timed(report, Stage::NeighbourSearch, || {
         search_neighbours(
             h,
+            domain,
             positions,
             velocities,
             ids,
@@ -448,7 +451,9 @@ fn step_fluid(
 
     ws.inv_densities.resize(n, 0.0);
     ws.previous_positions.resize(n, Vector::ZERO);
-    let (non_finite, max_speed) = match (dfsph_settings, pbf_settings) {
+    // The separation (plain or minimum image) is chosen here once: every stage below is
+    // compiled for each, so the open domain runs exactly the code it ran before.
+    let (non_finite, max_speed) = crate::with_separation!(p.domain, S, sep => match (dfsph_settings, pbf_settings) {
         _ if clavet_settings.is_some() => step_clavet(
             &p,
             &clavet_settings.unwrap_or_default(),
@@ -460,6 +465,7 @@ fn step_fluid(
             pressures,
             ws,
             report,
+            sep,
         ),
         (_, Some(settings)) => step_pbf(
             &p,
@@ -473,6 +479,7 @@ fn step_fluid(
             pressures,
             ws,
             report,
+            sep,
         ),
         (None, None) => step_wcsph(
             &p,
@@ -486,6 +493,7 @@ fn step_fluid(
             pressures,
             ws,
             report,
+            sep,
         ),
         (Some(settings), None) => step_dfsph(
             &p,
@@ -502,8 +510,9 @@ fn step_fluid(
             warm_divergence,
             ws,
             report,
+            sep,
         ),
-    };
+    });
     // Fluid → body through the walls' pressure (WCSPH): each particle's wall force from
     // dynamic bodies, `−m·∇ρ_wall,c·p/(2ρ²)`, pushes those bodies back (see
     // `boundary::bodies`). The other solvers' wall forces (DFSPH spreads its wall force over
@@ -556,6 +565,12 @@ fn step_fluid(
     // Particles pushed out of a solid land on its surface, on top of each other: relax them
     // (and check for more) before the next substep gives them dynamics (`relax_overlaps`).
     fluid.needs_depenetration = depenetrated > 0;
+    // Periodic box: particles that left it re-enter through the opposite face.
+    if let Some(d) = domain {
+        timed(report, Stage::ParticleUpdate, || {
+            integrate::wrap_positions(&d, &mut fluid.positions)
+        });
+    }
     mean_err
 }
 
@@ -564,6 +579,7 @@ fn step_fluid(
 /// then builds the cells and the neighbour lists.
 fn search_neighbours(
     h: Real,
+    domain: Option<MinimumImage>,
     positions: &mut Vec<Vector>,
     velocities: &mut Vec<Vector>,
     ids: &mut Vec<u32>,
@@ -571,7 +587,11 @@ fn search_neighbours(
     previous: bool,
     ws: &mut crate::fluid::Workspace,
 ) {
-    if ws.grid.sort(positions, h) {
+    let reordered = match &domain {
+        None => ws.grid.sort(positions, h),
+        Some(d) => ws.grid.sort_periodic(positions, h, d),
+    };
+    if reordered {
         let perm = ws.grid.permutation();
         par::permute(positions, &mut ws.scratch_vectors, perm);
         par::permute(velocities, &mut ws.scratch_vectors, perm);
@@ -585,7 +605,20 @@ fn search_neighbours(
         }
     }
     ws.grid.build_cells();
-    ws.neighbors.build(&ws.grid, positions, h);
+    build_lists(ws, positions, h, domain);
+}
+
+/// The neighbour lists over the current cells (minimum-image distances in a periodic box).
+fn build_lists(
+    ws: &mut crate::fluid::Workspace,
+    positions: &[Vector],
+    h: Real,
+    domain: Option<MinimumImage>,
+) {
+    match domain {
+        None => ws.neighbors.build(&ws.grid, positions, h),
+        Some(d) => ws.neighbors.build_periodic(&ws.grid, positions, h, d),
+    }
 }
 
 /// Collider contact of every particle, swept from `ws.previous_positions` to `positions`.
@@ -679,6 +712,7 @@ fn relax_overlaps(
 ) {
     let p = fluid.params().clone();
     let h = p.smoothing_length;
+    let domain = p.domain.minimum_image();
     let depenetrate = fluid.needs_depenetration;
     let Fluid {
         positions,
@@ -722,6 +756,7 @@ fn relax_overlaps(
         timed(report, Stage::NeighbourSearch, || {
             search_neighbours(
                 h,
+                domain,
                 positions,
                 velocities,
                 ids,
@@ -738,11 +773,13 @@ fn relax_overlaps(
             let mut any = false;
             for i in 0..n {
                 let xi = positions[i];
-                let hit = ws
-                    .neighbors
-                    .of(i)
-                    .iter()
-                    .any(|&j| (xi - positions[j as usize]).length() < 1e-3 * s);
+                let hit = ws.neighbors.of(i).iter().any(|&j| {
+                    let r = match &domain {
+                        None => xi - positions[j as usize],
+                        Some(d) => d.sep(xi, positions[j as usize]),
+                    };
+                    r.length() < 1e-3 * s
+                });
                 if hit {
                     let id = ids[i];
                     let frac = ((id as f64 * 0.618_033_988_75).fract() as Real) * 0.9 + 0.1;
@@ -754,7 +791,7 @@ fn relax_overlaps(
             }
             if any {
                 ws.grid.build_cells();
-                ws.neighbors.build(&ws.grid, positions, h);
+                build_lists(ws, positions, h, domain);
             }
         }
         if round == 0 && depenetrate {
@@ -798,8 +835,10 @@ fn relax_overlaps(
             max_move: RELAX_MAX_MOVE * p.particle_spacing,
         };
         let stats = timed(report, Stage::DensitySolve, || {
-            crate::with_kernel!(p.density_kernel, K => crate::solver::pbf::solve::<K>(
-                &ctx, &settings, &mut ws.pbf, positions, densities, &mut ws.inv_densities))
+            crate::with_separation!(p.domain, S, sep =>
+                crate::with_kernel!(p.density_kernel, K => crate::solver::pbf::solve_in::<K, S>(
+                    &ctx, &settings, &mut ws.pbf, positions, densities, &mut ws.inv_densities,
+                    sep)))
         });
         if stats.moved == 0 {
             break;
@@ -823,7 +862,7 @@ fn relax_overlaps(
 
 /// Stages 3–8 of WCSPH (the Unity paper). Returns `(non-finite count, max speed)`.
 #[allow(clippy::too_many_arguments)]
-fn step_wcsph(
+fn step_wcsph<S: Separation>(
     p: &crate::FluidParams,
     gravity: Vector,
     dt: Real,
@@ -835,13 +874,14 @@ fn step_wcsph(
     pressures: &mut [Real],
     ws: &mut crate::fluid::Workspace,
     report: &mut StepReport,
+    sep: S,
 ) -> (usize, Real) {
     let h = p.smoothing_length;
     // 3. Density (fluid sum plus walls).
     timed(report, Stage::Density, || {
-        crate::with_kernel!(p.density_kernel, K => density::compute::<K>(
+        crate::with_kernel!(p.density_kernel, K => density::compute_in::<K, S>(
             positions, &ws.neighbors, p.particle_mass, h, wall.map(|w| &w.density[..]),
-            densities, &mut ws.inv_densities));
+            densities, &mut ws.inv_densities, sep));
     });
 
     // 4. Pressure.
@@ -857,15 +897,15 @@ fn step_wcsph(
 
     // 5. Pressure force (overwrites the accelerations).
     timed(report, Stage::PressureForce, || {
-        crate::with_kernel!(p.pressure_kernel, K => pressure::wcsph::pressure_accelerations::<K>(
+        crate::with_kernel!(p.pressure_kernel, K => pressure::wcsph::pressure_accelerations_in::<K, S>(
             positions, &ws.inv_densities, pressures, &ws.neighbors, p.particle_mass, h,
-            wall.map(|w| &w.gradient[..]), accelerations));
+            wall.map(|w| &w.gradient[..]), accelerations, sep));
     });
 
     // 6. Viscosity force.
     if p.viscosity > 0.0 {
         timed(report, Stage::ViscosityForce, || {
-            forces::viscosity::add_accelerations(
+            forces::viscosity::add_accelerations_in(
                 positions,
                 velocities,
                 &ws.inv_densities,
@@ -874,6 +914,7 @@ fn step_wcsph(
                 p.viscosity,
                 h,
                 accelerations,
+                sep,
             );
         });
     }
@@ -899,7 +940,7 @@ fn step_wcsph(
 
 /// Stages 3–8 of DFSPH (see [`crate::solver::dfsph`]). Returns `(non-finite count, max speed)`.
 #[allow(clippy::too_many_arguments)]
-fn step_dfsph(
+fn step_dfsph<S: Separation>(
     p: &crate::FluidParams,
     settings: &crate::solver::Dfsph,
     gravity: Vector,
@@ -914,15 +955,16 @@ fn step_dfsph(
     warm_divergence: &mut [Real],
     ws: &mut crate::fluid::Workspace,
     report: &mut StepReport,
+    sep: S,
 ) -> (usize, Real) {
     let h = p.smoothing_length;
     let n = positions.len();
     ws.dfsph.alpha.resize(n, 0.0);
     // 3. Density and DFSPH factors.
     timed(report, Stage::Density, || {
-        crate::with_kernel!(p.density_kernel, K => dfsph::density_and_factors::<K>(
+        crate::with_kernel!(p.density_kernel, K => dfsph::density_and_factors_in::<K, S>(
             positions, &ws.neighbors, p.particle_mass, h, wall,
-            densities, &mut ws.inv_densities, &mut ws.dfsph.alpha, &mut ws.gradients));
+            densities, &mut ws.inv_densities, &mut ws.dfsph.alpha, &mut ws.gradients, sep));
     });
     let ctx = dfsph::SolveContext {
         positions,
@@ -953,7 +995,7 @@ fn step_dfsph(
         forces = true;
         timed(report, Stage::ViscosityForce, || {
             accelerations.fill(Vector::ZERO);
-            forces::viscosity::add_accelerations(
+            forces::viscosity::add_accelerations_in(
                 ctx.positions,
                 velocities,
                 &ws.inv_densities,
@@ -962,6 +1004,7 @@ fn step_dfsph(
                 p.viscosity,
                 h,
                 accelerations,
+                sep,
             );
         });
     }
@@ -1009,7 +1052,7 @@ fn step_dfsph(
 /// Stages 3–8 of PBF (see [`crate::solver::pbf`]); gravity and the position prediction ran
 /// before the neighbour search. Returns `(non-finite count, max speed)`.
 #[allow(clippy::too_many_arguments)]
-fn step_pbf(
+fn step_pbf<S: Separation>(
     p: &crate::FluidParams,
     settings: &crate::solver::Pbf,
     dt: Real,
@@ -1021,6 +1064,7 @@ fn step_pbf(
     pressures: &mut [Real],
     ws: &mut crate::fluid::Workspace,
     report: &mut StepReport,
+    sep: S,
 ) -> (usize, Real) {
     let h = p.smoothing_length;
     let ctx = crate::solver::pbf::PbfContext {
@@ -1035,8 +1079,8 @@ fn step_pbf(
     };
     // 3–5. The position solve (densities are measured in its first pass).
     let stats = timed(report, Stage::DensitySolve, || {
-        crate::with_kernel!(p.density_kernel, K => crate::solver::pbf::solve::<K>(
-            &ctx, settings, &mut ws.pbf, positions, densities, &mut ws.inv_densities))
+        crate::with_kernel!(p.density_kernel, K => crate::solver::pbf::solve_in::<K, S>(
+            &ctx, settings, &mut ws.pbf, positions, densities, &mut ws.inv_densities, sep))
     });
     report.solver_iterations += stats.iterations;
     report.solver_density_error = report.solver_density_error.max(stats.error);
@@ -1051,14 +1095,14 @@ fn step_pbf(
         *pr = l * scale * rho * rho;
     }
 
-    finish_position_step(p, dt, positions, velocities, accelerations, ws, report)
+    finish_position_step(p, dt, positions, velocities, accelerations, ws, report, sep)
 }
 
 /// Stages 3–8 of the double-density relaxation (see [`crate::solver::clavet`]); gravity and
 /// the position prediction ran before the neighbour search. Returns `(non-finite count, max
 /// speed)`.
 #[allow(clippy::too_many_arguments)]
-fn step_clavet(
+fn step_clavet<S: Separation>(
     p: &crate::FluidParams,
     settings: &crate::solver::Clavet,
     dt: Real,
@@ -1069,6 +1113,7 @@ fn step_clavet(
     pressures: &mut [Real],
     ws: &mut crate::fluid::Workspace,
     report: &mut StepReport,
+    sep: S,
 ) -> (usize, Real) {
     let h = p.smoothing_length;
     let c = p.equation_of_state.speed_of_sound();
@@ -1080,7 +1125,7 @@ fn step_clavet(
         dt,
     };
     let error = timed(report, Stage::DensitySolve, || {
-        crate::solver::clavet::relax(&ctx, settings, &mut ws.clavet, positions, densities)
+        crate::solver::clavet::relax_in(&ctx, settings, &mut ws.clavet, positions, densities, sep)
     });
     report.solver_iterations += 1;
     report.solver_density_error = report.solver_density_error.max(error);
@@ -1096,13 +1141,13 @@ fn step_clavet(
         *inv = 1.0 / rho.max(Real::MIN_POSITIVE);
         *pr = settings.stiffness * p.rest_density * c * c * (rel - 1.0);
     }
-    finish_position_step(p, dt, positions, velocities, accelerations, ws, report)
+    finish_position_step(p, dt, positions, velocities, accelerations, ws, report, sep)
 }
 
 /// Stages 8 and 6 of the position-based solvers (PBF, Clavet): velocities from the corrected
 /// positions, then viscosity on the new velocities (the role XSPH plays in Macklin & Müller).
 /// Returns `(non-finite count, max speed)`.
-fn finish_position_step(
+fn finish_position_step<S: Separation>(
     p: &crate::FluidParams,
     dt: Real,
     positions: &[Vector],
@@ -1110,6 +1155,7 @@ fn finish_position_step(
     accelerations: &mut [Vector],
     ws: &mut crate::fluid::Workspace,
     report: &mut StepReport,
+    sep: S,
 ) -> (usize, Real) {
     let (mut non_finite, mut max_speed) = timed(report, Stage::ParticleUpdate, || {
         integrate::velocities_from_positions(dt, positions, &ws.previous_positions, velocities)
@@ -1117,7 +1163,7 @@ fn finish_position_step(
     if p.viscosity > 0.0 {
         timed(report, Stage::ViscosityForce, || {
             accelerations.fill(Vector::ZERO);
-            forces::viscosity::add_accelerations(
+            forces::viscosity::add_accelerations_in(
                 positions,
                 velocities,
                 &ws.inv_densities,
@@ -1126,6 +1172,7 @@ fn finish_position_step(
                 p.viscosity,
                 p.smoothing_length,
                 accelerations,
+                sep,
             );
             integrate::add_accelerations(dt, accelerations, velocities);
         });

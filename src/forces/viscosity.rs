@@ -5,6 +5,7 @@
 //! Pair terms are antisymmetric, so linear momentum is conserved; the Laplacian is positive,
 //! so the force only damps relative motion.
 
+use crate::domain::{Open, Separation};
 use crate::kernel::ViscosityLaplacian;
 use crate::math::{Real, Vector};
 use crate::neighbors::NeighborLists;
@@ -23,6 +24,32 @@ pub fn add_accelerations(
     viscosity: Real,
     h: Real,
     accelerations: &mut [Vector],
+) {
+    add_accelerations_in(
+        positions,
+        velocities,
+        inv_densities,
+        neighbors,
+        mass,
+        viscosity,
+        h,
+        accelerations,
+        Open,
+    );
+}
+
+/// [`add_accelerations`] with the separations formed by `sep` (see [`crate::domain`]).
+#[allow(clippy::too_many_arguments)]
+pub fn add_accelerations_in<S: Separation>(
+    positions: &[Vector],
+    velocities: &[Vector],
+    inv_densities: &[Real],
+    neighbors: &NeighborLists,
+    mass: Real,
+    viscosity: Real,
+    h: Real,
+    accelerations: &mut [Vector],
+    sep: S,
 ) {
     let lap = ViscosityLaplacian::new(h);
     let em = viscosity * mass;
@@ -44,7 +71,7 @@ pub fn add_accelerations(
                     // Gathers only; the arithmetic follows in uniform loops that vectorise.
                     for l in 0..LANES {
                         let j = block[l] as usize;
-                        d[l] = (xi - positions[j]).length_squared();
+                        d[l] = sep.sep(xi, positions[j]).length_squared();
                         let dv = velocities[j] - vi;
                         (dvx[l], dvy[l], dvz[l]) = (dv.x, dv.y, dv.z);
                         inv[l] = inv_densities[j];
@@ -61,7 +88,7 @@ pub fn add_accelerations(
                 let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
                 for &j in blocks.remainder() {
                     let ju = j as usize;
-                    let d = (xi - positions[ju]).length();
+                    let d = sep.sep(xi, positions[ju]).length();
                     f += (velocities[ju] - vi) * (lap.laplacian(d) * inv_densities[ju]);
                 }
                 *a += f * (em * inv_densities[i]);

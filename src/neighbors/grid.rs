@@ -1,3 +1,4 @@
+use crate::domain::MinimumImage;
 use crate::math::{Real, Vector};
 use crate::par::CHUNK;
 #[cfg(feature = "parallel")]
@@ -62,12 +63,55 @@ pub struct NeighborGrid {
     table_mask: usize,
     /// `64 − log2(table length)`: the hash keeps the product's top bits.
     table_shift: u32,
+    /// Set by [`Self::sort_periodic`]: the cells tile a periodic box.
+    periodic: Option<PeriodicCells>,
+}
+
+/// The cells of a periodic box: `n[a]` cells along axis `a`, each `1/inv_cell[a] ≥ h` long,
+/// dividing the box's edge exactly.
+#[derive(Copy, Clone, Debug)]
+struct PeriodicCells {
+    min: [f64; 3],
+    inv_cell: [f64; 3],
+    n: [u64; 3],
+}
+
+impl PeriodicCells {
+    fn new(domain: &MinimumImage, h: Real) -> Self {
+        let mut out = Self {
+            min: [0.0; 3],
+            inv_cell: [0.0; 3],
+            n: [0; 3],
+        };
+        for a in 0..3 {
+            let len = domain.max[a] as f64 - domain.min[a] as f64;
+            // As many cells as fit with the open grid's margin (at least 3: the domain's
+            // validation asks for edges of at least 3·h), at most 2^20 (keys hold 21 bits).
+            let n = (len / (h as f64 * (1.0 + CELL_MARGIN))).floor();
+            let n = n.clamp(3.0, (1u64 << 20) as f64) as u64;
+            out.min[a] = domain.min[a] as f64;
+            out.inv_cell[a] = n as f64 / len;
+            out.n[a] = n;
+        }
+        out
+    }
+
+    /// The key of the cell holding `p`, wrapped into the box (any input gives a key).
+    #[inline(always)]
+    fn key(&self, p: Vector) -> u64 {
+        let c = |a: usize, x: Real| {
+            let k = ((x as f64 - self.min[a]) * self.inv_cell[a]).floor() as i64;
+            k.rem_euclid(self.n[a] as i64) as u64
+        };
+        pack(c(0, p.x), c(1, p.y), c(2, p.z))
+    }
 }
 
 impl NeighborGrid {
     /// Computes cell keys for `positions` and sorts them. Returns `true` when the order
     /// changed; then [`Self::permutation`] tells where each particle goes.
     pub fn sort(&mut self, positions: &[Vector], cell_size: Real) -> bool {
+        self.periodic = None;
         self.cell_size = cell_size;
         self.inv_cell = 1.0 / (cell_size as f64 * (1.0 + CELL_MARGIN));
         let inv = self.inv_cell;
@@ -81,6 +125,37 @@ impl NeighborGrid {
                     *o = (cell_key(positions[i], inv), i as u32);
                 }
             });
+        self.sort_by_key()
+    }
+
+    /// [`Self::sort`] for a periodic box: cells at least `h` long that divide each edge of the
+    /// box exactly, their coordinates wrapped modulo the number of cells per axis, so the
+    /// cells across a face are neighbours. Positions outside the box (a prediction that
+    /// left it) fall in the cell of their periodic image.
+    pub fn sort_periodic(&mut self, positions: &[Vector], h: Real, domain: &MinimumImage) -> bool {
+        let cells = PeriodicCells::new(domain, h);
+        self.periodic = Some(cells);
+        self.cell_size = h;
+        self.inv_cell = cells.inv_cell[0];
+        self.sort_keys.resize(positions.len(), (0, 0));
+        crate::par_chunks_mut!(self.sort_keys, CHUNK)
+            .enumerate()
+            .for_each(|(c, out)| {
+                let base = c * CHUNK;
+                for (k, o) in out.iter_mut().enumerate() {
+                    let i = base + k;
+                    *o = (cells.key(positions[i]), i as u32);
+                }
+            });
+        self.sort_by_key()
+    }
+
+    /// `true` when the last sort was [`Self::sort_periodic`].
+    pub fn is_periodic(&self) -> bool {
+        self.periodic.is_some()
+    }
+
+    fn sort_by_key(&mut self) -> bool {
         // Already sorted (a fluid at rest, or a second call): nothing to move.
         if self.sort_keys.windows(2).all(|w| w[0] <= w[1]) {
             return false;
@@ -187,17 +262,38 @@ impl NeighborGrid {
     /// Particle ranges of the (up to) 27 occupied cells around cell `c`, adjacent ranges
     /// merged. The ranges come in ascending order.
     pub fn neighbor_ranges(&self, c: u32) -> CellRanges {
+        self.neighbor_ranges_of::<false>(c)
+    }
+
+    /// [`Self::neighbor_ranges`] in a periodic box (after [`Self::sort_periodic`]): the
+    /// cells across a face are the neighbours of the cells on it.
+    pub fn periodic_neighbor_ranges(&self, c: u32) -> CellRanges {
+        self.neighbor_ranges_of::<true>(c)
+    }
+
+    #[inline(always)]
+    fn neighbor_ranges_of<const PERIODIC: bool>(&self, c: u32) -> CellRanges {
         let key = self.cell_keys[c as usize];
         let (x, y, z) = (key & MASK, (key >> BITS) & MASK, (key >> (2 * BITS)) & MASK);
         let mut out = CellRanges {
             ranges: [(0, 0); 27],
             len: 0,
         };
-        for dz in [MASK, 0, 1] {
-            for dy in [MASK, 0, 1] {
-                for dx in [MASK, 0, 1] {
-                    // Adding MASK is subtracting 1 modulo 2^21.
-                    let k = pack(x.wrapping_add(dx), y.wrapping_add(dy), z.wrapping_add(dz));
+        // Coordinates of the cell before and after along each axis: modulo 2^21 (adding
+        // MASK is subtracting 1) in open space, modulo the cell count in a periodic box.
+        let around = |v: u64, a: usize| -> [u64; 3] {
+            if PERIODIC {
+                let n = self.periodic.map_or(1 << BITS, |p| p.n[a]);
+                [(v + n - 1) % n, v, (v + 1) % n]
+            } else {
+                [v.wrapping_add(MASK), v, v.wrapping_add(1)]
+            }
+        };
+        let (xs, ys, zs) = (around(x, 0), around(y, 1), around(z, 2));
+        for cz in zs {
+            for cy in ys {
+                for cx in xs {
+                    let k = pack(cx, cy, cz);
                     if let Some(n) = self.find_cell(k) {
                         let (s, e) = self.cell_range(n);
                         if out.len > 0 && out.ranges[out.len - 1].1 == s {

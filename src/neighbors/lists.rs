@@ -1,4 +1,5 @@
 use super::NeighborGrid;
+use crate::domain::{MinimumImage, Open, Separation};
 use crate::math::{Real, Vector};
 use crate::par::CHUNK;
 #[cfg(feature = "parallel")]
@@ -105,9 +106,59 @@ fn block_mask(
     }
 }
 
+/// [`block_mask`] with the separation's minimum image (scalar: the periodic path only).
+/// The distance is `sep(x_i, x_j).length_squared()`, exactly as the pair loops form it.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn periodic_block_mask<S: Separation>(
+    sep: &S,
+    xs: &[Real],
+    ys: &[Real],
+    zs: &[Real],
+    j0: usize,
+    xi: Real,
+    yi: Real,
+    zi: Real,
+    h2: Real,
+) -> u32 {
+    let xi = Vector::new(xi, yi, zi);
+    let mut mask = 0u32;
+    for k in 0..BLOCK {
+        let j = j0 + k;
+        // Padding entries are at infinity: their image is NaN, which fails the test.
+        let d = sep.sep(xi, Vector::new(xs[j], ys[j], zs[j]));
+        mask |= ((d.length_squared() < h2) as u32) << k;
+    }
+    mask
+}
+
 impl NeighborLists {
     /// Rebuilds the lists for sorted `positions` over `grid` with support radius `h`.
     pub fn build(&mut self, grid: &NeighborGrid, positions: &[Vector], h: Real) {
+        self.build_with(grid, positions, h, Open);
+    }
+
+    /// [`Self::build`] in a periodic box, over a grid sorted by
+    /// [`NeighborGrid::sort_periodic`]: distances are minimum images, so particles across a
+    /// face (or edge, or corner) of the box are neighbours.
+    pub fn build_periodic(
+        &mut self,
+        grid: &NeighborGrid,
+        positions: &[Vector],
+        h: Real,
+        domain: MinimumImage,
+    ) {
+        self.build_with(grid, positions, h, domain);
+    }
+
+    #[inline(always)]
+    fn build_with<S: Separation>(
+        &mut self,
+        grid: &NeighborGrid,
+        positions: &[Vector],
+        h: Real,
+        sep: S,
+    ) {
         let n = positions.len();
         self.len = n;
         // Coordinates as three flat arrays, so the candidate test below runs on a block of
@@ -144,13 +195,20 @@ impl NeighborLists {
                 // all its lanes and the end advances only over the accepted ones.
                 let buf = &mut chunk.indices;
                 let mut used = 0usize;
+                let ranges_of = |c: u32| {
+                    if S::PERIODIC {
+                        grid.periodic_neighbor_ranges(c)
+                    } else {
+                        grid.neighbor_ranges(c)
+                    }
+                };
                 let mut cached_cell = grid.cell_of(start);
-                let mut ranges = grid.neighbor_ranges(cached_cell);
+                let mut ranges = ranges_of(cached_cell);
                 for i in start..end {
                     let cell = grid.cell_of(i);
                     if cell != cached_cell {
                         cached_cell = cell;
-                        ranges = grid.neighbor_ranges(cell);
+                        ranges = ranges_of(cell);
                     }
                     let candidates: usize = ranges
                         .as_slice()
@@ -165,7 +223,11 @@ impl NeighborLists {
                         let (s, e) = (s as usize, e as usize);
                         let mut j0 = s;
                         while j0 < e {
-                            let mut mask = block_mask(xs, ys, zs, j0, xi, yi, zi, h2);
+                            let mut mask = if S::PERIODIC {
+                                periodic_block_mask(&sep, xs, ys, zs, j0, xi, yi, zi, h2)
+                            } else {
+                                block_mask(xs, ys, zs, j0, xi, yi, zi, h2)
+                            };
                             if e - j0 < BLOCK {
                                 mask &= (1 << (e - j0)) - 1;
                             }

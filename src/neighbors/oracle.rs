@@ -19,3 +19,26 @@ pub fn brute_force_neighbors(positions: &[Vector], h: Real) -> Vec<Vec<u32>> {
         })
         .collect()
 }
+
+/// [`brute_force_neighbors`] in a periodic box: distances are minimum images
+/// (`sep(x_i, x_j)` of [`crate::domain::MinimumImage`], the same arithmetic as the grid).
+pub fn brute_force_neighbors_periodic(
+    positions: &[Vector],
+    h: Real,
+    domain: &crate::domain::MinimumImage,
+) -> Vec<Vec<u32>> {
+    use crate::domain::Separation;
+    let h2 = h * h;
+    positions
+        .iter()
+        .enumerate()
+        .map(|(i, &xi)| {
+            positions
+                .iter()
+                .enumerate()
+                .filter(|&(j, &xj)| j != i && domain.sep(xi, xj).length_squared() < h2)
+                .map(|(j, _)| j as u32)
+                .collect()
+        })
+        .collect()
+}

@@ -4,6 +4,7 @@
 //! The pair terms are antisymmetric (`m·a_i` from `j` is minus `m·a_j` from `i`), so the pressure
 //! force conserves linear momentum exactly up to round-off.
 
+use crate::domain::{Open, Separation};
 use crate::kernel::Kernel;
 use crate::math::{Real, Vector};
 use crate::neighbors::NeighborLists;
@@ -34,6 +35,32 @@ pub fn pressure_accelerations<K: Kernel>(
     wall: Option<&[Vector]>,
     accelerations: &mut [Vector],
 ) {
+    pressure_accelerations_in::<K, Open>(
+        positions,
+        inv_densities,
+        pressures,
+        neighbors,
+        mass,
+        h,
+        wall,
+        accelerations,
+        Open,
+    );
+}
+
+/// [`pressure_accelerations`] with the separations formed by `sep` (see [`crate::domain`]).
+#[allow(clippy::too_many_arguments)]
+pub fn pressure_accelerations_in<K: Kernel, S: Separation>(
+    positions: &[Vector],
+    inv_densities: &[Real],
+    pressures: &[Real],
+    neighbors: &NeighborLists,
+    mass: Real,
+    h: Real,
+    wall: Option<&[Vector]>,
+    accelerations: &mut [Vector],
+    sep: S,
+) {
     let kernel = K::new(h);
     let half_m = 0.5 * mass;
     crate::par_chunks_mut!(accelerations, CHUNK)
@@ -56,7 +83,7 @@ pub fn pressure_accelerations<K: Kernel>(
                     let mut s = [0.0; LANES];
                     for l in 0..LANES {
                         let j = block[l] as usize;
-                        let r = xi - positions[j];
+                        let r = sep.sep(xi, positions[j]);
                         (rx[l], ry[l], rz[l]) = (r.x, r.y, r.z);
                         d[l] = r.length_squared();
                         s[l] = (pi + pressures[j]) * inv_densities[j];
@@ -89,7 +116,7 @@ pub fn pressure_accelerations<K: Kernel>(
                 let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
                 for &j in blocks.remainder() {
                     let ju = j as usize;
-                    let r = xi - positions[ju];
+                    let r = sep.sep(xi, positions[ju]);
                     let d = r.length();
                     let grad = kernel.gradient(r, d, i as u32, j);
                     f -= grad * ((pi + pressures[ju]) * inv_densities[ju]);

@@ -25,6 +25,7 @@
 //! stage (the paper's pairwise viscosity impulses and viscoelastic springs are not
 //! implemented). Walls take part through contact only.
 
+use crate::domain::{Open, Separation};
 use crate::math::{Real, Vector};
 use crate::neighbors::NeighborLists;
 use crate::par::CHUNK;
@@ -168,6 +169,18 @@ pub fn relax(
     positions: &mut [Vector],
     relative_density: &mut [Real],
 ) -> Real {
+    relax_in(ctx, settings, buffers, positions, relative_density, Open)
+}
+
+/// [`relax`] with the separations formed by `sep` (see [`crate::domain`]).
+pub fn relax_in<S: Separation>(
+    ctx: &ClavetContext<'_>,
+    settings: &Clavet,
+    buffers: &mut ClavetBuffers,
+    positions: &mut [Vector],
+    relative_density: &mut [Real],
+    sep: S,
+) -> Real {
     let n = positions.len();
     let h = ctx.h;
     let inv_h = 1.0 / h;
@@ -199,7 +212,7 @@ pub fn relax(
                     let xi = positions[i];
                     let (mut rho, mut near) = (0.0, 0.0);
                     for &j in ctx.neighbors.of(i) {
-                        let d = (xi - positions[j as usize]).length();
+                        let d = sep.sep(xi, positions[j as usize]).length();
                         let a = (1.0 - d * inv_h).max(0.0);
                         rho += a * a;
                         near += a * a * a;
@@ -226,7 +239,7 @@ pub fn relax(
                     let (p, pn) = pressure[i];
                     let mut acc = Vector::ZERO;
                     for &j in ctx.neighbors.of(i) {
-                        let r = positions[j as usize] - xi;
+                        let r = sep.sep(positions[j as usize], xi);
                         let d = r.length();
                         if d <= 1e-6 * h {
                             // Coincident: no direction to push along; the neighbours around

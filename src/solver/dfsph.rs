@@ -35,6 +35,7 @@
 
 use super::pairs::{PairGradients, gradient_block, gradient_one, reduce_partials};
 use crate::boundary::WallWorkspace;
+use crate::domain::{Open, Separation};
 use crate::kernel::Kernel;
 use crate::math::{Real, Vector};
 use crate::neighbors::NeighborLists;
@@ -152,6 +153,34 @@ pub fn density_and_factors<K: Kernel>(
     alpha: &mut [Real],
     grads: &mut PairGradients,
 ) {
+    density_and_factors_in::<K, Open>(
+        positions,
+        neighbors,
+        mass,
+        h,
+        wall,
+        densities,
+        inv_densities,
+        alpha,
+        grads,
+        Open,
+    );
+}
+
+/// [`density_and_factors`] with the separations formed by `sep` (see [`crate::domain`]).
+#[allow(clippy::too_many_arguments)]
+pub fn density_and_factors_in<K: Kernel, S: Separation>(
+    positions: &[Vector],
+    neighbors: &NeighborLists,
+    mass: Real,
+    h: Real,
+    wall: Option<&WallWorkspace>,
+    densities: &mut [Real],
+    inv_densities: &mut [Real],
+    alpha: &mut [Real],
+    grads: &mut PairGradients,
+    sep: S,
+) {
     let kernel = K::new(h);
     let self_term = mass * kernel.w(0.0);
     let n = positions.len();
@@ -180,7 +209,7 @@ pub fn density_and_factors<K: Kernel>(
                 );
                 let full = nb.len() / LANES * LANES;
                 for (t, block) in nb[..full].chunks_exact(LANES).enumerate() {
-                    let b = gradient_block(&kernel, i, xi, positions, block);
+                    let b = gradient_block(&sep, &kernel, i, xi, positions, block);
                     let o = t * LANES;
                     ox[o..o + LANES].copy_from_slice(&b.gx);
                     oy[o..o + LANES].copy_from_slice(&b.gy);
@@ -197,7 +226,7 @@ pub fn density_and_factors<K: Kernel>(
                 let mut g = Vector::new(lane_sum(sx), lane_sum(sy), lane_sum(sz));
                 let mut g2 = lane_sum(s2);
                 for t in full..nb.len() {
-                    let (gr, d) = gradient_one(&kernel, i, xi, positions, nb[t]);
+                    let (gr, d) = gradient_one(&sep, &kernel, i, xi, positions, nb[t]);
                     (ox[t], oy[t], oz[t]) = (gr.x, gr.y, gr.z);
                     wsum += kernel.w(d);
                     g += gr;

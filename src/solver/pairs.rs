@@ -3,6 +3,7 @@
 //! one by one. The lane results equal [`Kernel::gradient`] pair by pair, coincident pairs
 //! included.
 
+use crate::domain::Separation;
 use crate::kernel::Kernel;
 use crate::math::{Real, Vector};
 use crate::par::{CHUNK, LANES};
@@ -19,7 +20,8 @@ pub(crate) struct Block {
 
 /// Kernel gradients of particle `i` (at `xi`) against the neighbours of `block`.
 #[inline(always)]
-pub(crate) fn gradient_block<K: Kernel>(
+pub(crate) fn gradient_block<K: Kernel, S: Separation>(
+    sep: &S,
     kernel: &K,
     i: usize,
     xi: Vector,
@@ -30,7 +32,7 @@ pub(crate) fn gradient_block<K: Kernel>(
     let coincident = K::COINCIDENT_FRACTION * kernel.support();
     let (mut rx, mut ry, mut rz, mut d) = ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
     for l in 0..LANES {
-        let r = xi - positions[block[l] as usize];
+        let r = sep.sep(xi, positions[block[l] as usize]);
         (rx[l], ry[l], rz[l]) = (r.x, r.y, r.z);
         d[l] = r.length_squared();
     }
@@ -61,14 +63,15 @@ pub(crate) fn gradient_block<K: Kernel>(
 
 /// `∇W(x_i − x_j)` and `|x_i − x_j|` for one pair (the remainder loop).
 #[inline(always)]
-pub(crate) fn gradient_one<K: Kernel>(
+pub(crate) fn gradient_one<K: Kernel, S: Separation>(
+    sep: &S,
     kernel: &K,
     i: usize,
     xi: Vector,
     positions: &[Vector],
     j: u32,
 ) -> (Vector, Real) {
-    let r = xi - positions[j as usize];
+    let r = sep.sep(xi, positions[j as usize]);
     let d = r.length();
     (kernel.gradient(r, d, i as u32, j), d)
 }

@@ -36,6 +36,7 @@ use crate::par::{CHUNK, LANES, lane_sum};
 use rayon::prelude::*;
 
 use super::pairs::{gradient_block, gradient_one, reduce_partials};
+use crate::domain::{Open, Separation};
 
 /// Settings of the PBF solver (defaults from Macklin & Müller 2013).
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -161,6 +162,27 @@ pub fn solve<K: Kernel>(
     densities: &mut [Real],
     inv_densities: &mut [Real],
 ) -> PbfStats {
+    solve_in::<K, Open>(
+        ctx,
+        settings,
+        buffers,
+        positions,
+        densities,
+        inv_densities,
+        Open,
+    )
+}
+
+/// [`solve`] with the separations formed by `sep` (see [`crate::domain`]).
+pub fn solve_in<K: Kernel, S: Separation>(
+    ctx: &PbfContext<'_>,
+    settings: &Pbf,
+    buffers: &mut PbfBuffers,
+    positions: &mut [Vector],
+    densities: &mut [Real],
+    inv_densities: &mut [Real],
+    sep: S,
+) -> PbfStats {
     let n = positions.len();
     let kernel = K::new(ctx.h);
     let PbfBuffers {
@@ -225,7 +247,7 @@ pub fn solve<K: Kernel>(
                         );
                         let mut blocks = nb.chunks_exact(LANES);
                         for block in &mut blocks {
-                            let b = gradient_block(&kernel, i, xi, positions, block);
+                            let b = gradient_block(&sep, &kernel, i, xi, positions, block);
                             for l in 0..LANES {
                                 w[l] += kernel.w(b.d[l]);
                                 sx[l] += b.gx[l];
@@ -238,7 +260,7 @@ pub fn solve<K: Kernel>(
                         let mut g = Vector::new(lane_sum(sx), lane_sum(sy), lane_sum(sz));
                         let mut g2 = lane_sum(s2);
                         for &j in blocks.remainder() {
-                            let (gr, d) = gradient_one(&kernel, i, xi, positions, j);
+                            let (gr, d) = gradient_one(&sep, &kernel, i, xi, positions, j);
                             wsum += kernel.w(d);
                             g += gr;
                             g2 += gr.length_squared();
@@ -282,7 +304,7 @@ pub fn solve<K: Kernel>(
                         let (mut fx, mut fy, mut fz) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
                         let mut blocks = nb.chunks_exact(LANES);
                         for block in &mut blocks {
-                            let b = gradient_block(&kernel, i, xi, positions, block);
+                            let b = gradient_block(&sep, &kernel, i, xi, positions, block);
                             for l in 0..LANES {
                                 let s_corr = if s_k > 0.0 {
                                     -s_k * (kernel.w(b.d[l]) * inv_w_dq).powi(s_n)
@@ -297,7 +319,7 @@ pub fn solve<K: Kernel>(
                         }
                         let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
                         for &j in blocks.remainder() {
-                            let (g, d) = gradient_one(&kernel, i, xi, positions, j);
+                            let (g, d) = gradient_one(&sep, &kernel, i, xi, positions, j);
                             let s_corr = if s_k > 0.0 {
                                 -s_k * (kernel.w(d) * inv_w_dq).powi(s_n)
                             } else {
