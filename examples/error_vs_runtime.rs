@@ -32,7 +32,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Error columns of the CSV, in order (a scene fills those it measures).
-const ERROR_COLUMNS: [&str; 11] = [
+const ERROR_COLUMNS: [&str; 14] = [
     "front_rms",
     "front_rms_t3",
     "height_rms",
@@ -44,6 +44,9 @@ const ERROR_COLUMNS: [&str; 11] = [
     "band_rms",
     "peak",
     "peak_time",
+    "ekin_rms",
+    "dissipation_t0",
+    "ekin_end",
 ];
 
 struct Args {
@@ -488,14 +491,14 @@ fn draw_report(
     records: &[RunRecord],
     method_names: &[&'static str],
 ) -> DrawResult {
-    let (w, h) = (2000u32, 1575u32);
+    let (w, h) = (2000u32, 2100u32);
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
         root.fill(&WHITE)?;
         // The error panels (one per scene), then the fronts, the heights and Lobovský's
         // pressure, left to right and top to bottom.
-        let cells = root.split_evenly((3, 4));
+        let cells = root.split_evenly((4, 4));
         let mut next = 0;
         let runs_of = |scene: Scene| -> Vec<&RunRecord> {
             records.iter().filter(|r| r.scene == scene.name()).collect()
@@ -570,6 +573,35 @@ fn draw_report(
                 false,
                 Some((&data.low, &data.high)),
                 Some(rapier_sph::validation::lobovsky::WINDOW),
+            )?;
+            next += 1;
+        }
+        if scenes.contains(&Scene::TaylorGreen) {
+            use rapier_sph::validation::taylor_green as tg;
+            // The reference every 0.1 (every tenth row) over the run's duration.
+            let full = tg::reference(tg::REYNOLDS)?;
+            let reference = rapier_sph::validation::Curve {
+                label: full.label.clone(),
+                points: full
+                    .points
+                    .iter()
+                    .enumerate()
+                    .filter(|(k, p)| k % 10 == 9 && p.0 <= tg::DURATION as f64 + 1e-9)
+                    .map(|(_, p)| *p)
+                    .collect(),
+            };
+            curve_panel(
+                &cells[next],
+                &format!("taylor_green: Re = {}, adaptive runs", tg::REYNOLDS),
+                &reference,
+                "ekin",
+                &runs_of(Scene::TaylorGreen),
+                method_names,
+                "t (U = L = 1)",
+                "E_kin",
+                false,
+                None,
+                Some((0.0, tg::DURATION as f64)),
             )?;
         }
         root.present()?;

@@ -10,6 +10,7 @@
 //! | [`Scene::MartinMoyceN2`] | Martin & Moyce 1952, column 2a tall (n² = 2) | surge front Z(T), residual height H(τ), Ritter bound |
 //! | [`Scene::KoshizukaOka`] | Koshizuka & Oka 1996, experiment | surge front Z(T), Ritter bound |
 //! | [`Scene::Lobovsky`] | Lobovský et al. 2014, sensor 2 median and band | impact pressure: RMS against the median, first peak's height and time |
+//! | [`Scene::TaylorGreen`] | 3D Taylor–Green vortex, Re = 100, periodic box (JAX-Fluids 64³ via jax-sph) | kinetic-energy decay: RMS relative error, initial dissipation rate, final energy |
 //!
 //! Every scene is built with the public API (the same [`crate::FluidWorld`],
 //! [`crate::FluidParamsBuilder::water`] preset and rapier colliders a user would use) and is
@@ -21,6 +22,7 @@ pub mod dam_break;
 pub mod data;
 pub mod hydrostatic;
 pub mod lobovsky;
+pub mod taylor_green;
 
 use crate::fluid::FluidHandle;
 use crate::math::{Real, Vector};
@@ -200,6 +202,8 @@ pub enum Scene {
     KoshizukaOka,
     /// Lobovský et al. 2014 impact pressure on the downstream wall, quasi-2D.
     Lobovsky,
+    /// The 3D Taylor–Green vortex at Re = 100 in a periodic box ([`taylor_green`]).
+    TaylorGreen,
 }
 
 /// How thorough a sweep is: which resolutions each scene runs at.
@@ -215,12 +219,13 @@ pub enum Depth {
 
 impl Scene {
     /// All scenes, in report order.
-    pub const ALL: [Scene; 5] = [
+    pub const ALL: [Scene; 6] = [
         Scene::Hydrostatic,
         Scene::MartinMoyceSquare,
         Scene::MartinMoyceN2,
         Scene::KoshizukaOka,
         Scene::Lobovsky,
+        Scene::TaylorGreen,
     ];
 
     /// Name printed in reports.
@@ -231,6 +236,7 @@ impl Scene {
             Scene::MartinMoyceN2 => "martin_moyce_n2_2",
             Scene::KoshizukaOka => "koshizuka_oka",
             Scene::Lobovsky => "lobovsky",
+            Scene::TaylorGreen => "taylor_green",
         }
     }
 
@@ -245,6 +251,9 @@ impl Scene {
             (Scene::Lobovsky, Depth::Quick) => vec![6, 8, 10],
             (Scene::Lobovsky, Depth::Default) => vec![10, 15, 20],
             (Scene::Lobovsky, Depth::Full) => vec![10, 15, 20, 30, 40],
+            (Scene::TaylorGreen, Depth::Quick) => vec![8, 9, 10],
+            (Scene::TaylorGreen, Depth::Default) => vec![12, 16, 20],
+            (Scene::TaylorGreen, Depth::Full) => vec![12, 16, 20, 32],
             (_, Depth::Quick) => vec![4, 5, 6],
             (_, Depth::Default) => vec![8, 12, 16],
             (_, Depth::Full) => vec![8, 12, 16, 24, 32],
@@ -261,6 +270,7 @@ impl Scene {
         match self {
             Scene::Hydrostatic => "bottom_pressure",
             Scene::Lobovsky => "band_rms",
+            Scene::TaylorGreen => "ekin_rms",
             _ => "front_rms",
         }
     }
@@ -297,6 +307,7 @@ impl Scene {
                 progress,
             ),
             Scene::Lobovsky => lobovsky::run(method, resolution, policy, progress),
+            Scene::TaylorGreen => taylor_green::run(method, resolution, policy, progress),
         }
     }
 }
