@@ -42,7 +42,7 @@ pub enum TimeStepping {
     ///   most `courant` spacings per substep), and the explicit viscosity limit
     ///   `dt ≤ ρ0·h²/(30·ε)`;
     /// - WCSPH also the acoustic limit `dt ≤ courant · h / (c + v_max)`, Clavet the same with
-    ///   `c·√k` (its stiffness `k` is in units of `c²/(h·ρ0)`);
+    ///   `c·√k` (its stiffness `k` is in units of `c²/(h·ρ0)`, its springs' in `c²/(h²·N)`);
     /// - DFSPH under gravity also `g·dt² ≤ 5·max_density_error·spacing`: gravity's
     ///   compression within one substep stays a few times the solve's error target.
     ///
@@ -297,6 +297,7 @@ fn stable_time_step(fluid: &Fluid, gravity: Vector, courant: Real, remaining: Re
             let c = p.equation_of_state.speed_of_sound()
                 * cl.stiffness
                     .max(cl.near_stiffness.unwrap_or(cl.stiffness))
+                    .max(cl.springs.map_or(0.0, |s| s.stiffness))
                     .max(1e-6)
                     .sqrt();
             limit = limit.min(courant * p.smoothing_length / (c + v));
@@ -378,6 +379,7 @@ fn step_fluid(
         ids,
         warm_density,
         warm_divergence,
+        springs,
         workspace: ws,
         ..
     } = fluid;
@@ -453,6 +455,8 @@ fn step_fluid(
             &p,
             &clavet_settings.unwrap_or_default(),
             dt,
+            ids,
+            springs,
             positions,
             velocities,
             accelerations,
@@ -1062,6 +1066,8 @@ fn step_clavet(
     p: &crate::FluidParams,
     settings: &crate::solver::Clavet,
     dt: Real,
+    ids: &[u32],
+    springs: &mut crate::solver::springs::SpringSet,
     positions: &mut [Vector],
     velocities: &mut [Vector],
     accelerations: &mut [Vector],
@@ -1079,7 +1085,23 @@ fn step_clavet(
         speed_of_sound: c,
         dt,
     };
+    // Springs (if any) first, on the predicted positions (the paper's Alg. 1 order); timed
+    // with the relaxation.
     let error = timed(report, Stage::DensitySolve, || {
+        if let Some(s) = &settings.springs {
+            let sctx = crate::solver::springs::SpringContext {
+                neighbors: &ws.neighbors,
+                ids,
+                h,
+                speed_of_sound: c,
+                expected_neighbours: p.expected_neighbours(),
+                dt,
+            };
+            crate::solver::springs::apply(&sctx, s, springs, &mut ws.springs, positions);
+        } else if !springs.is_empty() {
+            // Springs switched off: forget them.
+            *springs = Default::default();
+        }
         crate::solver::clavet::relax(&ctx, settings, &mut ws.clavet, positions, densities)
     });
     report.solver_iterations += 1;

@@ -135,6 +135,34 @@ fn other_bad_fields_are_named() {
         });
         assert_eq!(field_of(base().solver(solver).build()), "warm_start");
     }
+    for v in [Real::NAN, Real::INFINITY, -1.0] {
+        let springs = |s: rapier_sph::solver::Springs| {
+            rapier_sph::Solver::Clavet(rapier_sph::solver::Clavet {
+                springs: Some(s),
+                ..Default::default()
+            })
+        };
+        let d = rapier_sph::solver::Springs::default();
+        for (field, s) in [
+            (
+                "spring_stiffness",
+                rapier_sph::solver::Springs { stiffness: v, ..d },
+            ),
+            (
+                "yield_ratio",
+                rapier_sph::solver::Springs {
+                    yield_ratio: v,
+                    ..d
+                },
+            ),
+            (
+                "plasticity",
+                rapier_sph::solver::Springs { plasticity: v, ..d },
+            ),
+        ] {
+            assert_eq!(field_of(base().solver(springs(s)).build()), field);
+        }
+    }
 }
 
 fn some_particles() -> Vec<Vector> {

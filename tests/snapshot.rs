@@ -77,6 +77,25 @@ fn restore_and_continue_with_dfsph_and_wall_density() {
     );
 }
 
+/// The Clavet solver's viscoelastic springs (rest lengths keyed by particle id) are state:
+/// without them the restored run would start every spring again at rest length h.
+#[test]
+fn restore_and_continue_with_clavet_springs() {
+    use rapier_sph::solver::{Clavet, Solver, Springs};
+    check_restore(
+        scene_with(
+            FluidParamsBuilder::water(0.05).solver(Solver::Clavet(Clavet {
+                springs: Some(Springs {
+                    plasticity: 50.0,
+                    ..Springs::default()
+                }),
+                ..Clavet::default()
+            })),
+        ),
+        "clavet springs",
+    );
+}
+
 /// Emitters (their clocks and slots) and sinks (their counters) are part of the state.
 #[test]
 fn restore_and_continue_with_an_emitter_and_a_sink() {

@@ -29,6 +29,8 @@ pub(crate) struct Workspace {
     pub dfsph: DfsphBuffers,
     /// Clavet relaxation buffers.
     pub clavet: crate::solver::clavet::ClavetBuffers,
+    /// Scratch of the Clavet solver's springs.
+    pub springs: crate::solver::springs::SpringBuffers,
     /// PBF iteration buffers.
     pub pbf: crate::solver::pbf::PbfBuffers,
     /// Kernel gradients of every neighbour pair (DFSPH computes them once per substep).
@@ -68,6 +70,8 @@ pub struct Fluid {
     /// (DFSPH warm start); they follow the particles through every re-sort.
     pub(crate) warm_density: Vec<Real>,
     pub(crate) warm_divergence: Vec<Real>,
+    /// Viscoelastic springs of the Clavet solver (empty otherwise); keyed by particle id.
+    pub(crate) springs: crate::solver::springs::SpringSet,
     next_id: u32,
     quarantined: usize,
     /// Particles added by emitters / removed by sinks over the fluid's life.
@@ -97,6 +101,7 @@ impl Fluid {
             ids: Vec::new(),
             warm_density: Vec::new(),
             warm_divergence: Vec::new(),
+            springs: Default::default(),
             next_id: 0,
             quarantined: 0,
             emitted: 0,
@@ -380,6 +385,12 @@ impl Fluid {
         &self.ids
     }
 
+    /// The viscoelastic springs of the Clavet solver ([`crate::solver::Springs`]); empty for
+    /// other solvers or with springs off.
+    pub fn springs(&self) -> &crate::solver::springs::SpringSet {
+        &self.springs
+    }
+
     /// Neighbour lists of the last step (indices into the current order).
     pub fn neighbor_lists(&self) -> &NeighborLists {
         &self.workspace.neighbors
@@ -424,6 +435,8 @@ impl Fluid {
             + ws.gradients.heap_bytes()
             + ws.pbf.heap_bytes()
             + ws.clavet.heap_bytes()
+            + ws.springs.heap_bytes()
+            + self.springs.heap_bytes()
             + ws.scratch_reals.capacity() * 4
             + ws.grid.heap_bytes()
             + ws.neighbors.heap_bytes()
