@@ -526,6 +526,14 @@ impl Fluid {
         self.sources.sinks.get(handle.index, handle.generation)
     }
 
+    /// Iterates over `(handle, sink)`.
+    pub fn sinks(&self) -> impl Iterator<Item = (SinkHandle, &Sink)> {
+        self.sources
+            .sinks
+            .iter()
+            .map(|((index, generation), s)| (SinkHandle { index, generation }, s))
+    }
+
     /// The sink named by `handle`, mutably.
     pub fn sink_mut(&mut self, handle: SinkHandle) -> Option<&mut Sink> {
         self.sources.sinks.get_mut(handle.index, handle.generation)
