@@ -385,3 +385,214 @@ fn code_sink_region(f: &rapier_sph::Fluid) -> SinkRegion {
     assert!(regions.next().is_none(), "one sink");
     r
 }
+
+/// A scene with an emitter, two sinks (one naming a collider), a capacity and a spinning
+/// kinematic body; the error tests below each break one line of it.
+const SOURCES: &str = "Scene(
+    duration: 1.0,
+    fluids: [
+        Fluid(
+            preset: Water(spacing: 0.1),
+            emitters: [
+                Emitter(
+                    nozzle: Disk(radius: 0.2),
+                    position: (0.0, 1.0, 0.0),
+                    direction: (1.0, 0.0, 0.0),
+                    speed: 1.5,
+                    rate: 40.0,
+                    start: 0.5,
+                    stop: 2.0,
+                    budget: 100,
+                ),
+            ],
+            sinks: [
+                Sink(region: Collider(name: \"drain\", reach: 0.05)),
+                Sink(region: Aabb(min: (-9.0, -9.0, -9.0), max: (9.0, -1.0, 9.0))),
+            ],
+            capacity: 500,
+        ),
+    ],
+    bodies: [
+        Body(colliders: [
+            Collider(name: \"drain\", shape: Ball(radius: 0.5), sensor: true),
+            Collider(name: \"floor\", shape: Cuboid(half_extents: (1.0, 0.1, 1.0))),
+        ]),
+        Body(kind: KinematicVelocityBased, angvel: (0.0, 0.0, 2.0), colliders: [
+            Collider(shape: Cuboid(half_extents: (0.1, 0.1, 0.1))),
+        ]),
+    ],
+)";
+
+#[test]
+fn emitters_sinks_and_capacity_build() {
+    let scene = SceneFile::parse(SOURCES, "sources.ron").unwrap();
+    let built = scene.build(Path::new("sources.ron"), scenes_dir()).unwrap();
+    let f = &built.world.fluids[built.fluids[0]];
+    assert_eq!(f.capacity(), Some(500));
+    let expected = rapier_sph::Emitter::new(
+        rapier_sph::Nozzle::Disk { radius: 0.2 },
+        Vector::new(0.0, 1.0, 0.0),
+        Vector::X,
+        1.5,
+        40.0,
+    )
+    .active_between(0.5, 2.0)
+    .budget(100);
+    let emitters: Vec<_> = f.emitters().map(|(_, e)| e.clone()).collect();
+    assert_eq!(emitters, vec![expected]);
+    let drain = built.named_colliders[0].clone();
+    assert_eq!(drain.0, "drain");
+    let regions: Vec<_> = f.sinks().map(|(_, s)| s.region()).collect();
+    assert_eq!(
+        regions,
+        vec![
+            SinkRegion::Collider {
+                handle: drain.1,
+                reach: Some(0.05)
+            },
+            SinkRegion::Aabb {
+                min: Vector::splat(-9.0),
+                max: Vector::new(9.0, -1.0, 9.0)
+            },
+        ]
+    );
+    let spinner = &built.world.physics.bodies[built.bodies[1]];
+    assert_eq!(spinner.angvel(), Vector::new(0.0, 0.0, 2.0));
+    // Written back, read back equal.
+    assert_eq!(SceneFile::parse(&scene.to_ron(), "w.ron").unwrap(), scene);
+}
+
+#[test]
+fn emitter_and_sink_mistakes_name_the_line_and_field() {
+    assert!(SceneFile::parse(SOURCES, "good.ron").is_ok());
+    let bad = |from: &str, to: &str| {
+        assert!(SOURCES.contains(from), "{from}");
+        parse_err(&SOURCES.replacen(from, to, 1))
+    };
+    // A negative rate, at its line.
+    let (line, _, field, message) = bad("rate: 40.0", "rate: -40.0");
+    assert_eq!((line, field.as_str()), (12, "fluids[0].emitters[0].rate"));
+    assert!(message.contains("positive"), "{message}");
+    // A speed that is not a number.
+    let (line, _, field, _) = bad("speed: 1.5", "speed: NaN");
+    assert_eq!((line, field.as_str()), (11, "fluids[0].emitters[0].speed"));
+    // A zero-size nozzle.
+    let (line, _, field, _) = bad("Disk(radius: 0.2)", "Disk(radius: 0.0)");
+    assert_eq!(line, 8);
+    assert!(field.starts_with("fluids[0].emitters[0].nozzle"), "{field}");
+    assert!(field.ends_with("radius"), "{field}");
+    // An unknown field.
+    let (line, _, field, message) = bad("budget: 100", "budgte: 100");
+    assert_eq!(line, 15);
+    assert!(field.starts_with("fluids[0].emitters[0]"), "{field}");
+    assert!(message.contains("budgte"), "{message}");
+    // A negative budget (an unsigned count).
+    let (line, _, field, _) = bad("budget: 100", "budget: -1");
+    assert_eq!((line, field.as_str()), (15, "fluids[0].emitters[0].budget"));
+    // Checked as a whole where the entry ends: stop before start, a zero direction, both
+    // rates, no rate.
+    for (from, to, what) in [
+        ("stop: 2.0", "stop: 0.1", "stop"),
+        (
+            "direction: (1.0, 0.0, 0.0)",
+            "direction: (0.0, 0.0, 0.0)",
+            "direction",
+        ),
+        (
+            "rate: 40.0",
+            "rate: 40.0, rate_fraction: 0.5",
+            "rate_fraction",
+        ),
+        ("rate: 40.0,", "", "rate"),
+    ] {
+        let (line, _, field, message) = bad(from, to);
+        assert!((7..=16).contains(&line), "{what}: line {line}");
+        assert_eq!(field, "fluids[0].emitters[0]", "{what}");
+        assert!(message.contains(what), "{what}: {message}");
+    }
+    // A sink box upside down, a zero ball, a negative reach.
+    let (line, _, field, message) = bad("max: (9.0, -1.0, 9.0)", "max: (9.0, -10.0, 9.0)");
+    assert_eq!((line, field.as_str()), (20, "fluids[0].sinks[1]"));
+    assert!(message.contains("max"), "{message}");
+    let (line, _, field, _) = bad("reach: 0.05", "reach: -0.05");
+    assert_eq!(line, 19);
+    assert!(field.ends_with("reach"), "{field}");
+    // A sink naming no collider: reported at the name, listing the names there are.
+    let (line, _, field, message) = bad(
+        "Collider(name: \"drain\", reach",
+        "Collider(name: \"drian\", reach",
+    );
+    assert_eq!(line, 19);
+    assert!(field.starts_with("fluids[0].sinks[0].region"), "{field}");
+    assert!(
+        message.contains("`drian`") && message.contains("`drain`"),
+        "{message}"
+    );
+    // Two colliders with one name: reported at the second.
+    let (line, _, field, message) = bad("name: \"floor\"", "name: \"drain\"");
+    assert_eq!(line, 28);
+    assert!(field.starts_with("bodies[0].colliders[1].name"), "{field}");
+    assert!(message.contains("drain"), "{message}");
+    // Capacity: zero, negative.
+    let (line, _, field, message) = bad("capacity: 500", "capacity: 0");
+    assert!((4..=24).contains(&line), "{line}");
+    assert_eq!(field, "fluids[0]");
+    assert!(message.contains("capacity"), "{message}");
+    let (line, _, field, _) = bad("capacity: 500", "capacity: -5");
+    assert_eq!((line, field.as_str()), (22, "fluids[0].capacity"));
+    // A velocity on a body that cannot keep one.
+    let (line, _, field, message) = bad(
+        "kind: KinematicVelocityBased",
+        "kind: KinematicPositionBased",
+    );
+    assert!((30..=32).contains(&line), "{line}");
+    assert_eq!(field, "bodies[1]");
+    assert!(message.contains("KinematicVelocityBased"), "{message}");
+    // The message names the file and line.
+    let err = SceneFile::parse(
+        &SOURCES.replacen("rate: 40.0", "rate: -40.0", 1),
+        "scenes/x.ron",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.starts_with("scenes/x.ron:12:"), "{err}");
+}
+
+#[test]
+fn a_capacity_below_the_initial_particles_is_a_build_error() {
+    let text = SOURCES.replacen(
+        "capacity: 500",
+        "capacity: 5, blocks: [Block(min: (0.0, 0.0, 0.0), size: (0.5, 0.5, 0.5))]",
+        1,
+    );
+    let scene = SceneFile::parse(&text, "bad.ron").unwrap();
+    match scene.build(Path::new("bad.ron"), scenes_dir()) {
+        Err(SceneError::Invalid { field, message, .. }) => {
+            assert_eq!(field, "fluids[0].capacity");
+            assert!(message.contains("capacity"), "{message}");
+        }
+        other => panic!("expected an invalid scene, got {:?}", other.err()),
+    }
+}
+
+#[test]
+fn the_module_docs_example_parses() {
+    // The full example in `scene_file`'s documentation (its mesh file does not exist, so it
+    // is parsed, not built).
+    let src = include_str!("../src/scene_file/mod.rs");
+    let start = src.find("//! ```ron\n").expect("the example") + "//! ```ron\n".len();
+    let end = start + src[start..].find("//! ```\n").unwrap();
+    let text: String = src[start..end]
+        .lines()
+        .map(|l| {
+            l.strip_prefix("//!")
+                .unwrap()
+                .strip_prefix(' ')
+                .unwrap_or("")
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let scene = SceneFile::parse(&text, "docs.ron").unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scene.fluids[0].emitters.len(), 1);
+    assert_eq!(scene.fluids[0].sinks.len(), 2);
+}
