@@ -174,15 +174,16 @@ fn validate(scenes: &[PathBuf]) -> Result<()> {
                     let spacing = f.params().particle_spacing;
                     for (j, (_, e)) in f.emitters().enumerate() {
                         let d = e.direction();
+                        let towards = match e.nozzle() {
+                            rapier_sph::Nozzle::Sphere { .. } => "radially".to_string(),
+                            _ => format!("towards ({:.3}, {:.3}, {:.3})", d.x, d.y, d.z),
+                        };
                         println!(
-                            "    emitter {j}: {:?} at ({}, {}, {}) towards ({:.3}, {:.3}, {:.3}), {} m/s, {:.1} particles/s (blocking rate {:.1}){}",
+                            "    emitter {j}: {:?} at ({}, {}, {}) {towards}, {} m/s, {:.1} particles/s (blocking rate {:.1}){}",
                             e.nozzle(),
                             e.position().x,
                             e.position().y,
                             e.position().z,
-                            d.x,
-                            d.y,
-                            d.z,
                             e.speed(),
                             e.rate(),
                             e.max_rate(spacing),
