@@ -576,6 +576,20 @@ fn a_capacity_below_the_initial_particles_is_a_build_error() {
 }
 
 #[test]
+fn an_impossible_capacity_is_a_build_error_not_an_abort() {
+    // 10^15 particles: petabytes, more than any address space holds.
+    let text = SOURCES.replacen("capacity: 500", "capacity: 1000000000000000", 1);
+    let scene = SceneFile::parse(&text, "big.ron").unwrap();
+    match scene.build(Path::new("big.ron"), scenes_dir()) {
+        Err(SceneError::Invalid { field, message, .. }) => {
+            assert_eq!(field, "fluids[0].capacity");
+            assert!(message.contains("memory"), "{message}");
+        }
+        other => panic!("expected an invalid scene, got {:?}", other.err()),
+    }
+}
+
+#[test]
 fn the_module_docs_example_parses() {
     // The full example in `scene_file`'s documentation (its mesh file does not exist, so it
     // is parsed, not built).
