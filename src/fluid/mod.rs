@@ -219,7 +219,7 @@ impl Fluid {
     /// array and the step's per-particle scratch are reserved for it once, so emitting up to
     /// it never reallocates them; emitters pause when it is reached (the step report says so)
     /// and [`Fluid::add_particles`] refuses to go beyond it. Refuses a capacity below the
-    /// current particle count.
+    /// current particle count, or one whose memory cannot be reserved.
     pub fn set_capacity(&mut self, capacity: Option<usize>) -> SphResult<()> {
         if let Some(cap) = capacity {
             if cap < self.len() {
@@ -229,24 +229,35 @@ impl Fluid {
                     reason: "below the current particle count",
                 });
             }
+            // An impossible capacity (a typo in a scene file) is an error, not an abort.
+            let fail = |_| SphError::InvalidParameter {
+                field: "capacity",
+                value: cap as f64,
+                reason: "cannot reserve memory for that many particles",
+            };
             let extra = cap - self.len();
-            self.positions.reserve_exact(extra);
-            self.velocities.reserve_exact(extra);
-            self.accelerations.reserve_exact(extra);
-            self.densities.reserve_exact(extra);
-            self.pressures.reserve_exact(extra);
-            self.ids.reserve_exact(extra);
-            self.warm_density.reserve_exact(extra);
-            self.warm_divergence.reserve_exact(extra);
+            self.positions.try_reserve_exact(extra).map_err(fail)?;
+            self.velocities.try_reserve_exact(extra).map_err(fail)?;
+            self.accelerations.try_reserve_exact(extra).map_err(fail)?;
+            self.densities.try_reserve_exact(extra).map_err(fail)?;
+            self.pressures.try_reserve_exact(extra).map_err(fail)?;
+            self.ids.try_reserve_exact(extra).map_err(fail)?;
+            self.warm_density.try_reserve_exact(extra).map_err(fail)?;
+            self.warm_divergence
+                .try_reserve_exact(extra)
+                .map_err(fail)?;
             let ws = &mut self.workspace;
             for v in [&mut ws.previous_positions, &mut ws.scratch_vectors] {
-                v.reserve_exact(cap.saturating_sub(v.len()));
+                v.try_reserve_exact(cap.saturating_sub(v.len()))
+                    .map_err(fail)?;
             }
             for v in [&mut ws.inv_densities, &mut ws.scratch_reals] {
-                v.reserve_exact(cap.saturating_sub(v.len()));
+                v.try_reserve_exact(cap.saturating_sub(v.len()))
+                    .map_err(fail)?;
             }
             ws.scratch_ids
-                .reserve_exact(cap.saturating_sub(ws.scratch_ids.len()));
+                .try_reserve_exact(cap.saturating_sub(ws.scratch_ids.len()))
+                .map_err(fail)?;
         }
         self.capacity = capacity;
         Ok(())
