@@ -167,7 +167,11 @@ impl FluidPipeline {
         let mut report = StepReport::default();
         let time_stepping = self.time_stepping;
         let coupling = &mut self.coupling;
-        coupling.begin_frame(if has_colliders { bodies } else { no_bodies }, colliders);
+        coupling.begin_frame(
+            dt,
+            if has_colliders { bodies } else { no_bodies },
+            colliders,
+        );
         let bodies_mut = bodies;
         let bodies: &RigidBodySet = bodies_mut;
         let mut run = || {

@@ -24,7 +24,7 @@
 
 use crate::math::{Pose, Real, Rotation, Vector};
 use parry3d::bounding_volume::{Aabb, BoundingVolume};
-use parry3d::math::Matrix;
+use parry3d::math::{AngularInertia, Matrix};
 use rapier3d::dynamics::{RigidBodyHandle, RigidBodySet};
 use rapier3d::geometry::{ColliderHandle, ColliderSet};
 
@@ -46,8 +46,15 @@ pub struct MovingCollider {
     pub vel: Vector,
     /// Inverse mass per axis (0 along locked axes; 0 for kinematic bodies).
     pub inv_mass: Vector,
-    /// Angular velocity (rad/s).
+    /// Angular velocity (rad/s) the fluid sees: rapier's plus the fluid's angular impulses of
+    /// the frame's earlier substeps.
     pub angvel: Vector,
+    /// Rapier's angular velocity at the frame's start: the poses of the frame follow it.
+    pub rapier_angvel: Vector,
+    /// Effective world-space inverse inertia (0 for kinematic bodies and locked axes).
+    pub inv_inertia: AngularInertia,
+    /// How far the fluid's impulses of this frame have moved the body off rapier's path.
+    pub drift: Drift,
     /// Collider pose at the frame's end (rapier's current pose).
     pub end: Pose,
     /// Body centre of mass at the frame's end.
@@ -75,6 +82,72 @@ impl MovingCollider {
     #[inline]
     pub fn velocity_at_start(&self, point: Vector) -> Vector {
         self.vel + self.angvel.cross(point - self.com_start)
+    }
+}
+
+/// The motion the fluid's impulses added to a body during the current frame, on top of the
+/// path rapier gave it: the body's centre of mass is shifted by `shift + dv·τ` and the body
+/// turned about it by `exp(dw·τ)·turn`, where `τ` is the time since `anchor` (seconds before
+/// the frame's end) at which the velocity changes `dv`, `dw` started to act.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Drift {
+    /// Seconds before the frame's end at which `dv` and `dw` started to act.
+    pub anchor: Real,
+    /// Shift of the centre of mass at `anchor` (m).
+    pub shift: Vector,
+    /// Rotation about the centre of mass at `anchor`.
+    pub turn: Rotation,
+    /// Linear velocity change moving the body since `anchor` (m/s).
+    pub dv: Vector,
+    /// Angular velocity change turning the body since `anchor` (rad/s).
+    pub dw: Vector,
+}
+
+impl Drift {
+    /// No drift, from `anchor` seconds before the frame's end.
+    pub fn none(anchor: Real) -> Self {
+        Self {
+            anchor,
+            shift: Vector::ZERO,
+            turn: Rotation::IDENTITY,
+            dv: Vector::ZERO,
+            dw: Vector::ZERO,
+        }
+    }
+
+    /// `true` when the body is on rapier's path and stays there.
+    pub fn is_none(&self) -> bool {
+        self.shift == Vector::ZERO
+            && self.turn == Rotation::IDENTITY
+            && self.dv == Vector::ZERO
+            && self.dw == Vector::ZERO
+    }
+
+    /// Shift and turn at `back` seconds before the frame's end (`back ≤ anchor`).
+    pub fn at(&self, back: Real) -> (Vector, Rotation) {
+        let tau = self.anchor - back;
+        let turn = if self.dw == Vector::ZERO {
+            self.turn
+        } else {
+            (Rotation::from_scaled_axis(self.dw * tau) * self.turn).normalize()
+        };
+        (self.shift + self.dv * tau, turn)
+    }
+
+    /// Moves `pose` (whose body's centre of mass is `com`) by the drift at `back`.
+    fn apply(&self, pose: Pose, com: Vector, back: Real) -> (Pose, Vector) {
+        if self.is_none() {
+            return (pose, com);
+        }
+        let (shift, turn) = self.at(back);
+        let c = com + shift;
+        (
+            Pose::from_parts(
+                c + turn * (pose.translation - com),
+                (turn * pose.rotation).normalize(),
+            ),
+            c,
+        )
     }
 }
 
@@ -117,7 +190,8 @@ pub struct Coupling {
 
 impl Coupling {
     /// Collects the colliders of every non-fixed body, once per frame.
-    pub fn begin_frame(&mut self, bodies: &RigidBodySet, colliders: &ColliderSet) {
+    /// `dt` is the frame's length: the fluid's impulses start moving bodies from its start.
+    pub fn begin_frame(&mut self, dt: Real, bodies: &RigidBodySet, colliders: &ColliderSet) {
         self.candidates.clear();
         self.nonfixed.clear();
         self.table.clear();
@@ -150,6 +224,13 @@ impl Coupling {
                         Vector::ZERO
                     },
                     angvel,
+                    rapier_angvel: angvel,
+                    inv_inertia: if body.is_dynamic() {
+                        body.mass_properties().effective_world_inv_inertia
+                    } else {
+                        AngularInertia::zero()
+                    },
+                    drift: Drift::none(dt),
                     end,
                     com_end: body.center_of_mass(),
                     start: end,
@@ -181,13 +262,30 @@ impl Coupling {
         back_stop: Real,
     ) {
         self.table.clear();
-        for c in &self.candidates {
+        for c in &mut self.candidates {
             let Some(co) = colliders.get(c.handle) else {
                 continue;
             };
+            // The velocity changes the fluid made so far move the body from this substep on
+            // (the drift's motion up to here is kept).
+            let (dv, dw) = (c.vel - c.linvel, c.angvel - c.rapier_angvel);
+            if (dv, dw) != (c.drift.dv, c.drift.dw) {
+                let (shift, turn) = c.drift.at(back_start);
+                c.drift = Drift {
+                    anchor: back_start,
+                    shift,
+                    turn,
+                    dv,
+                    dw,
+                };
+            }
             let mut m = c.clone();
-            (m.start, m.com_start) = pose_back(&c.end, c.com_end, c.linvel, c.angvel, back_start);
-            (m.stop, m.com_stop) = pose_back(&c.end, c.com_end, c.linvel, c.angvel, back_stop);
+            let (l, w) = (c.linvel, c.rapier_angvel);
+            let (start, com_start) = pose_back(&c.end, c.com_end, l, w, back_start);
+            let (stop, com_stop) = pose_back(&c.end, c.com_end, l, w, back_stop);
+            (m.start, m.com_start) = c.drift.apply(start, com_start, back_start);
+            (m.stop, m.com_stop) = c.drift.apply(stop, com_stop, back_stop);
+            m.moving |= !c.drift.is_none();
             let mut aabb = co.shape().compute_aabb(&m.stop);
             if m.moving {
                 aabb.merge(&co.shape().compute_aabb(&m.start));
@@ -227,9 +325,10 @@ impl Coupling {
     /// instability of explicit coupling). So the body's velocity change `Δu` is solved with
     /// the particles it touched moving along with it in their contact normals:
     /// `(M + Σ m n nᵀ)·Δu = J`, each of those particles then gains `n (n·Δu)`, and the body
-    /// receives `J − Σ m n (n·Δu) = M·Δu`: linear momentum is exchanged exactly. The body's
-    /// velocity seen by the next substeps of the frame includes `Δu`; the angular impulse
-    /// about the centre of mass is applied at the end of the frame.
+    /// receives `J − Σ m n (n·Δu) = M·Δu`: linear momentum is exchanged exactly. The angular
+    /// impulse about the centre of mass changes the angular velocity by `I⁻¹·L` (world
+    /// inverse inertia at the frame's end). Both changes move the body from the next substep
+    /// on ([`Drift`]): the body moves with the substeps the fluid takes, not once per frame.
     pub fn exchange(
         &mut self,
         records: &[Vec<ImpulseRecord>],
@@ -276,6 +375,7 @@ impl Coupling {
                     self.impulses.len() - 1
                 }
             };
+            let mut angular = [0.0f64; 3];
             for r in records.iter().flatten().filter(of_body) {
                 let dv = r.normal * r.normal.dot(du);
                 let i = r.particle as usize;
@@ -287,21 +387,40 @@ impl Coupling {
                 for c in 0..3 {
                     b.1[c] += impulse[c] as f64;
                     b.2[c] += torque[c] as f64;
+                    angular[c] += torque[c] as f64;
                 }
             }
+            let angular = Vector::new(angular[0] as Real, angular[1] as Real, angular[2] as Real);
+            let dw = m.inv_inertia * angular;
             for c in self.candidates.iter_mut().chain(self.table.iter_mut()) {
                 if c.body == body {
                     c.vel += du;
+                    c.angvel += dw;
                 }
             }
         }
         self.done = done;
     }
 
-    /// Applies the gathered impulses to their bodies through rapier (waking them up) and
-    /// forgets them. Returns the number of bodies pushed.
+    /// Applies the gathered impulses to their bodies through rapier (waking them up), moves
+    /// each body by the drift they made during the frame (its pose at the frame's end is
+    /// rapier's plus the drift), and forgets them. Returns the number of bodies pushed.
     pub fn apply(&mut self, bodies: &mut RigidBodySet) -> usize {
         let n = self.impulses.len();
+        let mut done = std::mem::take(&mut self.done);
+        done.clear();
+        for c in &self.candidates {
+            if !c.dynamic || c.drift.is_none() || done.contains(&c.body) {
+                continue;
+            }
+            done.push(c.body);
+            if let Some(body) = bodies.get_mut(c.body) {
+                let com = body.center_of_mass();
+                let (pose, _) = c.drift.apply(*body.position(), com, 0.0);
+                body.set_position(pose, true);
+            }
+        }
+        self.done = done;
         for (h, j, t) in self.impulses.drain(..) {
             if let Some(body) = bodies.get_mut(h) {
                 let j = Vector::new(j[0] as Real, j[1] as Real, j[2] as Real);
