@@ -69,15 +69,26 @@ impl Default for TimeStepping {
 /// Steps fluids alongside a rapier world. Holds its time-stepping policy and the last report;
 /// all state lives in the [`FluidSet`] and the rapier sets, passed explicitly as rapier's own
 /// `PhysicsPipeline` does.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct FluidPipeline {
     /// How frames are divided into substeps (default: adaptive, Courant 0.4).
     pub time_stepping: TimeStepping,
+    /// The substeps rapier takes per step (its `integration_parameters.num_solver_iterations`,
+    /// default 4): moving bodies are followed along the path rapier's substeps give them
+    /// (see [`crate::boundary::Coupling::begin_frame`]). [`crate::FluidWorld`] keeps it in
+    /// sync; set it when you step rapier with other parameters.
+    pub rapier_substeps: usize,
     report: StepReport,
     coupling: Coupling,
     /// Always empty: lets the broad-phase's BVH be borrowed without `bodies` (kept here so
     /// the step does not allocate one).
     no_bodies: RigidBodySet,
+}
+
+impl Default for FluidPipeline {
+    fn default() -> Self {
+        Self::with_time_stepping(TimeStepping::default())
+    }
 }
 
 impl FluidPipeline {
@@ -90,10 +101,25 @@ impl FluidPipeline {
     pub fn with_time_stepping(time_stepping: TimeStepping) -> Self {
         Self {
             time_stepping,
+            rapier_substeps: 4,
             report: StepReport::default(),
             coupling: Coupling::default(),
             no_bodies: RigidBodySet::new(),
         }
+    }
+
+    /// The coupling's state kept from one frame to the next: the linear velocity each
+    /// dynamic body near a fluid was left with (saved in snapshots).
+    pub fn coupling_memory(&self) -> &[(rapier3d::dynamics::RigidBodyHandle, Vector)] {
+        self.coupling.left_velocities()
+    }
+
+    /// Restores [`FluidPipeline::coupling_memory`] (snapshots).
+    pub fn set_coupling_memory(
+        &mut self,
+        memory: Vec<(rapier3d::dynamics::RigidBodyHandle, Vector)>,
+    ) {
+        self.coupling.set_left_velocities(memory);
     }
 
     /// The report of the last step.
@@ -169,6 +195,7 @@ impl FluidPipeline {
         let coupling = &mut self.coupling;
         coupling.begin_frame(
             dt,
+            self.rapier_substeps,
             if has_colliders { bodies } else { no_bodies },
             colliders,
         );
