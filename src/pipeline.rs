@@ -535,13 +535,23 @@ fn step_fluid(
             report,
         ),
     };
-    // Fluid → body through the walls' pressure (WCSPH): each particle's wall force from
-    // dynamic bodies, `−m·∇ρ_wall,c·p/(2ρ²)`, pushes those bodies back (see
-    // `boundary::bodies`). The other solvers' wall forces (DFSPH spreads its wall force over
-    // its iterations) are not transmitted yet.
-    if let (Some(c), Some(w), Solver::Wcsph) = (coupling.as_deref_mut(), wall, p.solver)
+    // Fluid → body through the walls' pressure: each particle's wall force from dynamic
+    // bodies pushes those bodies back (Newton's third law; see `boundary::bodies`). With
+    // `g_c` the dynamic bodies' share of the wall density's gradient, the impulse the
+    // particle's wall term gave it over the substep, and so minus the body's, is
+    // - WCSPH: `−m·g_c·p/(2ρ²)·dt` (the wall pressure force);
+    // - DFSPH: `−m·γ·g_c·Σπ·dt`, `Σπ` all the pressure values the divergence and density
+    //   solves applied this substep (warm starts included: what `warm_*` hold now);
+    // - PBF: `m·g_c·Σλ/(ρ0·dt)`, the wall's share of the position corrections over all
+    //   iterations turned into velocity (`v = Δx/dt`).
+    // Clavet's relaxation has no wall term (walls act through contact, whose impulses reach
+    // the bodies for every solver).
+    if let (Some(c), Some(w)) = (coupling.as_deref_mut(), wall)
         && w.coupled_any
+        && clavet_settings.is_none()
     {
+        let m = p.particle_mass;
+        let divergence = dfsph_settings.is_some_and(|d| d.divergence_solve);
         timed(report, Stage::Contact, || {
             let records = &mut ws.wall_impulses;
             records.resize_with(1, Vec::new);
@@ -550,8 +560,20 @@ fn step_fluid(
                 if e == u32::MAX {
                     continue;
                 }
-                let inv = ws.inv_densities[i];
-                let impulse = gc * (0.5 * pressures[i] * inv * inv * p.particle_mass * dt);
+                let scale = match p.solver {
+                    Solver::Wcsph => {
+                        let inv = ws.inv_densities[i];
+                        0.5 * pressures[i] * inv * inv * m * dt
+                    }
+                    Solver::Dfsph(_) => {
+                        let pi =
+                            warm_density[i] + if divergence { warm_divergence[i] } else { 0.0 };
+                        dfsph::WALL_MIRROR * pi * m * dt
+                    }
+                    Solver::Pbf(_) => -ws.pbf.lambda_sum[i] * m / (p.rest_density * dt),
+                    Solver::Clavet(_) => 0.0,
+                };
+                let impulse = gc * scale;
                 if impulse != Vector::ZERO {
                     records[0].push(crate::boundary::bodies::ImpulseRecord {
                         entry: e,
