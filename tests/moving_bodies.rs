@@ -390,3 +390,105 @@ fn momentum_is_conserved_for_every_solver() {
     }
     assert!(failures.is_empty(), "{failures:?}");
 }
+
+/// Angular momentum about the origin (z component) of the fluid and of every dynamic body
+/// (`I·ω + M·c × v`), in f64.
+fn angular_momentum_z(world: &FluidWorld, fluid: FluidHandle) -> (f64, f64) {
+    let f = &world.fluids[fluid];
+    let m = f.params().particle_mass as f64;
+    let lf: f64 = f
+        .positions()
+        .iter()
+        .zip(f.velocities())
+        .map(|(x, v)| m * (x.x as f64 * v.y as f64 - x.y as f64 * v.x as f64))
+        .sum();
+    let mut lb = 0.0f64;
+    for (_, b) in world.physics.bodies.iter() {
+        if b.is_dynamic() {
+            let mp = b.mass_properties();
+            // World inertia from the inverse rapier keeps (no locked axis here).
+            let inertia = mp.effective_world_inv_inertia.inverse_unchecked();
+            let spin = inertia * b.angvel();
+            let c = b.center_of_mass();
+            let p = b.linvel() * b.mass();
+            lb += spin.z as f64 + (c.x as f64 * p.y as f64 - c.y as f64 * p.x as f64);
+        }
+    }
+    (lf, lb)
+}
+
+#[test]
+fn an_off_centre_jet_spins_a_plate_with_the_angular_momentum_it_loses() {
+    // Zero gravity, no other collider: a slab of water moving at +2 m/s along x hits the
+    // upper half of a free plate (0.04 × 0.4 × 0.3 m, 600 kg/m³) standing across its path.
+    // The push acts above the plate's centre of mass, so the plate must turn clockwise about
+    // z (ω_z < 0) while it is pushed along +x, and the angular momentum it gains must be the
+    // angular momentum the water loses (about any point: here the origin). Viscosity off:
+    // Müller's viscosity force is not central, so it does not conserve angular momentum
+    // within the fluid; pressure forces and frictionless contact are central.
+    for walls in [false, true] {
+        let mut world = FluidWorld::new();
+        world.physics.gravity = Vector::ZERO;
+        world.physics.integration_parameters.dt = 1.0 / 60.0;
+        let params = rapier_sph::FluidParamsBuilder::water(SPACING)
+            .viscosity(0.0)
+            .wall_density(walls)
+            .build()
+            .unwrap();
+        let mut fluid = Fluid::new(params).unwrap();
+        // 5 × 4 × 6 particles: x in [-0.3, -0.1], y in [0.02, 0.18], z in [-0.12, 0.12].
+        let pts = rapier_sph::fluid::lattice(
+            Vector::new(-0.3, 0.02, -0.12) + Vector::splat(0.5 * SPACING),
+            5,
+            4,
+            6,
+            SPACING,
+        );
+        let vel = vec![Vector::new(2.0, 0.0, 0.0); pts.len()];
+        fluid
+            .add_particles_with_velocities(&pts, Some(&vel))
+            .unwrap();
+        let fluid = world.fluids.insert(fluid);
+        let plate = world.physics.insert_body(RigidBodyBuilder::dynamic());
+        world.physics.insert_collider(
+            ColliderBuilder::cuboid(0.02, 0.2, 0.15).density(600.0),
+            Some(plate),
+        );
+        world.physics.step();
+        let (lf0, lb0) = angular_momentum_z(&world, fluid);
+        let n0 = world.fluids[fluid].len();
+        for _ in 0..24 {
+            world.step().unwrap();
+            assert_eq!(world.fluids[fluid].len(), n0);
+        }
+        let (lf, lb) = angular_momentum_z(&world, fluid);
+        let w = world.physics.bodies[plate].angvel();
+        let v = world.physics.bodies[plate].linvel();
+        let (gained, lost) = (lb - lb0, lf0 - lf);
+        eprintln!(
+            "walls {walls}: plate v {v}, ω {w}; angular momentum: plate gained {gained:.6}, \
+             water lost {lost:.6} (of {lf0:.6}) kg·m²/s"
+        );
+        assert!(
+            v.x > 0.0,
+            "walls {walls}: the plate was not pushed along +x"
+        );
+        assert!(
+            w.z < 0.0,
+            "walls {walls}: the plate turns the wrong way (ω = {w})"
+        );
+        // Balance: angular momentum goes from the water to the plate only through central
+        // impulses (along the contact normal at the contact point, or along the wall
+        // gradient at the closest point; the particle sits on that line), each applied to
+        // the plate at that point (force at the centre of mass plus torque about it), and
+        // the plate turns about a principal axis (no gyroscopic exchange); the velocity
+        // changes act from the next substep on, at the pose where their torque was taken.
+        // What is left is round-off and the contact details (a particle pushed off several
+        // features in one substep). Measured: 0.02 % (contact), 0.06 % (walls). Bound: the
+        // issue's 1 % for linear momentum, applied to angular momentum.
+        assert!(
+            (gained - lost).abs() <= 0.01 * lost.abs(),
+            "walls {walls}: plate gained {gained}, water lost {lost}"
+        );
+    }
+}
