@@ -219,6 +219,13 @@ impl FluidParams {
         if let Solver::Dfsph(d) = &self.solver {
             positive("max_density_error", d.max_density_error)?;
             positive("max_divergence_error", d.max_divergence_error)?;
+            if !(0.0..=1.0).contains(&d.warm_start) {
+                return Err(SphError::InvalidParameter {
+                    field: "warm_start",
+                    value: d.warm_start as f64,
+                    reason: "must be a fraction in [0, 1]",
+                });
+            }
             if d.max_iterations == 0
                 || d.min_iterations > d.max_iterations
                 || d.min_divergence_iterations > d.max_iterations

@@ -275,7 +275,8 @@ impl HydrostaticTank {
         let mut sums = vec![(0.0f64, 0.0f64); layers];
         for (x, pr) in f.positions().iter().zip(f.pressures()) {
             let k = (x.y / s).floor();
-            if k >= 0.0 && (k as usize) + 1 < layers {
+            // In float: a particle thrown far up (or to infinity) must not wrap the index.
+            if k >= 0.0 && k + 1.0 < layers as Real {
                 let e = &mut sums[k as usize];
                 e.0 += *pr as f64;
                 e.1 += (p.rest_density * g * (fluid_height - x.y)) as f64;

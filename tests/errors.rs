@@ -128,6 +128,13 @@ fn other_bad_fields_are_named() {
             "exponent"
         );
     }
+    for v in [Real::NAN, Real::INFINITY, -0.1, 1.01] {
+        let solver = rapier_sph::Solver::Dfsph(rapier_sph::Dfsph {
+            warm_start: v,
+            ..Default::default()
+        });
+        assert_eq!(field_of(base().solver(solver).build()), "warm_start");
+    }
 }
 
 fn some_particles() -> Vec<Vector> {

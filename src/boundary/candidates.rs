@@ -15,6 +15,8 @@ const CELL_CHUNK: usize = 64;
 struct Chunk {
     offsets: Vec<u32>,
     handles: Vec<ColliderHandle>,
+    /// A box around each candidate's shape (same order as `handles`).
+    boxes: Vec<Aabb>,
 }
 
 /// For each occupied cell, the colliders its particles may touch during the step.
@@ -49,6 +51,7 @@ impl ContactWorkspace {
             .map(|(c, chunk)| {
                 chunk.offsets.clear();
                 chunk.handles.clear();
+                chunk.boxes.clear();
                 chunk.offsets.push(0);
                 let start = c * CELL_CHUNK;
                 let end = (start + CELL_CHUNK).min(n_cells);
@@ -71,6 +74,9 @@ impl ContactWorkspace {
                             && !coupling.is_some_and(|c| c.is_nonfixed(handle))
                         {
                             chunk.handles.push(handle);
+                            // At the collider's current pose (the broad-phase box of a
+                            // moving body may lag it).
+                            chunk.boxes.push(co.compute_aabb());
                         }
                     }
                     // Colliders of moving bodies come from the coupling table, with the box
@@ -83,6 +89,7 @@ impl ContactWorkspace {
                                     .is_some_and(|co| groups.test(co.collision_groups()))
                             {
                                 chunk.handles.push(m.handle);
+                                chunk.boxes.push(m.aabb);
                             }
                         }
                     }
@@ -117,6 +124,16 @@ impl ContactWorkspace {
         &chunk.handles[chunk.offsets[k] as usize..chunk.offsets[k + 1] as usize]
     }
 
+    /// Candidate colliders of cell `cell` with a box around each one's shape.
+    #[inline]
+    pub fn of_cell_with_boxes(&self, cell: u32) -> (&[ColliderHandle], &[Aabb]) {
+        let cell = cell as usize;
+        let chunk = &self.chunks[cell / CELL_CHUNK];
+        let k = cell % CELL_CHUNK;
+        let range = chunk.offsets[k] as usize..chunk.offsets[k + 1] as usize;
+        (&chunk.handles[range.clone()], &chunk.boxes[range])
+    }
+
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
         self.chunks
@@ -124,6 +141,7 @@ impl ContactWorkspace {
             .map(|c| {
                 c.offsets.capacity() * 4
                     + c.handles.capacity() * std::mem::size_of::<ColliderHandle>()
+                    + c.boxes.capacity() * std::mem::size_of::<Aabb>()
             })
             .sum::<usize>()
             + self.chunks.capacity() * std::mem::size_of::<Chunk>()

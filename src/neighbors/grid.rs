@@ -60,6 +60,8 @@ pub struct NeighborGrid {
     /// Open-addressing hash table from cell key to cell index (`EMPTY` marks free slots).
     table: Vec<(u64, u32)>,
     table_mask: usize,
+    /// `64 − log2(table length)`: the hash keeps the product's top bits.
+    table_shift: u32,
 }
 
 impl NeighborGrid {
@@ -120,8 +122,9 @@ impl NeighborGrid {
         self.table.clear();
         self.table.resize(capacity, (0, EMPTY));
         self.table_mask = capacity - 1;
+        self.table_shift = 64 - capacity.trailing_zeros();
         for (c, &key) in self.cell_keys.iter().enumerate() {
-            let mut slot = Self::hash(key) & self.table_mask;
+            let mut slot = self.hash(key);
             while self.table[slot].1 != EMPTY {
                 slot = (slot + 1) & self.table_mask;
             }
@@ -129,9 +132,12 @@ impl NeighborGrid {
         }
     }
 
+    /// Fibonacci hashing: the top bits of `key·2⁶⁴/φ` (every key bit reaches them; the
+    /// product's middle bits, used before, ignored the z coordinate of small tables and
+    /// chained every column of cells into one probe sequence).
     #[inline(always)]
-    fn hash(key: u64) -> usize {
-        (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 32) as usize
+    fn hash(&self, key: u64) -> usize {
+        (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> self.table_shift) as usize
     }
 
     /// The index of the occupied cell with this key, if any.
@@ -140,7 +146,7 @@ impl NeighborGrid {
         if self.cell_keys.is_empty() {
             return None;
         }
-        let mut slot = Self::hash(key) & self.table_mask;
+        let mut slot = self.hash(key);
         loop {
             let (k, c) = self.table[slot];
             if c == EMPTY {
@@ -206,7 +212,10 @@ impl NeighborGrid {
         }
         // Wrapped cells (coordinates near ±2^20 cells) can come out of order: keep the
         // ranges sorted so neighbour lists are always in ascending index order.
-        out.ranges[..out.len].sort_unstable();
+        let ranges = &mut out.ranges[..out.len];
+        if !ranges.is_sorted() {
+            ranges.sort_unstable();
+        }
         out
     }
 

@@ -29,19 +29,96 @@ pub struct NeighborLists {
 /// Candidates tested together in the neighbour scan.
 const BLOCK: usize = 8;
 
+/// For every 8-bit mask of accepted candidates: the lane numbers of its set bits in
+/// ascending order (padded with zeros), and how many there are. The scan stores all eight
+/// entries of a block and advances by the count, so it has no branch per candidate.
+const COMPACT: [([u8; BLOCK], u8); 256] = {
+    let mut table = [([0u8; BLOCK], 0u8); 256];
+    let mut mask = 0;
+    while mask < 256 {
+        let mut n = 0;
+        let mut lane = 0;
+        while lane < BLOCK {
+            if mask & (1 << lane) != 0 {
+                table[mask].0[n] = lane as u8;
+                n += 1;
+            }
+            lane += 1;
+        }
+        table[mask].1 = n as u8;
+        mask += 1;
+    }
+    table
+};
+
+/// Bit `k` set when candidate `j0 + k` is closer than `sqrt(h2)` to `(xi, yi, zi)`.
+/// Same arithmetic as the scalar test `dx·dx + dy·dy + dz·dz < h2` (in this order, no FMA),
+/// so the lists do not depend on how the test is vectorised.
+#[inline(always)]
+fn block_mask(
+    xs: &[Real],
+    ys: &[Real],
+    zs: &[Real],
+    j0: usize,
+    xi: Real,
+    yi: Real,
+    zi: Real,
+    h2: Real,
+) -> u32 {
+    let bx: &[Real; BLOCK] = xs[j0..j0 + BLOCK].try_into().unwrap();
+    let by: &[Real; BLOCK] = ys[j0..j0 + BLOCK].try_into().unwrap();
+    let bz: &[Real; BLOCK] = zs[j0..j0 + BLOCK].try_into().unwrap();
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SSE2 is part of every x86-64 CPU: two 4-lane halves, `movmskps` for the bits.
+        use std::arch::x86_64::*;
+        // SAFETY: the loads read 4 floats from arrays of 8 at offsets 0 and 4; SSE2 is
+        // always available on x86_64.
+        unsafe {
+            let (vx, vy, vz, vh) = (
+                _mm_set1_ps(xi),
+                _mm_set1_ps(yi),
+                _mm_set1_ps(zi),
+                _mm_set1_ps(h2),
+            );
+            let half = |o: usize| {
+                let dx = _mm_sub_ps(vx, _mm_loadu_ps(bx.as_ptr().add(o)));
+                let dy = _mm_sub_ps(vy, _mm_loadu_ps(by.as_ptr().add(o)));
+                let dz = _mm_sub_ps(vz, _mm_loadu_ps(bz.as_ptr().add(o)));
+                let d2 = _mm_add_ps(
+                    _mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)),
+                    _mm_mul_ps(dz, dz),
+                );
+                _mm_movemask_ps(_mm_cmplt_ps(d2, vh)) as u32
+            };
+            half(0) | (half(4) << 4)
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let mut mask = 0u32;
+        for k in 0..BLOCK {
+            let (dx, dy, dz) = (xi - bx[k], yi - by[k], zi - bz[k]);
+            mask |= ((dx * dx + dy * dy + dz * dz < h2) as u32) << k;
+        }
+        mask
+    }
+}
+
 impl NeighborLists {
     /// Rebuilds the lists for sorted `positions` over `grid` with support radius `h`.
     pub fn build(&mut self, grid: &NeighborGrid, positions: &[Vector], h: Real) {
         let n = positions.len();
         self.len = n;
-        // Coordinates as three flat arrays, so the candidate test below runs on several
-        // candidates at once (SIMD) instead of one 12-byte vector at a time.
-        self.xs.resize(n, 0.0);
-        self.ys.resize(n, 0.0);
-        self.zs.resize(n, 0.0);
-        crate::par_chunks_mut!(self.xs, CHUNK)
-            .zip(crate::par_chunks_mut!(self.ys, CHUNK))
-            .zip(crate::par_chunks_mut!(self.zs, CHUNK))
+        // Coordinates as three flat arrays, so the candidate test below runs on a block of
+        // candidates at once (SIMD) instead of one 12-byte vector at a time. Each array has
+        // BLOCK entries of padding at infinity, so a block may run past the last particle.
+        self.xs.resize(n + BLOCK, Real::INFINITY);
+        self.ys.resize(n + BLOCK, Real::INFINITY);
+        self.zs.resize(n + BLOCK, Real::INFINITY);
+        crate::par_chunks_mut!(self.xs[..n], CHUNK)
+            .zip(crate::par_chunks_mut!(self.ys[..n], CHUNK))
+            .zip(crate::par_chunks_mut!(self.zs[..n], CHUNK))
             .enumerate()
             .for_each(|(c, ((x, y), z))| {
                 for (k, p) in positions[c * CHUNK..c * CHUNK + x.len()].iter().enumerate() {
@@ -50,6 +127,9 @@ impl NeighborLists {
                     z[k] = p.z;
                 }
             });
+        for a in [&mut self.xs, &mut self.ys, &mut self.zs] {
+            a[n..].fill(Real::INFINITY);
+        }
         self.chunks.resize_with(n.div_ceil(CHUNK), Chunk::default);
         let h2 = h * h;
         let (xs, ys, zs) = (&self.xs[..], &self.ys[..], &self.zs[..]);
@@ -60,9 +140,8 @@ impl NeighborLists {
                 let end = (start + CHUNK).min(n);
                 chunk.offsets.clear();
                 chunk.offsets.push(0);
-                // `indices` is used as a buffer longer than its content: every candidate is
-                // written, and the end advances only for true neighbours, so the candidate loop
-                // has no unpredictable branch (about 15 % of candidates are neighbours).
+                // `indices` is used as a buffer longer than its content: every block stores
+                // all its lanes and the end advances only over the accepted ones.
                 let buf = &mut chunk.indices;
                 let mut used = 0usize;
                 let mut cached_cell = grid.cell_of(start);
@@ -76,46 +155,33 @@ impl NeighborLists {
                     let candidates: usize = ranges
                         .as_slice()
                         .iter()
-                        .map(|&(s, e)| (e - s) as usize)
+                        .map(|&(s, e)| (e - s) as usize + BLOCK)
                         .sum();
-                    if buf.len() < used + candidates + BLOCK {
-                        buf.resize((used + candidates + BLOCK).max(2 * buf.len()), 0);
+                    if buf.len() < used + candidates {
+                        buf.resize((used + candidates).max(2 * buf.len()), 0);
                     }
                     let (xi, yi, zi) = (xs[i], ys[i], zs[i]);
-                    let first = used;
                     for &(s, e) in ranges.as_slice() {
                         let (s, e) = (s as usize, e as usize);
-                        let blocks = (e - s) / BLOCK;
-                        for b in 0..blocks {
-                            let j0 = s + b * BLOCK;
-                            let bx: &[Real; BLOCK] = xs[j0..j0 + BLOCK].try_into().unwrap();
-                            let by: &[Real; BLOCK] = ys[j0..j0 + BLOCK].try_into().unwrap();
-                            let bz: &[Real; BLOCK] = zs[j0..j0 + BLOCK].try_into().unwrap();
-                            let mut inside = [0u32; BLOCK];
-                            for k in 0..BLOCK {
-                                let (dx, dy, dz) = (xi - bx[k], yi - by[k], zi - bz[k]);
-                                inside[k] = (dx * dx + dy * dy + dz * dz < h2) as u32;
+                        let mut j0 = s;
+                        while j0 < e {
+                            let mut mask = block_mask(xs, ys, zs, j0, xi, yi, zi, h2);
+                            if e - j0 < BLOCK {
+                                mask &= (1 << (e - j0)) - 1;
                             }
+                            // The particle itself passes the test (distance 0): drop its bit.
+                            if (j0..j0 + BLOCK).contains(&i) {
+                                mask &= !(1 << (i - j0));
+                            }
+                            let (lanes, count) = &COMPACT[mask as usize];
                             let out: &mut [u32; BLOCK] =
                                 (&mut buf[used..used + BLOCK]).try_into().unwrap();
-                            let mut w = 0usize;
                             for k in 0..BLOCK {
-                                out[w] = (j0 + k) as u32;
-                                w += inside[k] as usize;
+                                out[k] = j0 as u32 + lanes[k] as u32;
                             }
-                            used += w;
+                            used += *count as usize;
+                            j0 += BLOCK;
                         }
-                        for j in s + blocks * BLOCK..e {
-                            let (dx, dy, dz) = (xi - xs[j], yi - ys[j], zi - zs[j]);
-                            buf[used] = j as u32;
-                            used += (dx * dx + dy * dy + dz * dz < h2) as usize;
-                        }
-                    }
-                    // The particle itself passed the test (distance 0): take it out. The list is
-                    // ascending, so it is found by a binary search.
-                    if let Ok(p) = buf[first..used].binary_search(&(i as u32)) {
-                        buf.copy_within(first + p + 1..used, first + p);
-                        used -= 1;
                     }
                     chunk.offsets.push(used as u32);
                 }
