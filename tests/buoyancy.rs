@@ -32,6 +32,8 @@ struct Floating {
     speed: Real,
     /// RMS speed of the water within two spacings of the box (m/s).
     water: Real,
+    /// Height of the box's lowest corner at the end (m; the tank's floor is at 0).
+    bottom: Real,
 }
 
 /// Fraction of the volume of the box of half extents `half` at `pose` below the height
@@ -182,6 +184,16 @@ fn float(
         shaking: (a2 / (vel.len() - 1) as f64).sqrt() as Real,
         speed: (v2 / vel.len() as f64).sqrt() as Real,
         water: (water / count as f64).sqrt() as Real,
+        bottom: {
+            let pose = world.physics.bodies[body].position();
+            let mut low = Real::MAX;
+            for c in 0..8 {
+                let sign = |b: usize| if c & b == 0 { -1.0 } else { 1.0 };
+                let corner = Vector::new(sign(1) * hw, sign(2) * hh, sign(4) * hw);
+                low = low.min(pose.transform_point(corner).y);
+            }
+            low
+        },
     }
 }
 
@@ -229,6 +241,25 @@ fn boxes_float_at_the_right_depth_without_jitter() {
                 f.speed, f.water
             ));
         }
+    }
+    // A box of 2000 kg/m³ sinks and rests on the floor: fully submerged, at rest (slower
+    // than the water next to it, as above), and down. Not on the floor itself: the last
+    // layer of particles under it cannot be squeezed out (a particle between two walls one
+    // spacing apart sits one contact radius from each, pushed equally by both; the film
+    // cannot thin below one particle), so the box rests on that layer, its lowest corner one
+    // spacing up (measured 0.0397 m). Bound: one spacing and a quarter (a box still sinking
+    // or held up by two layers would be higher).
+    let f = float(s, 0.72, 0.3, 0.15, 0.1, 2000.0, 2.5);
+    eprintln!(
+        "density 2000: submerged {:.3}, lowest corner at {:.4} m, corners' RMS speed {:.4} m/s \
+         (water next to it {:.4})",
+        f.submerged, f.bottom, f.speed, f.water
+    );
+    if f.submerged < 0.999 || f.bottom > 1.25 * s || f.speed > f.water {
+        failures.push(format!(
+            "density 2000: submerged {:.3}, bottom at {:.4} m, speed {:.4} m/s",
+            f.submerged, f.bottom, f.speed
+        ));
     }
     assert!(failures.is_empty(), "{failures:?}");
 }
