@@ -132,8 +132,9 @@ impl FluidPipeline {
     /// rapier's own step: call this right after it). The frame is divided into substeps by
     /// [`FluidPipeline::time_stepping`].
     ///
-    /// Bad input (a non-finite or non-positive `dt`, non-finite gravity, an empty broad-phase
-    /// beside a non-empty collider set) returns an error and changes nothing.
+    /// Bad input (a non-finite or non-positive `dt`, non-finite gravity, `rapier_substeps`
+    /// of 0, an empty broad-phase beside a non-empty collider set) returns an error and
+    /// changes nothing.
     pub fn step(
         &mut self,
         gravity: Vector,
@@ -165,6 +166,13 @@ impl FluidPipeline {
                     reason: "must be at least 1",
                 });
             }
+        }
+        if self.rapier_substeps == 0 {
+            return Err(SphError::InvalidParameter {
+                field: "rapier_substeps",
+                value: 0.0,
+                reason: "rapier takes at least one substep per step",
+            });
         }
         if !crate::math::is_finite(gravity) {
             return Err(SphError::InvalidParameter {

@@ -237,7 +237,7 @@ impl Coupling {
         bodies: &RigidBodySet,
         colliders: &ColliderSet,
     ) {
-        let n = rapier_substeps.max(1) as Real;
+        let n = rapier_substeps.max(1) as Real; // 0 is refused by the pipeline
         let spread = (n - 1.0) / (n * dt);
         self.candidates.clear();
         self.nonfixed.clear();
