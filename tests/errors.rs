@@ -325,6 +325,19 @@ fn bad_time_steps_are_refused_and_change_nothing() {
         assert_eq!(field_of(r), "gravity");
         assert_eq!(state(&fluids, h), before);
     }
+    // rapier takes at least one substep per step: 0 is refused, naming the field.
+    pipeline.rapier_substeps = 0;
+    let r = pipeline.step(
+        world.gravity,
+        1e-3,
+        &mut fluids,
+        &mut world.bodies,
+        &world.colliders,
+        &world.broad_phase,
+    );
+    assert_eq!(field_of(r), "rapier_substeps");
+    assert_eq!(state(&fluids, h), before);
+    pipeline.rapier_substeps = 4;
     // And the fluid still steps afterwards.
     pipeline
         .step(
