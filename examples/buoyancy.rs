@@ -3,6 +3,7 @@
 //! ```text
 //! cargo run --release --example buoyancy                      # WCSPH, densities 250/500/750
 //! cargo run --release --example buoyancy -- --solver pbf --spacing 0.03 --seconds 5
+//! cargo run --release --example buoyancy --features render -- --render out/  # PNG + GIF per box
 //! ```
 //!
 //! A tank of water (walls counting in the density) and a box 1.5 times as wide as it is tall
@@ -18,6 +19,7 @@ fn main() {
     let mut solver = Solver::Wcsph;
     let (mut s, mut seconds) = (0.04, 3.0);
     let mut densities = vec![250.0, 500.0, 750.0];
+    let mut render: Option<std::path::PathBuf> = None;
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut i = 0;
     while i < args.len() {
@@ -34,11 +36,18 @@ fn main() {
             "--spacing" => s = parse(&value, "--spacing"),
             "--seconds" => seconds = parse(&value, "--seconds"),
             "--density" => densities = vec![parse(&value, "--density")],
+            "--render" => render = Some(value.into()),
             other => exit(&format!(
-                "unknown argument {other} (--solver, --spacing, --seconds, --density)"
+                "unknown argument {other} (--solver, --spacing, --seconds, --density, --render)"
             )),
         }
         i += 2;
+    }
+    #[cfg(not(feature = "render"))]
+    if render.is_some() {
+        exit(
+            "--render needs the `render` feature: cargo run --release --example buoyancy --features render -- --render DIR",
+        );
     }
     if !(s > 0.0 && seconds >= 1.0) {
         exit("--spacing must be positive and --seconds at least 1");
@@ -46,7 +55,10 @@ fn main() {
     println!("solver {solver:?}, spacing {s} m, {seconds} s; last second:");
     for density in densities {
         let t0 = std::time::Instant::now();
-        let f = float(solver, s, density, seconds);
+        let dir = render
+            .as_ref()
+            .map(|d| d.join(format!("density_{density}")));
+        let f = float(solver, s, density, seconds, dir.as_deref());
         println!(
             "density {density}: submerged {:.3} (expected {:.3}), corners: RMS acceleration \
              {:.3} g, RMS speed {:.4} m/s (water next to it {:.4}); {:.1} s",
@@ -72,7 +84,28 @@ fn exit(msg: &str) -> ! {
 
 /// `(submerged volume fraction, corners' RMS acceleration, corners' RMS speed, water's RMS
 /// speed next to the box)` over the last second.
-fn float(solver: Solver, s: Real, density: Real, seconds: Real) -> (Real, Real, Real, Real) {
+/// Pictures of one run (`--render DIR`): every 4th frame, the tank seen from above the water.
+#[cfg(feature = "render")]
+fn recorder(dir: &std::path::Path, tank: Real, top: Real) -> rapier_sph::render::Recorder {
+    use rapier_sph::render::{Camera, Recorder, RenderOptions};
+    let camera = Camera::framing(Vector::ZERO, Vector::new(tank, top, tank), 30.0, 35.0);
+    let options = RenderOptions {
+        width: 480,
+        height: 360,
+        speed_range: Some((0.0, 0.3)),
+        ..RenderOptions::default()
+    };
+    Recorder::create(dir, "buoyancy", options, camera, 0.0, 7)
+        .unwrap_or_else(|e| exit(&e.to_string()))
+}
+
+fn float(
+    solver: Solver,
+    s: Real,
+    density: Real,
+    seconds: Real,
+    render: Option<&std::path::Path>,
+) -> (Real, Real, Real, Real) {
     let (tank, depth, hw, hh) = (0.72, 0.3, 0.15, 0.1);
     let mut world = FluidWorld::new();
     let dt = 1.0 / 60.0;
@@ -113,12 +146,22 @@ fn float(solver: Solver, s: Real, density: Real, seconds: Real) -> (Real, Real, 
         Some(body),
     );
     world.physics.step();
+    #[cfg(feature = "render")]
+    let mut pictures = render.map(|dir| recorder(dir, tank, top));
+    #[cfg(not(feature = "render"))]
+    let _ = render;
     let frames = (seconds * 60.0) as usize;
     let corner = half.length();
     let (mut sum, mut water, mut count) = (0.0f64, 0.0f64, 0usize);
     let mut poses = Vec::new();
     for frame in 0..frames {
         world.step().unwrap_or_else(|e| exit(&e.to_string()));
+        #[cfg(feature = "render")]
+        if let Some(p) = pictures.as_mut()
+            && frame % 4 == 0
+        {
+            p.frame(&world).unwrap_or_else(|e| exit(&e.to_string()));
+        }
         if frame + 62 < frames {
             continue;
         }
@@ -165,6 +208,12 @@ fn float(solver: Solver, s: Real, density: Real, seconds: Real) -> (Real, Real, 
     }
     for (v, w) in &vel {
         v2 += ((v.length() + w.length() * corner) as f64).powi(2);
+    }
+    #[cfg(feature = "render")]
+    if let Some(p) = pictures {
+        let (dir, frames) = (render.unwrap_or(std::path::Path::new(".")), p.frames());
+        p.finish().unwrap_or_else(|e| exit(&e.to_string()));
+        println!("  {frames} frames and buoyancy.gif in {}", dir.display());
     }
     (
         (sum / count as f64) as Real,
