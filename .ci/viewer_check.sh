@@ -15,3 +15,9 @@ xvfb-run -a -s "-screen 0 1280x800x24" "${CARGO_TARGET_DIR:-target}/release/exam
   --frames 30 --screenshot "$out"
 test -s "$out"
 echo "viewer drew 30 frames under Xvfb; screenshot: $out"
+# The obstacle course file: emitter, sink, named sensor, kinematic wheel, dynamic crates.
+course="${out%.png}_obstacle_course.png"
+xvfb-run -a -s "-screen 0 1280x800x24" "${CARGO_TARGET_DIR:-target}/release/examples/viewer" scenes/obstacle_course.ron \
+  --frames 30 --screenshot "$course"
+test -s "$course"
+echo "viewer drew 30 frames of the obstacle course under Xvfb; screenshot: $course"

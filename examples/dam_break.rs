@@ -32,6 +32,9 @@ enum SolverArg {
     Pbf,
     /// Double-density relaxation (Clavet et al. 2005).
     Clavet,
+    /// Double-density relaxation with viscoelastic springs (Clavet et al. 2005, section 5;
+    /// default spring settings).
+    ClavetSprings,
 }
 
 #[derive(Parser, Debug)]
@@ -61,7 +64,7 @@ struct Args {
     /// Override the preset's viscosity ε (0 switches the viscosity stage off).
     #[arg(long)]
     viscosity: Option<f32>,
-    /// Pressure solver (default: the preset's: DFSPH for water, WCSPH for paper).
+    /// Pressure solver (default: the preset's, WCSPH).
     #[arg(long, value_enum)]
     solver: Option<SolverArg>,
     /// Walls count in the density (`FluidParams::wall_density`).
@@ -165,6 +168,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(SolverArg::Dfsph) => builder = builder.solver(Solver::dfsph()),
         Some(SolverArg::Pbf) => builder = builder.solver(Solver::pbf()),
         Some(SolverArg::Clavet) => builder = builder.solver(Solver::clavet()),
+        Some(SolverArg::ClavetSprings) => {
+            builder = builder.solver(Solver::Clavet(rapier_sph::solver::Clavet {
+                springs: Some(rapier_sph::solver::Springs::default()),
+                ..Default::default()
+            }))
+        }
         None => {}
     }
     if args.walls {

@@ -184,6 +184,32 @@ impl Emitter {
         self.direction.normalize_or_zero()
     }
 
+    /// Jet speed (m/s).
+    pub fn speed(&self) -> Real {
+        self.speed
+    }
+
+    /// Particles per second.
+    pub fn rate(&self) -> Real {
+        self.rate
+    }
+
+    /// The emitter clock times `(start, stop)` between which it emits (s; `stop` may be
+    /// infinite).
+    pub fn active_times(&self) -> (Real, Real) {
+        (self.start, self.stop)
+    }
+
+    /// The most particles it emits in total, if limited.
+    pub fn particle_budget(&self) -> Option<u64> {
+        self.budget
+    }
+
+    /// Whether it is switched on.
+    pub fn is_enabled(&self) -> bool {
+        self.enabled
+    }
+
     /// Moves the nozzle (e.g. a hose carried by a character). Refuses non-finite input.
     pub fn set_pose(&mut self, position: Vector, direction: Vector) -> SphResult<()> {
         let mut e = self.clone();
@@ -524,6 +550,14 @@ impl Fluid {
     /// The sink named by `handle`.
     pub fn sink(&self, handle: SinkHandle) -> Option<&Sink> {
         self.sources.sinks.get(handle.index, handle.generation)
+    }
+
+    /// Iterates over `(handle, sink)`.
+    pub fn sinks(&self) -> impl Iterator<Item = (SinkHandle, &Sink)> {
+        self.sources
+            .sinks
+            .iter()
+            .map(|((index, generation), s)| (SinkHandle { index, generation }, s))
     }
 
     /// The sink named by `handle`, mutably.

@@ -27,8 +27,10 @@
 //!   ├─ 10 collider contact  boundary/     swept parry queries, reflection + friction,
 //!   │                                     moving bodies in their own frame (boundary/bodies.rs)
 //!   └─ 11 sinks             emitter.rs    particles in drains are removed
-//! after the substeps: emitters add the frame's particles (emitter.rs); the impulses the
-//! fluid gave dynamic bodies go to rapier (boundary/bodies.rs)
+//! the fluid's impulses on dynamic bodies (contact, and each solver's wall term) change their
+//! velocities at once, so bodies move with the substeps (boundary/bodies.rs);
+//! after the substeps: emitters add the frame's particles (emitter.rs); the impulses go to
+//! rapier and the bodies are moved by the drift they made
 //! ```
 //!
 //! Each stage is timed ([`StepReport::timings`]); see [`pipeline`]. Game logic reads the

@@ -212,6 +212,11 @@ impl FluidParams {
             if let Some(k) = c.near_stiffness {
                 non_negative("near_stiffness", k)?;
             }
+            if let Some(sp) = &c.springs {
+                non_negative("spring_stiffness", sp.stiffness)?;
+                non_negative("yield_ratio", sp.yield_ratio)?;
+                non_negative("plasticity", sp.plasticity)?;
+            }
             if self.wall_density {
                 return Err(SphError::InvalidParameter {
                     field: "wall_density",

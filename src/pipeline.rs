@@ -43,7 +43,7 @@ pub enum TimeStepping {
     ///   most `courant` spacings per substep), and the explicit viscosity limit
     ///   `dt ≤ ρ0·h²/(30·ε)`;
     /// - WCSPH also the acoustic limit `dt ≤ courant · h / (c + v_max)`, Clavet the same with
-    ///   `c·√k` (its stiffness `k` is in units of `c²/(h·ρ0)`);
+    ///   `c·√k` (its stiffness `k` is in units of `c²/(h·ρ0)`, its springs' in `c²/(h²·N)`);
     /// - DFSPH under gravity also `g·dt² ≤ 5·max_density_error·spacing`: gravity's
     ///   compression within one substep stays a few times the solve's error target.
     ///
@@ -70,15 +70,26 @@ impl Default for TimeStepping {
 /// Steps fluids alongside a rapier world. Holds its time-stepping policy and the last report;
 /// all state lives in the [`FluidSet`] and the rapier sets, passed explicitly as rapier's own
 /// `PhysicsPipeline` does.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct FluidPipeline {
     /// How frames are divided into substeps (default: adaptive, Courant 0.4).
     pub time_stepping: TimeStepping,
+    /// The substeps rapier takes per step (its `integration_parameters.num_solver_iterations`,
+    /// default 4): moving bodies are followed along the path rapier's substeps give them
+    /// (see [`crate::boundary::Coupling::begin_frame`]). [`crate::FluidWorld`] keeps it in
+    /// sync; set it when you step rapier with other parameters.
+    pub rapier_substeps: usize,
     report: StepReport,
     coupling: Coupling,
     /// Always empty: lets the broad-phase's BVH be borrowed without `bodies` (kept here so
     /// the step does not allocate one).
     no_bodies: RigidBodySet,
+}
+
+impl Default for FluidPipeline {
+    fn default() -> Self {
+        Self::with_time_stepping(TimeStepping::default())
+    }
 }
 
 impl FluidPipeline {
@@ -91,10 +102,25 @@ impl FluidPipeline {
     pub fn with_time_stepping(time_stepping: TimeStepping) -> Self {
         Self {
             time_stepping,
+            rapier_substeps: 4,
             report: StepReport::default(),
             coupling: Coupling::default(),
             no_bodies: RigidBodySet::new(),
         }
+    }
+
+    /// The coupling's state kept from one frame to the next: the linear velocity each
+    /// dynamic body near a fluid was left with (saved in snapshots).
+    pub fn coupling_memory(&self) -> &[(rapier3d::dynamics::RigidBodyHandle, Vector)] {
+        self.coupling.left_velocities()
+    }
+
+    /// Restores [`FluidPipeline::coupling_memory`] (snapshots).
+    pub fn set_coupling_memory(
+        &mut self,
+        memory: Vec<(rapier3d::dynamics::RigidBodyHandle, Vector)>,
+    ) {
+        self.coupling.set_left_velocities(memory);
     }
 
     /// The report of the last step.
@@ -107,8 +133,9 @@ impl FluidPipeline {
     /// rapier's own step: call this right after it). The frame is divided into substeps by
     /// [`FluidPipeline::time_stepping`].
     ///
-    /// Bad input (a non-finite or non-positive `dt`, non-finite gravity, an empty broad-phase
-    /// beside a non-empty collider set) returns an error and changes nothing.
+    /// Bad input (a non-finite or non-positive `dt`, non-finite gravity, `rapier_substeps`
+    /// of 0, an empty broad-phase beside a non-empty collider set) returns an error and
+    /// changes nothing.
     pub fn step(
         &mut self,
         gravity: Vector,
@@ -141,6 +168,13 @@ impl FluidPipeline {
                 });
             }
         }
+        if self.rapier_substeps == 0 {
+            return Err(SphError::InvalidParameter {
+                field: "rapier_substeps",
+                value: 0.0,
+                reason: "rapier takes at least one substep per step",
+            });
+        }
         if !crate::math::is_finite(gravity) {
             return Err(SphError::InvalidParameter {
                 field: "gravity",
@@ -168,7 +202,12 @@ impl FluidPipeline {
         let mut report = StepReport::default();
         let time_stepping = self.time_stepping;
         let coupling = &mut self.coupling;
-        coupling.begin_frame(if has_colliders { bodies } else { no_bodies }, colliders);
+        coupling.begin_frame(
+            dt,
+            self.rapier_substeps,
+            if has_colliders { bodies } else { no_bodies },
+            colliders,
+        );
         let bodies_mut = bodies;
         let bodies: &RigidBodySet = bodies_mut;
         let mut run = || {
@@ -298,6 +337,7 @@ fn stable_time_step(fluid: &Fluid, gravity: Vector, courant: Real, remaining: Re
             let c = p.equation_of_state.speed_of_sound()
                 * cl.stiffness
                     .max(cl.near_stiffness.unwrap_or(cl.stiffness))
+                    .max(cl.springs.map_or(0.0, |s| s.stiffness))
                     .max(1e-6)
                     .sqrt();
             limit = limit.min(courant * p.smoothing_length / (c + v));
@@ -380,6 +420,7 @@ fn step_fluid(
         ids,
         warm_density,
         warm_divergence,
+        springs,
         workspace: ws,
         ..
     } = fluid;
@@ -458,6 +499,8 @@ fn step_fluid(
             &p,
             &clavet_settings.unwrap_or_default(),
             dt,
+            ids,
+            springs,
             positions,
             velocities,
             accelerations,
@@ -513,13 +556,23 @@ fn step_fluid(
             sep,
         ),
     });
-    // Fluid → body through the walls' pressure (WCSPH): each particle's wall force from
-    // dynamic bodies, `−m·∇ρ_wall,c·p/(2ρ²)`, pushes those bodies back (see
-    // `boundary::bodies`). The other solvers' wall forces (DFSPH spreads its wall force over
-    // its iterations) are not transmitted yet.
-    if let (Some(c), Some(w), Solver::Wcsph) = (coupling.as_deref_mut(), wall, p.solver)
+    // Fluid → body through the walls' pressure: each particle's wall force from dynamic
+    // bodies pushes those bodies back (Newton's third law; see `boundary::bodies`). With
+    // `g_c` the dynamic bodies' share of the wall density's gradient, the impulse the
+    // particle's wall term gave it over the substep, and so minus the body's, is
+    // - WCSPH: `−m·g_c·p/(2ρ²)·dt` (the wall pressure force);
+    // - DFSPH: `−m·γ·g_c·Σπ·dt`, `Σπ` all the pressure values the divergence and density
+    //   solves applied this substep (warm starts included: what `warm_*` hold now);
+    // - PBF: `m·g_c·Σλ/(ρ0·dt)`, the wall's share of the position corrections over all
+    //   iterations turned into velocity (`v = Δx/dt`).
+    // Clavet's relaxation has no wall term (walls act through contact, whose impulses reach
+    // the bodies for every solver).
+    if let (Some(c), Some(w)) = (coupling.as_deref_mut(), wall)
         && w.coupled_any
+        && clavet_settings.is_none()
     {
+        let m = p.particle_mass;
+        let divergence = dfsph_settings.is_some_and(|d| d.divergence_solve);
         timed(report, Stage::Contact, || {
             let records = &mut ws.wall_impulses;
             records.resize_with(1, Vec::new);
@@ -528,8 +581,20 @@ fn step_fluid(
                 if e == u32::MAX {
                     continue;
                 }
-                let inv = ws.inv_densities[i];
-                let impulse = gc * (0.5 * pressures[i] * inv * inv * p.particle_mass * dt);
+                let scale = match p.solver {
+                    Solver::Wcsph => {
+                        let inv = ws.inv_densities[i];
+                        0.5 * pressures[i] * inv * inv * m * dt
+                    }
+                    Solver::Dfsph(_) => {
+                        let pi =
+                            warm_density[i] + if divergence { warm_divergence[i] } else { 0.0 };
+                        dfsph::WALL_MIRROR * pi * m * dt
+                    }
+                    Solver::Pbf(_) => -ws.pbf.lambda_sum[i] * m / (p.rest_density * dt),
+                    Solver::Clavet(_) => 0.0,
+                };
+                let impulse = gc * scale;
                 if impulse != Vector::ZERO {
                     records[0].push(crate::boundary::bodies::ImpulseRecord {
                         entry: e,
@@ -1106,6 +1171,8 @@ fn step_clavet<S: Separation>(
     p: &crate::FluidParams,
     settings: &crate::solver::Clavet,
     dt: Real,
+    ids: &[u32],
+    springs: &mut crate::solver::springs::SpringSet,
     positions: &mut [Vector],
     velocities: &mut [Vector],
     accelerations: &mut [Vector],
@@ -1124,7 +1191,23 @@ fn step_clavet<S: Separation>(
         speed_of_sound: c,
         dt,
     };
+    // Springs (if any) first, on the predicted positions (the paper's Alg. 1 order); timed
+    // with the relaxation.
     let error = timed(report, Stage::DensitySolve, || {
+        if let Some(s) = &settings.springs {
+            let sctx = crate::solver::springs::SpringContext {
+                neighbors: &ws.neighbors,
+                ids,
+                h,
+                speed_of_sound: c,
+                expected_neighbours: p.expected_neighbours(),
+                dt,
+            };
+            crate::solver::springs::apply_in(&sctx, s, springs, &mut ws.springs, positions, sep);
+        } else if !springs.is_empty() {
+            // Springs switched off: forget them.
+            *springs = Default::default();
+        }
         crate::solver::clavet::relax_in(&ctx, settings, &mut ws.clavet, positions, densities, sep)
     });
     report.solver_iterations += 1;

@@ -21,6 +21,7 @@
 
 use crate::error::SphError;
 use crate::fluid::snapshot::FluidState;
+use crate::math::{Real, Vector};
 use crate::pipeline::{FluidPipeline, TimeStepping};
 use crate::world::FluidWorld;
 use rapier3d::pipeline::PhysicsWorld;
@@ -30,12 +31,17 @@ use std::path::{Path, PathBuf};
 
 const MAGIC: &[u8; 16] = b"rapier-sph snap\0";
 /// The snapshot format's version, stored in every file (3: fluids carry their emitters,
-/// sinks, emitted/drained counters and capacity).
-pub const FORMAT_VERSION: u32 = 3;
+/// sinks, emitted/drained counters and capacity; 4: the coupling's memory of the velocity
+/// each dynamic body was left with).
+pub const FORMAT_VERSION: u32 = 4;
+
+/// A body handle's raw parts and a linear velocity.
+type BodyVelocity = ((u32, u32), [Real; 3]);
 
 #[derive(Serialize)]
 struct SnapshotRef<'a> {
     time_stepping: TimeStepping,
+    coupling: Vec<BodyVelocity>,
     fluids: Vec<FluidState>,
     physics: &'a PhysicsWorld,
 }
@@ -43,6 +49,7 @@ struct SnapshotRef<'a> {
 #[derive(Deserialize)]
 struct SnapshotOwned {
     time_stepping: TimeStepping,
+    coupling: Vec<BodyVelocity>,
     fluids: Vec<FluidState>,
     physics: PhysicsWorld,
 }
@@ -93,6 +100,12 @@ impl std::error::Error for SnapshotError {}
 pub fn to_bytes(world: &FluidWorld) -> Result<Vec<u8>, SnapshotError> {
     let data = SnapshotRef {
         time_stepping: world.pipeline.time_stepping,
+        coupling: world
+            .pipeline
+            .coupling_memory()
+            .iter()
+            .map(|(h, v)| (h.into_raw_parts(), v.to_array()))
+            .collect(),
         fluids: world
             .fluids
             .iter()
@@ -122,6 +135,17 @@ pub fn from_bytes(bytes: &[u8]) -> Result<FluidWorld, SnapshotError> {
         pipeline: FluidPipeline::with_time_stepping(data.time_stepping),
         ..FluidWorld::default()
     };
+    world.pipeline.set_coupling_memory(
+        data.coupling
+            .into_iter()
+            .map(|((i, g), v)| {
+                (
+                    rapier3d::dynamics::RigidBodyHandle::from_raw_parts(i, g),
+                    Vector::from_array(v),
+                )
+            })
+            .collect(),
+    );
     for state in data.fluids {
         world
             .fluids

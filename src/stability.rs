@@ -464,7 +464,7 @@ fn stiffest_frames(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>>
             // 100x the default stiffnesses: 10x the speed of sound.
             Solver::Clavet(_) => water(solver, 0.05).solver(Solver::Clavet(Clavet {
                 stiffness: 100.0,
-                near_stiffness: None,
+                ..Clavet::default()
             })),
         };
         let n = if size == SuiteSize::Quick {

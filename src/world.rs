@@ -37,6 +37,7 @@ impl FluidWorld {
     /// stepped once).
     pub fn step_fluids(&mut self) -> SphResult<&StepReport> {
         let p = &mut self.physics;
+        self.pipeline.rapier_substeps = p.integration_parameters.num_solver_iterations;
         self.pipeline.step(
             p.gravity,
             p.integration_parameters.dt,

@@ -135,6 +135,34 @@ fn other_bad_fields_are_named() {
         });
         assert_eq!(field_of(base().solver(solver).build()), "warm_start");
     }
+    for v in [Real::NAN, Real::INFINITY, -1.0] {
+        let springs = |s: rapier_sph::solver::Springs| {
+            rapier_sph::Solver::Clavet(rapier_sph::solver::Clavet {
+                springs: Some(s),
+                ..Default::default()
+            })
+        };
+        let d = rapier_sph::solver::Springs::default();
+        for (field, s) in [
+            (
+                "spring_stiffness",
+                rapier_sph::solver::Springs { stiffness: v, ..d },
+            ),
+            (
+                "yield_ratio",
+                rapier_sph::solver::Springs {
+                    yield_ratio: v,
+                    ..d
+                },
+            ),
+            (
+                "plasticity",
+                rapier_sph::solver::Springs { plasticity: v, ..d },
+            ),
+        ] {
+            assert_eq!(field_of(base().solver(springs(s)).build()), field);
+        }
+    }
 }
 
 fn some_particles() -> Vec<Vector> {
@@ -297,6 +325,19 @@ fn bad_time_steps_are_refused_and_change_nothing() {
         assert_eq!(field_of(r), "gravity");
         assert_eq!(state(&fluids, h), before);
     }
+    // rapier takes at least one substep per step: 0 is refused, naming the field.
+    pipeline.rapier_substeps = 0;
+    let r = pipeline.step(
+        world.gravity,
+        1e-3,
+        &mut fluids,
+        &mut world.bodies,
+        &world.colliders,
+        &world.broad_phase,
+    );
+    assert_eq!(field_of(r), "rapier_substeps");
+    assert_eq!(state(&fluids, h), before);
+    pipeline.rapier_substeps = 4;
     // And the fluid still steps afterwards.
     pipeline
         .step(

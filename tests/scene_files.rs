@@ -4,8 +4,10 @@
 #![cfg(feature = "scene")]
 
 use rapier_sph::FluidParamsBuilder;
-use rapier_sph::scene_file::{SceneError, SceneFile};
-use rapier_sph::scenes::{DamBreakConfig, dam_break};
+use rapier_sph::math::Vector;
+use rapier_sph::scene_file::{Positive, Preset, SceneError, SceneFile};
+use rapier_sph::scenes::{DamBreakConfig, ObstacleCourseConfig, dam_break, obstacle_course};
+use rapier_sph::{FluidWorld, SinkRegion};
 use std::path::Path;
 
 fn scenes_dir() -> &'static Path {
@@ -19,7 +21,16 @@ fn every_shipped_scene_loads_and_builds() {
         let path = entry.unwrap().path();
         if path.extension().is_some_and(|e| e == "ron") {
             let (scene, built) = SceneFile::load_and_build(&path).unwrap_or_else(|e| panic!("{e}"));
-            assert!(built.world.fluids.num_particles() > 0, "{}", path.display());
+            // Every scene has fluid: particles at the start or an emitter.
+            let emits = built
+                .fluids
+                .iter()
+                .any(|h| built.world.fluids[*h].emitters().next().is_some());
+            assert!(
+                built.world.fluids.num_particles() > 0 || emits,
+                "{}",
+                path.display()
+            );
             assert!(built.frames >= 1 && built.steps_per_frame >= 1);
             // The frame time is a whole number of steps.
             let frame = built.steps_per_frame as f32 * built.dt;
@@ -27,7 +38,7 @@ fn every_shipped_scene_loads_and_builds() {
             n += 1;
         }
     }
-    assert!(n >= 3, "found {n} scenes");
+    assert!(n >= 4, "found {n} scenes");
 }
 
 #[test]
@@ -207,4 +218,395 @@ fn build_errors_name_the_field() {
         SceneFile::load(scenes_dir().join("missing.ron")),
         Err(SceneError::Io { .. })
     ));
+}
+
+/// Same rapier world: the same bodies (type, pose, velocities, mass) and colliders (shape
+/// type, pose, bounding box, parent, sensor, mass), in the same order. Poses and boxes are
+/// compared exactly: the file writes the f32 values the Rust builder computes.
+fn assert_same_rapier_world(a: &FluidWorld, b: &FluidWorld) {
+    let (pa, pb) = (&a.physics, &b.physics);
+    assert_eq!(pa.bodies.len(), pb.bodies.len(), "bodies");
+    assert_eq!(pa.colliders.len(), pb.colliders.len(), "colliders");
+    for ((ha, ba), (hb, bb)) in pa.bodies.iter().zip(pb.bodies.iter()) {
+        assert_eq!(ha, hb);
+        assert_eq!(ba.body_type(), bb.body_type(), "body {ha:?}");
+        assert_eq!(ba.position(), bb.position(), "body {ha:?}");
+        assert_eq!(ba.linvel(), bb.linvel(), "body {ha:?}");
+        assert_eq!(ba.angvel(), bb.angvel(), "body {ha:?}");
+        assert_eq!(ba.mass(), bb.mass(), "body {ha:?}");
+        assert_eq!(ba.colliders(), bb.colliders(), "body {ha:?}");
+    }
+    for ((ha, ca), (hb, cb)) in pa.colliders.iter().zip(pb.colliders.iter()) {
+        assert_eq!(ha, hb);
+        let what = format!("collider {ha:?} ({:?})", ca.shape().shape_type());
+        assert_eq!(ca.shape().shape_type(), cb.shape().shape_type(), "{what}");
+        assert_eq!(ca.position(), cb.position(), "{what}");
+        assert_eq!(ca.compute_aabb(), cb.compute_aabb(), "{what}");
+        assert_eq!(ca.parent(), cb.parent(), "{what}");
+        assert_eq!(ca.is_sensor(), cb.is_sensor(), "{what}");
+        assert_eq!(ca.mass(), cb.mass(), "{what}");
+        if let (Some(ta), Some(tb)) = (ca.shape().as_trimesh(), cb.shape().as_trimesh()) {
+            assert_eq!(ta.vertices(), tb.vertices(), "{what}");
+            assert_eq!(ta.indices(), tb.indices(), "{what}");
+        }
+        if let (Some(ta), Some(tb)) = (ca.shape().as_heightfield(), cb.shape().as_heightfield()) {
+            let (ha, hb) = (ta.heights(), tb.heights());
+            assert_eq!((ha.nrows(), ha.ncols()), (hb.nrows(), hb.ncols()), "{what}");
+            assert_eq!(ha.data(), hb.data(), "{what}");
+            assert_eq!(ta.scale(), tb.scale(), "{what}");
+        }
+    }
+}
+
+#[test]
+fn the_obstacle_course_file_is_the_rust_scene() {
+    let path = scenes_dir().join("obstacle_course.ron");
+    let (mut scene, built) = SceneFile::load_and_build(&path).unwrap();
+    let Preset::Water { spacing } = scene.fluids[0].preset else {
+        panic!("the course is water");
+    };
+    // The file at its own spacing (3 cm, the example's default) against the Rust scene with
+    // the default configuration: the same world, emitter and sink.
+    let params = |s: f32| FluidParamsBuilder::water(s).build().unwrap();
+    let code = obstacle_course(&ObstacleCourseConfig::new(params(spacing.0))).unwrap();
+    assert_same_rapier_world(&built.world, &code.world);
+    assert_eq!(built.dt, code.world.physics.integration_parameters.dt);
+    assert_eq!(built.steps_per_frame, 1);
+    let (fa, fb) = (
+        &built.world.fluids[built.fluids[0]],
+        &code.world.fluids[code.fluid],
+    );
+    assert_eq!(fa.params(), fb.params());
+    assert_eq!(fa.len(), 0);
+    assert_eq!(fb.len(), 0);
+    let emitters = |f: &rapier_sph::Fluid| f.emitters().map(|(_, e)| e.clone()).collect::<Vec<_>>();
+    assert_eq!(emitters(fa).len(), 1);
+    assert_eq!(
+        emitters(fa),
+        emitters(fb),
+        "emitters (every field and the state)"
+    );
+    assert_eq!(fa.capacity(), fb.capacity());
+    let sink = |f: &rapier_sph::Fluid| {
+        let r = code_sink_region(f);
+        assert!(matches!(r, SinkRegion::Aabb { .. }));
+        r
+    };
+    assert_eq!(sink(fa), sink(fb));
+    let bucket = built
+        .named_colliders
+        .iter()
+        .find(|(n, _)| n == "bucket")
+        .expect("the bucket sensor is named")
+        .1;
+    assert_eq!(bucket, code.bucket_sensor);
+
+    // The real check: both run. At 5 cm (the file with its spacing changed; the emitter's
+    // rate follows as a fraction of the nozzle's blocking rate, as in the Rust scene) for
+    // one simulated second, 60 frames: about 200 particles emitted and some of the flow down
+    // the ramp, past the pegs and into the funnel. Built in the same order, the two worlds
+    // are the same computation, so the counts and the particles are compared exactly.
+    scene.fluids[0].preset = Preset::Water {
+        spacing: Positive(0.05),
+    };
+    let mut a = scene.build(&path, &scenes_dir()).unwrap();
+    let mut b = obstacle_course(&ObstacleCourseConfig::new(params(0.05))).unwrap();
+    assert_same_rapier_world(&a.world, &b.world);
+    let (ha, hb) = (a.fluids[0], b.fluid);
+    let (mut emitted, mut drained) = (0, 0);
+    for frame in 1..=60 {
+        let ra = a.world.step().unwrap().clone();
+        let rb = b.world.step().unwrap().clone();
+        assert_eq!(
+            (
+                ra.particles,
+                ra.emitted,
+                ra.drained,
+                ra.quarantined,
+                ra.emitter_blocked
+            ),
+            (
+                rb.particles,
+                rb.emitted,
+                rb.drained,
+                rb.quarantined,
+                rb.emitter_blocked
+            ),
+            "frame {frame}: counters (particles, emitted, drained, quarantined, blocked)"
+        );
+        assert_eq!(ra.substeps, rb.substeps, "frame {frame}: substeps");
+        emitted += ra.emitted;
+        drained += ra.drained;
+    }
+    let (fa, fb) = (&a.world.fluids[ha], &b.world.fluids[hb]);
+    assert!(emitted > 100, "only {emitted} particles emitted");
+    assert_eq!(fa.len() + drained, emitted);
+    assert_eq!(fa.ids(), fb.ids());
+    let bits = |v: &[Vector]| {
+        v.iter()
+            .flat_map(|p| p.to_array().map(f32::to_bits))
+            .collect::<Vec<_>>()
+    };
+    assert!(
+        bits(fa.positions()) == bits(fb.positions()),
+        "positions differ"
+    );
+    assert!(
+        bits(fa.velocities()) == bits(fb.velocities()),
+        "velocities differ"
+    );
+    // The paddle wheel (kinematic, spinning from the file's `angvel`) and the crates.
+    for (x, y) in a
+        .bodies
+        .iter()
+        .zip(b.world.physics.bodies.iter().map(|(h, _)| h))
+    {
+        let (x, y) = (&a.world.physics.bodies[*x], &b.world.physics.bodies[y]);
+        assert_eq!(x.position(), y.position());
+        assert_eq!(x.angvel(), y.angvel());
+    }
+    let wheel = &a.world.physics.bodies[a.bodies[1]];
+    let off = wheel
+        .rotation()
+        .angle_between(rapier_sph::math::Rotation::from_rotation_z(4.0));
+    // 4 rad/s about z for 1 s. Tolerance: 60 f32 rotation updates, each exact to a few
+    // 1e-7 rad; 1e-3 rad still tells a wheel that turned from one that did not (or turned at
+    // another rate) by three orders of magnitude.
+    assert!(off < 1e-3, "the wheel is {off} rad away from 4 rad about z");
+    eprintln!(
+        "obstacle course file vs Rust scene, 60 frames at 5 cm: {emitted} emitted, {drained} drained, {} live, identical",
+        fa.len()
+    );
+}
+
+fn code_sink_region(f: &rapier_sph::Fluid) -> SinkRegion {
+    let mut regions = f.sinks().map(|(_, s)| s.region());
+    let r = regions.next().expect("a sink");
+    assert!(regions.next().is_none(), "one sink");
+    r
+}
+
+/// A scene with an emitter, two sinks (one naming a collider), a capacity and a spinning
+/// kinematic body; the error tests below each break one line of it.
+const SOURCES: &str = "Scene(
+    duration: 1.0,
+    fluids: [
+        Fluid(
+            preset: Water(spacing: 0.1),
+            emitters: [
+                Emitter(
+                    nozzle: Disk(radius: 0.2),
+                    position: (0.0, 1.0, 0.0),
+                    direction: (1.0, 0.0, 0.0),
+                    speed: 1.5,
+                    rate: 40.0,
+                    start: 0.5,
+                    stop: 2.0,
+                    budget: 100,
+                ),
+            ],
+            sinks: [
+                Sink(region: Collider(name: \"drain\", reach: 0.05)),
+                Sink(region: Aabb(min: (-9.0, -9.0, -9.0), max: (9.0, -1.0, 9.0))),
+            ],
+            capacity: 500,
+        ),
+    ],
+    bodies: [
+        Body(colliders: [
+            Collider(name: \"drain\", shape: Ball(radius: 0.5), sensor: true),
+            Collider(name: \"floor\", shape: Cuboid(half_extents: (1.0, 0.1, 1.0))),
+        ]),
+        Body(kind: KinematicVelocityBased, angvel: (0.0, 0.0, 2.0), colliders: [
+            Collider(shape: Cuboid(half_extents: (0.1, 0.1, 0.1))),
+        ]),
+    ],
+)";
+
+#[test]
+fn emitters_sinks_and_capacity_build() {
+    let scene = SceneFile::parse(SOURCES, "sources.ron").unwrap();
+    let built = scene.build(Path::new("sources.ron"), scenes_dir()).unwrap();
+    let f = &built.world.fluids[built.fluids[0]];
+    assert_eq!(f.capacity(), Some(500));
+    let expected = rapier_sph::Emitter::new(
+        rapier_sph::Nozzle::Disk { radius: 0.2 },
+        Vector::new(0.0, 1.0, 0.0),
+        Vector::X,
+        1.5,
+        40.0,
+    )
+    .active_between(0.5, 2.0)
+    .budget(100);
+    let emitters: Vec<_> = f.emitters().map(|(_, e)| e.clone()).collect();
+    assert_eq!(emitters, vec![expected]);
+    let drain = built.named_colliders[0].clone();
+    assert_eq!(drain.0, "drain");
+    let regions: Vec<_> = f.sinks().map(|(_, s)| s.region()).collect();
+    assert_eq!(
+        regions,
+        vec![
+            SinkRegion::Collider {
+                handle: drain.1,
+                reach: Some(0.05)
+            },
+            SinkRegion::Aabb {
+                min: Vector::splat(-9.0),
+                max: Vector::new(9.0, -1.0, 9.0)
+            },
+        ]
+    );
+    let spinner = &built.world.physics.bodies[built.bodies[1]];
+    assert_eq!(spinner.angvel(), Vector::new(0.0, 0.0, 2.0));
+    // Written back, read back equal.
+    assert_eq!(SceneFile::parse(&scene.to_ron(), "w.ron").unwrap(), scene);
+}
+
+#[test]
+fn emitter_and_sink_mistakes_name_the_line_and_field() {
+    assert!(SceneFile::parse(SOURCES, "good.ron").is_ok());
+    let bad = |from: &str, to: &str| {
+        assert!(SOURCES.contains(from), "{from}");
+        parse_err(&SOURCES.replacen(from, to, 1))
+    };
+    // A negative rate, at its line.
+    let (line, _, field, message) = bad("rate: 40.0", "rate: -40.0");
+    assert_eq!((line, field.as_str()), (12, "fluids[0].emitters[0].rate"));
+    assert!(message.contains("positive"), "{message}");
+    // A speed that is not a number.
+    let (line, _, field, _) = bad("speed: 1.5", "speed: NaN");
+    assert_eq!((line, field.as_str()), (11, "fluids[0].emitters[0].speed"));
+    // A zero-size nozzle.
+    let (line, _, field, _) = bad("Disk(radius: 0.2)", "Disk(radius: 0.0)");
+    assert_eq!(line, 8);
+    assert!(field.starts_with("fluids[0].emitters[0].nozzle"), "{field}");
+    assert!(field.ends_with("radius"), "{field}");
+    // An unknown field.
+    let (line, _, field, message) = bad("budget: 100", "budgte: 100");
+    assert_eq!(line, 15);
+    assert!(field.starts_with("fluids[0].emitters[0]"), "{field}");
+    assert!(message.contains("budgte"), "{message}");
+    // A negative budget (an unsigned count).
+    let (line, _, field, _) = bad("budget: 100", "budget: -1");
+    assert_eq!((line, field.as_str()), (15, "fluids[0].emitters[0].budget"));
+    // Checked as a whole where the entry ends: stop before start, a zero direction, both
+    // rates, no rate.
+    for (from, to, what) in [
+        ("stop: 2.0", "stop: 0.1", "stop"),
+        (
+            "direction: (1.0, 0.0, 0.0)",
+            "direction: (0.0, 0.0, 0.0)",
+            "direction",
+        ),
+        (
+            "rate: 40.0",
+            "rate: 40.0, rate_fraction: 0.5",
+            "rate_fraction",
+        ),
+        ("rate: 40.0,", "", "rate"),
+    ] {
+        let (line, _, field, message) = bad(from, to);
+        assert!((7..=16).contains(&line), "{what}: line {line}");
+        assert_eq!(field, "fluids[0].emitters[0]", "{what}");
+        assert!(message.contains(what), "{what}: {message}");
+    }
+    // A sink box upside down, a zero ball, a negative reach.
+    let (line, _, field, message) = bad("max: (9.0, -1.0, 9.0)", "max: (9.0, -10.0, 9.0)");
+    assert_eq!((line, field.as_str()), (20, "fluids[0].sinks[1]"));
+    assert!(message.contains("max"), "{message}");
+    let (line, _, field, _) = bad("reach: 0.05", "reach: -0.05");
+    assert_eq!(line, 19);
+    assert!(field.ends_with("reach"), "{field}");
+    // A sink naming no collider: reported at the name, listing the names there are.
+    let (line, _, field, message) = bad(
+        "Collider(name: \"drain\", reach",
+        "Collider(name: \"drian\", reach",
+    );
+    assert_eq!(line, 19);
+    assert!(field.starts_with("fluids[0].sinks[0].region"), "{field}");
+    assert!(
+        message.contains("`drian`") && message.contains("`drain`"),
+        "{message}"
+    );
+    // Two colliders with one name: reported at the second.
+    let (line, _, field, message) = bad("name: \"floor\"", "name: \"drain\"");
+    assert_eq!(line, 28);
+    assert!(field.starts_with("bodies[0].colliders[1].name"), "{field}");
+    assert!(message.contains("drain"), "{message}");
+    // Capacity: zero, negative.
+    let (line, _, field, message) = bad("capacity: 500", "capacity: 0");
+    assert!((4..=24).contains(&line), "{line}");
+    assert_eq!(field, "fluids[0]");
+    assert!(message.contains("capacity"), "{message}");
+    let (line, _, field, _) = bad("capacity: 500", "capacity: -5");
+    assert_eq!((line, field.as_str()), (22, "fluids[0].capacity"));
+    // A velocity on a body that cannot keep one.
+    let (line, _, field, message) = bad(
+        "kind: KinematicVelocityBased",
+        "kind: KinematicPositionBased",
+    );
+    assert!((30..=32).contains(&line), "{line}");
+    assert_eq!(field, "bodies[1]");
+    assert!(message.contains("KinematicVelocityBased"), "{message}");
+    // The message names the file and line.
+    let err = SceneFile::parse(
+        &SOURCES.replacen("rate: 40.0", "rate: -40.0", 1),
+        "scenes/x.ron",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.starts_with("scenes/x.ron:12:"), "{err}");
+}
+
+#[test]
+fn a_capacity_below_the_initial_particles_is_a_build_error() {
+    let text = SOURCES.replacen(
+        "capacity: 500",
+        "capacity: 5, blocks: [Block(min: (0.0, 0.0, 0.0), size: (0.5, 0.5, 0.5))]",
+        1,
+    );
+    let scene = SceneFile::parse(&text, "bad.ron").unwrap();
+    match scene.build(Path::new("bad.ron"), scenes_dir()) {
+        Err(SceneError::Invalid { field, message, .. }) => {
+            assert_eq!(field, "fluids[0].capacity");
+            assert!(message.contains("capacity"), "{message}");
+        }
+        other => panic!("expected an invalid scene, got {:?}", other.err()),
+    }
+}
+
+#[test]
+fn an_impossible_capacity_is_a_build_error_not_an_abort() {
+    // 10^15 particles: petabytes, more than any address space holds.
+    let text = SOURCES.replacen("capacity: 500", "capacity: 1000000000000000", 1);
+    let scene = SceneFile::parse(&text, "big.ron").unwrap();
+    match scene.build(Path::new("big.ron"), scenes_dir()) {
+        Err(SceneError::Invalid { field, message, .. }) => {
+            assert_eq!(field, "fluids[0].capacity");
+            assert!(message.contains("memory"), "{message}");
+        }
+        other => panic!("expected an invalid scene, got {:?}", other.err()),
+    }
+}
+
+#[test]
+fn the_module_docs_example_parses() {
+    // The full example in `scene_file`'s documentation (its mesh file does not exist, so it
+    // is parsed, not built).
+    let src = include_str!("../src/scene_file/mod.rs");
+    let start = src.find("//! ```ron\n").expect("the example") + "//! ```ron\n".len();
+    let end = start + src[start..].find("//! ```\n").unwrap();
+    let text: String = src[start..end]
+        .lines()
+        .map(|l| {
+            l.strip_prefix("//!")
+                .unwrap()
+                .strip_prefix(' ')
+                .unwrap_or("")
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let scene = SceneFile::parse(&text, "docs.ron").unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scene.fluids[0].emitters.len(), 1);
+    assert_eq!(scene.fluids[0].sinks.len(), 2);
 }

@@ -77,6 +77,47 @@ fn restore_and_continue_with_dfsph_and_wall_density() {
     );
 }
 
+/// The Clavet solver's viscoelastic springs (rest lengths keyed by particle id) are state:
+/// without them the restored run would start every spring again at rest length h.
+#[test]
+fn restore_and_continue_with_clavet_springs() {
+    use rapier_sph::solver::{Clavet, Solver, Springs};
+    check_restore(
+        scene_with(
+            FluidParamsBuilder::water(0.05).solver(Solver::Clavet(Clavet {
+                springs: Some(Springs {
+                    plasticity: 50.0,
+                    ..Springs::default()
+                }),
+                ..Clavet::default()
+            })),
+        ),
+        "clavet springs",
+    );
+}
+
+/// A dynamic box lying on the water column: the coupling remembers the velocity it left
+/// each body with (rapier's change of it over the next frame shapes the path the fluid sees),
+/// and that memory must survive the round trip.
+#[test]
+fn restore_and_continue_with_a_body_on_the_water() {
+    let mut w = scene_with(FluidParamsBuilder::water(0.05).wall_density(true));
+    let top = w
+        .fluids
+        .iter()
+        .flat_map(|(_, f)| f.positions().iter().map(|p| p.y))
+        .fold(0.0, f32::max);
+    let body = w
+        .physics
+        .insert_body(RigidBodyBuilder::dynamic().translation(Vector::new(0.15, top + 0.06, 0.15)));
+    w.physics.insert_collider(
+        ColliderBuilder::cuboid(0.05, 0.03, 0.05).density(500.0),
+        Some(body),
+    );
+    // Saved once the box floats on the water (it falls for ~0.1 s).
+    check_restore_after(w, "body", 150);
+}
+
 /// Emitters (their clocks and slots) and sinks (their counters) are part of the state.
 #[test]
 fn restore_and_continue_with_an_emitter_and_a_sink() {
@@ -103,12 +144,17 @@ fn restore_and_continue_with_an_emitter_and_a_sink() {
     check_restore(w, "emitter");
 }
 
-fn check_restore(mut a: FluidWorld, name: &str) {
+fn check_restore(a: FluidWorld, name: &str) {
+    check_restore_after(a, name, 40);
+}
+
+/// Steps `a` `before` times, saves, and checks that the restored copy continues bitwise.
+fn check_restore_after(mut a: FluidWorld, name: &str, before: usize) {
     let path = std::env::temp_dir().join(format!(
         "rapier-sph-snapshot-{name}-{}.bin",
         std::process::id()
     ));
-    for _ in 0..40 {
+    for _ in 0..before {
         a.step().unwrap();
     }
     snapshot::save(&a, &path).unwrap();

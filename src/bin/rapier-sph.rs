@@ -11,8 +11,10 @@ use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use rapier_sph::io::{self, ParticleData};
 use rapier_sph::mesh::{TessellationOptions, TriangleMesh};
+use rapier_sph::rapier3d::prelude::ColliderHandle;
 use rapier_sph::render::{GifWriter, RenderOptions, Renderer};
 use rapier_sph::scene_file::SceneFile;
+use rapier_sph::{Region, SinkRegion};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -121,6 +123,30 @@ fn main() -> ExitCode {
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
+/// A sink's region in words, naming its collider if it has a name.
+fn describe_sink(r: &SinkRegion, named: &[(String, ColliderHandle)]) -> String {
+    match r {
+        SinkRegion::Aabb { min, max } => format!(
+            "box ({}, {}, {}) to ({}, {}, {})",
+            min.x, min.y, min.z, max.x, max.y, max.z
+        ),
+        SinkRegion::Ball { centre, radius } => format!(
+            "ball of radius {radius} m at ({}, {}, {})",
+            centre.x, centre.y, centre.z
+        ),
+        SinkRegion::Collider { handle, reach } => {
+            let name = named
+                .iter()
+                .find(|(_, h)| h == handle)
+                .map_or("(unnamed)", |(n, _)| n.as_str());
+            match reach {
+                Some(r) => format!("collider {name:?}, reach {r} m"),
+                None => format!("collider {name:?}, reach one spacing"),
+            }
+        }
+    }
+}
+
 fn validate(scenes: &[PathBuf]) -> Result<()> {
     let mut failed = 0;
     for path in scenes {
@@ -135,12 +161,52 @@ fn validate(scenes: &[PathBuf]) -> Result<()> {
                     let f = &w.fluids[*h];
                     let name = &scene.fluids[k].name;
                     println!(
-                        "  fluid {k} {name:?}: {} particles, spacing {} m, h {} m, ρ0 {} kg/m³",
+                        "  fluid {k} {name:?}: {} particles, spacing {} m, h {} m, ρ0 {} kg/m³{}",
                         f.len(),
                         f.params().particle_spacing,
                         f.params().smoothing_length,
-                        f.params().rest_density
+                        f.params().rest_density,
+                        match f.capacity() {
+                            Some(c) => format!(", capacity {c}"),
+                            None => String::new(),
+                        }
                     );
+                    let spacing = f.params().particle_spacing;
+                    for (j, (_, e)) in f.emitters().enumerate() {
+                        let d = e.direction();
+                        let towards = match e.nozzle() {
+                            rapier_sph::Nozzle::Sphere { .. } => "radially".to_string(),
+                            _ => format!("towards ({:.3}, {:.3}, {:.3})", d.x, d.y, d.z),
+                        };
+                        println!(
+                            "    emitter {j}: {:?} at ({}, {}, {}) {towards}, {} m/s, {:.1} particles/s (blocking rate {:.1}){}",
+                            e.nozzle(),
+                            e.position().x,
+                            e.position().y,
+                            e.position().z,
+                            e.speed(),
+                            e.rate(),
+                            e.max_rate(spacing),
+                            match e.particle_budget() {
+                                Some(b) => format!(", budget {b}"),
+                                None => String::new(),
+                            }
+                        );
+                    }
+                    for (j, (_, s)) in f.sinks().enumerate() {
+                        println!(
+                            "    sink {j}: {}",
+                            describe_sink(&s.region(), &built.named_colliders)
+                        );
+                    }
+                }
+                if !built.named_colliders.is_empty() {
+                    let names: Vec<&str> = built
+                        .named_colliders
+                        .iter()
+                        .map(|(n, _)| n.as_str())
+                        .collect();
+                    println!("  named colliders: {}", names.join(", "));
                 }
                 println!(
                     "  {} bodies, {} colliders; {} s at {} frames/s = {} frames of {} steps, dt = {:.6} s",
@@ -270,6 +336,7 @@ fn run(a: RunArgs) -> Result<()> {
     let mut max_err: f32 = 0.0;
     let mut non_finite = 0usize;
     let mut steps = 0usize;
+    let mut counts = Counters::default();
     let t0 = Instant::now();
     let mut write_frame =
         |frame: usize, world: &rapier_sph::FluidWorld, clock: &mut Clock| -> Result<()> {
@@ -343,6 +410,7 @@ fn run(a: RunArgs) -> Result<()> {
                 let r = world.step()?;
                 max_err = max_err.max(r.max_density_error);
                 non_finite += r.non_finite;
+                counts.add(r);
                 steps += 1;
             }
             Ok(())
@@ -371,6 +439,8 @@ fn run(a: RunArgs) -> Result<()> {
 
     let n = world.fluids.num_particles();
     let sim = clock.simulate.as_secs_f64();
+    // Every particle is accounted for: live = start + emitted − drained − quarantined.
+    let lost = (n0 + counts.emitted) as i64 - (n + counts.drained + counts.quarantined) as i64;
     println!(
         "{}: {frames} frames, {steps} steps of {:.6} s = {:.3} s simulated",
         a.scene.display(),
@@ -382,6 +452,50 @@ fn run(a: RunArgs) -> Result<()> {
         non_finite,
         100.0 * max_err
     );
+    if counts.any() || lost != 0 {
+        println!(
+            "emitted / drained    {} / {} ({} quarantined, {} lost; {} due at a blocked nozzle, capacity reached in {} steps)",
+            counts.emitted,
+            counts.drained,
+            counts.quarantined,
+            lost,
+            counts.blocked,
+            counts.capacity_steps
+        );
+        for (k, (_, f)) in world.fluids.iter().enumerate() {
+            for (j, (_, e)) in f.emitters().enumerate() {
+                println!("  fluid {k} emitter {j}: {} emitted in all", e.emitted());
+            }
+            for (j, (_, s)) in f.sinks().enumerate() {
+                println!(
+                    "  fluid {k} sink {j}: {} drained in all ({})",
+                    s.drained(),
+                    describe_sink(&s.region(), &built.named_colliders)
+                );
+            }
+        }
+    }
+    for (name, h) in &built.named_colliders {
+        if !world
+            .physics
+            .colliders
+            .get(*h)
+            .is_some_and(|c| c.is_sensor())
+        {
+            continue;
+        }
+        let (mut particles, mut volume) = (0, 0.0);
+        for (_, f) in world.fluids.iter() {
+            let a = f.amount_in(&Region::Collider(*h), &world.physics.colliders);
+            particles += a.particles;
+            volume += a.volume;
+        }
+        println!(
+            "sensor {:<14} {particles} particles, {:.3} L of fluid",
+            format!("{name:?}"),
+            volume * 1e3
+        );
+    }
     println!(
         "wall time            {wall:.2} s: simulation {sim:.2} s ({:.1} steps/s, {:.2} M particle-steps/s), surface {:.2} s, rendering {:.2} s, export {:.2} s",
         steps as f64 / sim.max(1e-9),
@@ -412,7 +526,33 @@ fn run(a: RunArgs) -> Result<()> {
     if non_finite > 0 {
         return Err("particles became non-finite".into());
     }
+    if lost != 0 {
+        return Err(format!("{lost} particles unaccounted for").into());
+    }
     Ok(())
+}
+
+/// Emitter and sink counters summed over the steps of a run.
+#[derive(Default)]
+struct Counters {
+    emitted: usize,
+    drained: usize,
+    quarantined: usize,
+    blocked: usize,
+    capacity_steps: usize,
+}
+
+impl Counters {
+    fn add(&mut self, r: &rapier_sph::StepReport) {
+        self.emitted += r.emitted;
+        self.drained += r.drained;
+        self.quarantined += r.quarantined;
+        self.blocked += r.emitter_blocked;
+        self.capacity_steps += r.capacity_reached as usize;
+    }
+    fn any(&self) -> bool {
+        self.emitted + self.drained + self.quarantined + self.blocked + self.capacity_steps > 0
+    }
 }
 
 #[cfg(feature = "surface")]

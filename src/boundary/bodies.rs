@@ -2,20 +2,33 @@
 //!
 //! **Body → fluid.** rapier steps first, so when the fluid steps a frame every body already
 //! stands at its pose at the frame's end. A body's pose at an earlier time of the frame is
-//! found by running its motion backward: rapier's integrator moves a body with its new
-//! velocity (symplectic Euler), so `pose(T − τ)` is the end pose moved by `−τ·v` and rotated
-//! by `−τ·ω` about the centre of mass, exact for a body that did not rotate and to first order
-//! otherwise. Contact then sweeps each particle's motion of a substep *in the body's moving
-//! frame* (the start of the segment mapped through the body's pose at the substep's start,
-//! its end through the pose at its end), so a thin fast paddle cannot pass over a particle,
-//! and reflects the particle's velocity *relative* to the body's surface velocity at the
-//! contact point (linear and angular, `v + ω × (x − c)`).
+//! found by running its motion backward along the path rapier's own substeps gave it: rapier
+//! adds its velocity change `Δv` of the step (gravity, its contacts) in `n` equal parts, each
+//! before moving the body, so `pose(T − τ)` is the end pose moved by
+//! `−τ·v + Δv·(n − 1)/(2n)·τ²/dt` and rotated by `−τ·ω` about the centre of mass (exact for
+//! the translation, first order for the rotation; `Δv` is known from the velocity the
+//! coupling left the body with at the end of the last frame, see [`Coupling::begin_frame`]).
+//! Contact then sweeps each particle's motion of a substep *in the body's moving frame* (the
+//! start of the segment mapped through the body's pose at the substep's start, its end
+//! through the pose at its end), so a thin fast paddle cannot pass over a particle, and
+//! reflects the particle's velocity *relative* to the body's surface velocity at the contact
+//! point (linear and angular, `v + ω × (x − c)`).
 //!
 //! **Fluid → body.** Every velocity change contact makes on a particle next to a dynamic
-//! body's collider is an impulse `−m·Δv` on that body at the contact point. Impulses are
-//! recorded per chunk of particles and summed in chunk order (no float atomics: the parallel
-//! and serial builds sum in the same order), then applied once per frame through rapier
-//! (`apply_impulse` and `apply_torque_impulse` about the centre of mass).
+//! body's collider is an impulse `−m·Δv` on that body at the contact point; with walls
+//! counting in the density, each particle's wall pressure force from the body is one too.
+//! Impulses are recorded per chunk of particles and summed in chunk order (no float atomics:
+//! the parallel and serial builds sum in the same order). Each substep's impulses change the
+//! body's linear velocity (through the added-mass solve of [`Coupling::exchange`]) and its
+//! angular velocity (`I⁻¹·L`), and the body moves with those velocities from the next substep
+//! on ([`Drift`]): the body follows the substeps the fluid takes. At the frame's end the
+//! impulses go to rapier (`apply_impulse` and `apply_torque_impulse` about the centre of
+//! mass: the velocities rapier continues with are the ones the fluid saw last), and the body
+//! is moved by the drift its velocity changes made over the frame (`set_position`; the
+//! colliders follow at rapier's next step). Applying the whole frame's impulse once at its end
+//! instead left the body moving along rapier's path for the whole frame while the stiff
+//! weakly-compressible fluid pushed back: a floating box's corners were shaken at 0.55–1.06 g
+//! RMS (see `tests/buoyancy.rs`).
 //!
 //! **Cost.** Only colliders of non-fixed bodies whose motion over the substep comes within a
 //! kernel radius of the fluid's bounding box enter the table; a scene without dynamic or
@@ -24,7 +37,7 @@
 
 use crate::math::{Pose, Real, Rotation, Vector};
 use parry3d::bounding_volume::{Aabb, BoundingVolume};
-use parry3d::math::Matrix;
+use parry3d::math::{AngularInertia, Matrix};
 use rapier3d::dynamics::{RigidBodyHandle, RigidBodySet};
 use rapier3d::geometry::{ColliderHandle, ColliderSet};
 
@@ -44,10 +57,23 @@ pub struct MovingCollider {
     /// Body velocity (m/s) the fluid sees: `linvel` plus the fluid's impulses of the
     /// frame's earlier substeps.
     pub vel: Vector,
+    /// Rapier's own velocity change over the frame (gravity, its contacts, user forces) as
+    /// rapier's substeps spread it, as an acceleration: the body's velocity `back` seconds
+    /// before the frame's end is `vel − accel·back` (see [`Coupling::begin_frame`]).
+    pub accel: Vector,
+    /// Seconds from the current substep's start and end to the frame's end.
+    pub backs: (Real, Real),
     /// Inverse mass per axis (0 along locked axes; 0 for kinematic bodies).
     pub inv_mass: Vector,
-    /// Angular velocity (rad/s).
+    /// Angular velocity (rad/s) the fluid sees: rapier's plus the fluid's angular impulses of
+    /// the frame's earlier substeps.
     pub angvel: Vector,
+    /// Rapier's angular velocity at the frame's start: the poses of the frame follow it.
+    pub rapier_angvel: Vector,
+    /// Effective world-space inverse inertia (0 for kinematic bodies and locked axes).
+    pub inv_inertia: AngularInertia,
+    /// How far the fluid's impulses of this frame have moved the body off rapier's path.
+    pub drift: Drift,
     /// Collider pose at the frame's end (rapier's current pose).
     pub end: Pose,
     /// Body centre of mass at the frame's end.
@@ -68,23 +94,97 @@ impl MovingCollider {
     /// The surface velocity of the body at `point` (at the substep's end).
     #[inline]
     pub fn velocity_at_stop(&self, point: Vector) -> Vector {
-        self.vel + self.angvel.cross(point - self.com_stop)
+        self.vel - self.accel * self.backs.1 + self.angvel.cross(point - self.com_stop)
     }
 
     /// The surface velocity of the body at `point` (at the substep's start).
     #[inline]
     pub fn velocity_at_start(&self, point: Vector) -> Vector {
-        self.vel + self.angvel.cross(point - self.com_start)
+        self.vel - self.accel * self.backs.0 + self.angvel.cross(point - self.com_start)
     }
 }
 
-/// The pose of a body's collider `back` seconds before the end pose `end`.
-fn pose_back(end: &Pose, com: Vector, v: Vector, w: Vector, back: Real) -> (Pose, Vector) {
-    if back == 0.0 || (v == Vector::ZERO && w == Vector::ZERO) {
+/// The motion the fluid's impulses added to a body during the current frame, on top of the
+/// path rapier gave it: the body's centre of mass is shifted by `shift + dv·τ` and the body
+/// turned about it by `exp(dw·τ)·turn`, where `τ` is the time since `anchor` (seconds before
+/// the frame's end) at which the velocity changes `dv`, `dw` started to act.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Drift {
+    /// Seconds before the frame's end at which `dv` and `dw` started to act.
+    pub anchor: Real,
+    /// Shift of the centre of mass at `anchor` (m).
+    pub shift: Vector,
+    /// Rotation about the centre of mass at `anchor`.
+    pub turn: Rotation,
+    /// Linear velocity change moving the body since `anchor` (m/s).
+    pub dv: Vector,
+    /// Angular velocity change turning the body since `anchor` (rad/s).
+    pub dw: Vector,
+}
+
+impl Drift {
+    /// No drift, from `anchor` seconds before the frame's end.
+    pub fn none(anchor: Real) -> Self {
+        Self {
+            anchor,
+            shift: Vector::ZERO,
+            turn: Rotation::IDENTITY,
+            dv: Vector::ZERO,
+            dw: Vector::ZERO,
+        }
+    }
+
+    /// `true` when the body is on rapier's path and stays there.
+    pub fn is_none(&self) -> bool {
+        self.shift == Vector::ZERO
+            && self.turn == Rotation::IDENTITY
+            && self.dv == Vector::ZERO
+            && self.dw == Vector::ZERO
+    }
+
+    /// Shift and turn at `back` seconds before the frame's end (`back ≤ anchor`).
+    pub fn at(&self, back: Real) -> (Vector, Rotation) {
+        let tau = self.anchor - back;
+        let turn = if self.dw == Vector::ZERO {
+            self.turn
+        } else {
+            (Rotation::from_scaled_axis(self.dw * tau) * self.turn).normalize()
+        };
+        (self.shift + self.dv * tau, turn)
+    }
+
+    /// Moves `pose` (whose body's centre of mass is `com`) by the drift at `back`.
+    fn apply(&self, pose: Pose, com: Vector, back: Real) -> (Pose, Vector) {
+        if self.is_none() {
+            return (pose, com);
+        }
+        let (shift, turn) = self.at(back);
+        let c = com + shift;
+        (
+            Pose::from_parts(
+                c + turn * (pose.translation - com),
+                (turn * pose.rotation).normalize(),
+            ),
+            c,
+        )
+    }
+}
+
+/// The pose of a body's collider `back` seconds before the end pose `end`, for a body whose
+/// velocity `back` seconds before the end was `v − a·back`.
+fn pose_back(
+    end: &Pose,
+    com: Vector,
+    v: Vector,
+    w: Vector,
+    a: Vector,
+    back: Real,
+) -> (Pose, Vector) {
+    if back == 0.0 || (v == Vector::ZERO && w == Vector::ZERO && a == Vector::ZERO) {
         return (*end, com);
     }
     let q = Rotation::from_scaled_axis(w * -back);
-    let com_b = com - v * back;
+    let com_b = com - v * back + a * (0.5 * back * back);
     (
         Pose::from_parts(
             com_b + q * (end.translation - com),
@@ -113,11 +213,32 @@ pub struct Coupling {
     impulses: Vec<BodyImpulse>,
     /// Scratch of [`Coupling::exchange`]: bodies already settled.
     done: Vec<RigidBodyHandle>,
+    /// The linear velocity each dynamic body was left with at the end of the last frame
+    /// (sorted by handle): rapier's change of it over the next frame is known from it.
+    left: Vec<(RigidBodyHandle, Vector)>,
 }
 
 impl Coupling {
     /// Collects the colliders of every non-fixed body, once per frame.
-    pub fn begin_frame(&mut self, bodies: &RigidBodySet, colliders: &ColliderSet) {
+    /// `dt` is the frame's length: the fluid's impulses start moving bodies from its start.
+    ///
+    /// rapier steps first, with `rapier_substeps` substeps (its `num_solver_iterations`),
+    /// each adding its share of the velocity change `Δv` (gravity, contacts) before moving
+    /// the body; so a body's pose at the frame's start is not `end − v·dt` but
+    /// `end − v·dt + Δv·dt·(n − 1)/(2n)`. The poses the fluid sees follow that path
+    /// (velocity `v − Δv·(n − 1)/n·back/dt`, `back` seconds before the end), so a body does
+    /// not jump at frame boundaries (a floating box would otherwise be seen to jump up by
+    /// `3/8·g·dt²`, 1 mm at 60 Hz, every frame and sink through the frame). `Δv` is known
+    /// for bodies the coupling saw at the end of the last frame; for the others it is 0.
+    pub fn begin_frame(
+        &mut self,
+        dt: Real,
+        rapier_substeps: usize,
+        bodies: &RigidBodySet,
+        colliders: &ColliderSet,
+    ) {
+        let n = rapier_substeps.max(1) as Real; // 0 is refused by the pipeline
+        let spread = (n - 1.0) / (n * dt);
         self.candidates.clear();
         self.nonfixed.clear();
         self.table.clear();
@@ -137,19 +258,36 @@ impl Coupling {
                 let linvel = body.linvel();
                 let angvel = body.angvel();
                 let end = *co.position();
+                let accel = match self.left.binary_search_by_key(&bh.0, |l| l.0.0) {
+                    Ok(k) if body.is_dynamic() && !body.is_sleeping() => {
+                        (linvel - self.left[k].1) * spread
+                    }
+                    _ => Vector::ZERO,
+                };
                 self.candidates.push(MovingCollider {
                     handle: ch,
                     body: bh,
                     dynamic: body.is_dynamic(),
-                    moving: linvel != Vector::ZERO || angvel != Vector::ZERO,
+                    moving: linvel != Vector::ZERO
+                        || angvel != Vector::ZERO
+                        || accel != Vector::ZERO,
                     linvel,
                     vel: linvel,
+                    accel,
+                    backs: (0.0, 0.0),
                     inv_mass: if body.is_dynamic() {
                         body.mass_properties().effective_inv_mass
                     } else {
                         Vector::ZERO
                     },
                     angvel,
+                    rapier_angvel: angvel,
+                    inv_inertia: if body.is_dynamic() {
+                        body.mass_properties().effective_world_inv_inertia
+                    } else {
+                        AngularInertia::zero()
+                    },
+                    drift: Drift::none(dt),
                     end,
                     com_end: body.center_of_mass(),
                     start: end,
@@ -181,13 +319,32 @@ impl Coupling {
         back_stop: Real,
     ) {
         self.table.clear();
-        for c in &self.candidates {
+        for c in &mut self.candidates {
             let Some(co) = colliders.get(c.handle) else {
                 continue;
             };
+            // The velocity changes the fluid made so far move the body from this substep on
+            // (the drift's motion up to here is kept).
+            let (dv, dw) = (c.vel - c.linvel, c.angvel - c.rapier_angvel);
+            if (dv, dw) != (c.drift.dv, c.drift.dw) {
+                let (shift, turn) = c.drift.at(back_start);
+                c.drift = Drift {
+                    anchor: back_start,
+                    shift,
+                    turn,
+                    dv,
+                    dw,
+                };
+            }
             let mut m = c.clone();
-            (m.start, m.com_start) = pose_back(&c.end, c.com_end, c.linvel, c.angvel, back_start);
-            (m.stop, m.com_stop) = pose_back(&c.end, c.com_end, c.linvel, c.angvel, back_stop);
+            let (l, w) = (c.linvel, c.rapier_angvel);
+            let a = c.accel;
+            let (start, com_start) = pose_back(&c.end, c.com_end, l, w, a, back_start);
+            let (stop, com_stop) = pose_back(&c.end, c.com_end, l, w, a, back_stop);
+            m.backs = (back_start, back_stop);
+            (m.start, m.com_start) = c.drift.apply(start, com_start, back_start);
+            (m.stop, m.com_stop) = c.drift.apply(stop, com_stop, back_stop);
+            m.moving |= !c.drift.is_none();
             let mut aabb = co.shape().compute_aabb(&m.stop);
             if m.moving {
                 aabb.merge(&co.shape().compute_aabb(&m.start));
@@ -227,9 +384,10 @@ impl Coupling {
     /// instability of explicit coupling). So the body's velocity change `Δu` is solved with
     /// the particles it touched moving along with it in their contact normals:
     /// `(M + Σ m n nᵀ)·Δu = J`, each of those particles then gains `n (n·Δu)`, and the body
-    /// receives `J − Σ m n (n·Δu) = M·Δu`: linear momentum is exchanged exactly. The body's
-    /// velocity seen by the next substeps of the frame includes `Δu`; the angular impulse
-    /// about the centre of mass is applied at the end of the frame.
+    /// receives `J − Σ m n (n·Δu) = M·Δu`: linear momentum is exchanged exactly. The angular
+    /// impulse about the centre of mass changes the angular velocity by `I⁻¹·L` (world
+    /// inverse inertia at the frame's end). Both changes move the body from the next substep
+    /// on ([`Drift`]): the body moves with the substeps the fluid takes, not once per frame.
     pub fn exchange(
         &mut self,
         records: &[Vec<ImpulseRecord>],
@@ -276,6 +434,7 @@ impl Coupling {
                     self.impulses.len() - 1
                 }
             };
+            let mut angular = [0.0f64; 3];
             for r in records.iter().flatten().filter(of_body) {
                 let dv = r.normal * r.normal.dot(du);
                 let i = r.particle as usize;
@@ -287,21 +446,50 @@ impl Coupling {
                 for c in 0..3 {
                     b.1[c] += impulse[c] as f64;
                     b.2[c] += torque[c] as f64;
+                    angular[c] += torque[c] as f64;
                 }
             }
+            let angular = Vector::new(angular[0] as Real, angular[1] as Real, angular[2] as Real);
+            let dw = m.inv_inertia * angular;
             for c in self.candidates.iter_mut().chain(self.table.iter_mut()) {
                 if c.body == body {
                     c.vel += du;
+                    c.angvel += dw;
                 }
             }
         }
         self.done = done;
     }
 
-    /// Applies the gathered impulses to their bodies through rapier (waking them up) and
-    /// forgets them. Returns the number of bodies pushed.
+    /// Applies the gathered impulses to their bodies through rapier (waking them up), moves
+    /// each body by the drift they made during the frame (its pose at the frame's end is
+    /// rapier's plus the drift), and forgets them. Returns the number of bodies pushed.
     pub fn apply(&mut self, bodies: &mut RigidBodySet) -> usize {
         let n = self.impulses.len();
+        let mut done = std::mem::take(&mut self.done);
+        done.clear();
+        for c in &self.candidates {
+            if !c.dynamic || c.drift.is_none() || done.contains(&c.body) {
+                continue;
+            }
+            done.push(c.body);
+            if let Some(body) = bodies.get_mut(c.body) {
+                let com = body.center_of_mass();
+                let (pose, _) = c.drift.apply(*body.position(), com, 0.0);
+                body.set_position(pose, true);
+            }
+        }
+        self.done = done;
+        self.left.clear();
+        for c in &self.candidates {
+            if c.dynamic
+                && let Some(body) = bodies.get(c.body)
+            {
+                self.left.push((c.body, body.linvel()));
+            }
+        }
+        self.left.sort_by_key(|l| l.0.0);
+        self.left.dedup_by_key(|l| l.0);
         for (h, j, t) in self.impulses.drain(..) {
             if let Some(body) = bodies.get_mut(h) {
                 let j = Vector::new(j[0] as Real, j[1] as Real, j[2] as Real);
@@ -311,6 +499,18 @@ impl Coupling {
             }
         }
         n
+    }
+
+    /// The linear velocity each dynamic body was left with at the end of the last frame
+    /// (kept across frames; part of a snapshot).
+    pub fn left_velocities(&self) -> &[(RigidBodyHandle, Vector)] {
+        &self.left
+    }
+
+    /// Restores [`Coupling::left_velocities`] (from a snapshot).
+    pub fn set_left_velocities(&mut self, mut left: Vec<(RigidBodyHandle, Vector)>) {
+        left.sort_by_key(|l| l.0.0);
+        self.left = left;
     }
 
     /// The impulses gathered so far this frame: `(body, linear, angular)`.

@@ -29,6 +29,8 @@ pub(crate) struct Workspace {
     pub dfsph: DfsphBuffers,
     /// Clavet relaxation buffers.
     pub clavet: crate::solver::clavet::ClavetBuffers,
+    /// Scratch of the Clavet solver's springs.
+    pub springs: crate::solver::springs::SpringBuffers,
     /// PBF iteration buffers.
     pub pbf: crate::solver::pbf::PbfBuffers,
     /// Kernel gradients of every neighbour pair (DFSPH computes them once per substep).
@@ -68,6 +70,8 @@ pub struct Fluid {
     /// (DFSPH warm start); they follow the particles through every re-sort.
     pub(crate) warm_density: Vec<Real>,
     pub(crate) warm_divergence: Vec<Real>,
+    /// Viscoelastic springs of the Clavet solver (empty otherwise); keyed by particle id.
+    pub(crate) springs: crate::solver::springs::SpringSet,
     next_id: u32,
     quarantined: usize,
     /// Particles added by emitters / removed by sinks over the fluid's life.
@@ -97,6 +101,7 @@ impl Fluid {
             ids: Vec::new(),
             warm_density: Vec::new(),
             warm_divergence: Vec::new(),
+            springs: Default::default(),
             next_id: 0,
             quarantined: 0,
             emitted: 0,
@@ -214,7 +219,7 @@ impl Fluid {
     /// array and the step's per-particle scratch are reserved for it once, so emitting up to
     /// it never reallocates them; emitters pause when it is reached (the step report says so)
     /// and [`Fluid::add_particles`] refuses to go beyond it. Refuses a capacity below the
-    /// current particle count.
+    /// current particle count, or one whose memory cannot be reserved.
     pub fn set_capacity(&mut self, capacity: Option<usize>) -> SphResult<()> {
         if let Some(cap) = capacity {
             if cap < self.len() {
@@ -224,24 +229,35 @@ impl Fluid {
                     reason: "below the current particle count",
                 });
             }
+            // An impossible capacity (a typo in a scene file) is an error, not an abort.
+            let fail = |_| SphError::InvalidParameter {
+                field: "capacity",
+                value: cap as f64,
+                reason: "cannot reserve memory for that many particles",
+            };
             let extra = cap - self.len();
-            self.positions.reserve_exact(extra);
-            self.velocities.reserve_exact(extra);
-            self.accelerations.reserve_exact(extra);
-            self.densities.reserve_exact(extra);
-            self.pressures.reserve_exact(extra);
-            self.ids.reserve_exact(extra);
-            self.warm_density.reserve_exact(extra);
-            self.warm_divergence.reserve_exact(extra);
+            self.positions.try_reserve_exact(extra).map_err(fail)?;
+            self.velocities.try_reserve_exact(extra).map_err(fail)?;
+            self.accelerations.try_reserve_exact(extra).map_err(fail)?;
+            self.densities.try_reserve_exact(extra).map_err(fail)?;
+            self.pressures.try_reserve_exact(extra).map_err(fail)?;
+            self.ids.try_reserve_exact(extra).map_err(fail)?;
+            self.warm_density.try_reserve_exact(extra).map_err(fail)?;
+            self.warm_divergence
+                .try_reserve_exact(extra)
+                .map_err(fail)?;
             let ws = &mut self.workspace;
             for v in [&mut ws.previous_positions, &mut ws.scratch_vectors] {
-                v.reserve_exact(cap.saturating_sub(v.len()));
+                v.try_reserve_exact(cap.saturating_sub(v.len()))
+                    .map_err(fail)?;
             }
             for v in [&mut ws.inv_densities, &mut ws.scratch_reals] {
-                v.reserve_exact(cap.saturating_sub(v.len()));
+                v.try_reserve_exact(cap.saturating_sub(v.len()))
+                    .map_err(fail)?;
             }
             ws.scratch_ids
-                .reserve_exact(cap.saturating_sub(ws.scratch_ids.len()));
+                .try_reserve_exact(cap.saturating_sub(ws.scratch_ids.len()))
+                .map_err(fail)?;
         }
         self.capacity = capacity;
         Ok(())
@@ -380,6 +396,12 @@ impl Fluid {
         &self.ids
     }
 
+    /// The viscoelastic springs of the Clavet solver ([`crate::solver::Springs`]); empty for
+    /// other solvers or with springs off.
+    pub fn springs(&self) -> &crate::solver::springs::SpringSet {
+        &self.springs
+    }
+
     /// Neighbour lists of the last step (indices into the current order).
     pub fn neighbor_lists(&self) -> &NeighborLists {
         &self.workspace.neighbors
@@ -424,6 +446,8 @@ impl Fluid {
             + ws.gradients.heap_bytes()
             + ws.pbf.heap_bytes()
             + ws.clavet.heap_bytes()
+            + ws.springs.heap_bytes()
+            + self.springs.heap_bytes()
             + ws.scratch_reals.capacity() * 4
             + ws.grid.heap_bytes()
             + ws.neighbors.heap_bytes()

@@ -19,6 +19,8 @@ pub(crate) struct FluidState {
     ids: Vec<u32>,
     warm_density: Vec<Real>,
     warm_divergence: Vec<Real>,
+    #[serde(default)]
+    springs: crate::solver::springs::SpringSet,
     next_id: u32,
     quarantined: usize,
     needs_depenetration: bool,
@@ -40,6 +42,7 @@ impl FluidState {
             ids: f.ids.clone(),
             warm_density: f.warm_density.clone(),
             warm_divergence: f.warm_divergence.clone(),
+            springs: f.springs.clone(),
             next_id: f.next_id,
             quarantined: f.quarantined,
             needs_depenetration: f.needs_depenetration,
@@ -78,6 +81,13 @@ impl FluidState {
         f.ids = self.ids;
         f.warm_density = self.warm_density;
         f.warm_divergence = self.warm_divergence;
+        if !self.springs.is_consistent() {
+            return Err(crate::SphError::InvalidParticle {
+                index: 0,
+                reason: "snapshot springs are malformed",
+            });
+        }
+        f.springs = self.springs;
         f.next_id = self.next_id;
         f.quarantined = self.quarantined;
         f.needs_depenetration = self.needs_depenetration;

@@ -539,3 +539,67 @@ impl GifWriter {
             .and_then(|mut w| std::io::Write::flush(&mut w).map_err(|e| RenderError::io(&path, e)))
     }
 }
+
+/// What an example's `--render DIR` writes: numbered PNG frames `frame_0000.png`, … and one
+/// animated GIF `<name>.gif` in `DIR`, each frame drawn by a [`Renderer`] from a camera that
+/// may orbit a fixed number of degrees per frame.
+pub struct Recorder {
+    dir: PathBuf,
+    renderer: Renderer,
+    camera: Camera,
+    orbit_degrees: Real,
+    gif: GifWriter,
+    frames: usize,
+}
+
+impl Recorder {
+    /// Creates `dir` (and its parents) and the GIF `dir/<name>.gif`; frames are shown
+    /// `gif_delay_cs` hundredths of a second each.
+    pub fn create(
+        dir: impl AsRef<Path>,
+        name: &str,
+        options: RenderOptions,
+        camera: Camera,
+        orbit_degrees: Real,
+        gif_delay_cs: u16,
+    ) -> Result<Self, RenderError> {
+        let dir = dir.as_ref();
+        std::fs::create_dir_all(dir).map_err(|e| RenderError::io(dir, e))?;
+        let gif = GifWriter::create(
+            dir.join(format!("{name}.gif")),
+            options.width,
+            options.height,
+            gif_delay_cs,
+        )?;
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            renderer: Renderer::new(options),
+            camera,
+            orbit_degrees,
+            gif,
+            frames: 0,
+        })
+    }
+
+    /// Draws `world` as the next frame: writes its PNG and appends it to the GIF.
+    pub fn frame(&mut self, world: &FluidWorld) -> Result<(), RenderError> {
+        let camera = self
+            .camera
+            .rotated(self.orbit_degrees * self.frames as Real);
+        let image = self.renderer.render_world(&camera, world, None);
+        image.save_png(self.dir.join(format!("frame_{:04}.png", self.frames)))?;
+        self.gif.add_frame(&image)?;
+        self.frames += 1;
+        Ok(())
+    }
+
+    /// Frames written so far.
+    pub fn frames(&self) -> usize {
+        self.frames
+    }
+
+    /// Finishes the GIF.
+    pub fn finish(self) -> Result<(), RenderError> {
+        self.gif.finish()
+    }
+}

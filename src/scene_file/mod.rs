@@ -19,13 +19,35 @@
 //!             preset: Water(spacing: 0.05),   // or Paper
 //!             viscosity: 0.2,                 // any parameter of FluidParams may be overridden
 //!             blocks: [Block(min: (-0.25, 0.1, -0.25), size: (0.5, 0.5, 0.5))],
+//!             emitters: [
+//!                 Emitter(
+//!                     nozzle: Disk(radius: 0.08),     // or Square(half_width: ..), Sphere(radius: ..)
+//!                     position: (0.0, 1.0, 0.0),
+//!                     direction: (1.0, -0.3, 0.0),    // any length; not used by a sphere
+//!                     speed: 1.5,                     // m/s
+//!                     rate: 400.0,                    // particles/s, or rate_fraction: 0.8
+//!                                                     // (of the nozzle's blocking rate)
+//!                     start: 0.0, stop: 5.0,          // s on the emitter's clock (default 0, never)
+//!                     budget: 2000,                   // particles in all (default: no limit)
+//!                 ),
+//!             ],
+//!             sinks: [
+//!                 Sink(region: Collider(name: "drain")),  // reach: 0.05 (default: one spacing)
+//!                 Sink(region: Aabb(min: (-9.0, -9.0, -9.0), max: (9.0, -1.0, 9.0))),
+//!                 // Sink(region: Ball(centre: (0.0, 0.0, 0.0), radius: 0.2)),
+//!             ],
+//!             capacity: 20000,                // emitters pause at this many particles
 //!         ),
 //!     ],
 //!     bodies: [
 //!         Body(kind: Fixed, colliders: [
 //!             Collider(shape: Cuboid(half_extents: (1.0, 0.1, 1.0))),
 //!             Collider(shape: TriMeshFile(path: "bowl.obj", scale: (1.0, 1.0, 1.0)), position: (0.0, 0.5, 0.0)),
+//!             Collider(name: "drain", shape: Ball(radius: 0.1), position: (0.8, 0.2, 0.0), sensor: true),
 //!         ]),
+//!         // A kinematic paddle wheel turning at 4 rad/s about z.
+//!         Body(kind: KinematicVelocityBased, position: (0.5, 0.4, 0.0), angvel: (0.0, 0.0, 4.0),
+//!              colliders: [Collider(shape: Cuboid(half_extents: (0.12, 0.01, 0.2)))]),
 //!     ],
 //!     camera: Orbit(target: (0.0, 0.3, 0.0), distance: 3.0, azimuth: 30.0, elevation: 25.0),
 //! )
@@ -34,13 +56,22 @@
 //! Errors name the file, the line and column, and the field (`fluids[0].blocks[1].size`):
 //! unknown fields are refused (`deny_unknown_fields`), numbers are checked while they are read
 //! (a radius must be positive and finite, a position finite), and each fluid's parameters are
-//! validated as a whole when its entry ends. Emitters and sinks are not part of the format
-//! yet: the crate does not provide them (they come with issue 5).
+//! validated as a whole when its entry ends; so are emitters, sinks and bodies (an emitter
+//! whose `stop` is before its `start`, a sink box with `max` below `min`, a velocity on a body
+//! that cannot keep one). Collider names are checked once the whole file is read: a sink that
+//! names no collider, or two colliders with one name, is reported at the name's line.
+//!
+//! Bodies keep a velocity only if they are `Dynamic` (initial velocity) or
+//! `KinematicVelocityBased` (constant `linvel` and `angvel`: a conveyor, a paddle wheel). A
+//! `KinematicPositionBased` body moves only when a program sets its next pose each step, which
+//! a file cannot describe, so a velocity on it (or on a `Fixed` body) is an error.
 
 mod shapes;
+mod sources;
 mod values;
 
 pub use shapes::{CompoundPart, ShapeDesc};
+pub use sources::{ColliderName, ColliderRef, EmitterDesc, NozzleDesc, SinkDesc, SinkRegionDesc};
 pub use values::{Finite, NonNegative, Positive, PositiveVec3, Vec3};
 
 use crate::error::SphError;
@@ -49,8 +80,9 @@ use crate::kernel::KernelKind;
 use crate::math::{Real, Rotation, Vector};
 use crate::params::{EquationOfState, FluidParams, FluidParamsBuilder};
 use crate::world::FluidWorld;
-use rapier3d::prelude::{ColliderBuilder, RigidBodyBuilder, RigidBodyHandle};
+use rapier3d::prelude::{ColliderBuilder, ColliderHandle, RigidBodyBuilder, RigidBodyHandle};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeSet;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
@@ -79,7 +111,7 @@ pub struct SceneFile {
     #[serde(default, deserialize_with = "values::checked_vec")]
     pub fluids: Vec<FluidDesc>,
     /// Rapier bodies with their colliders.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "values::checked_vec")]
     pub bodies: Vec<BodyDesc>,
     /// The camera for pictures. Default: [`CameraDesc::Auto`] from 30° azimuth, 25° elevation.
     #[serde(default)]
@@ -198,6 +230,16 @@ pub struct FluidDesc {
     /// Single particles (positions, m), at rest.
     #[serde(default)]
     pub particles: Vec<Vec3>,
+    /// Nozzles that add particles while the scene runs ([`crate::Emitter`]).
+    #[serde(default, deserialize_with = "values::checked_vec")]
+    pub emitters: Vec<EmitterDesc>,
+    /// Regions that remove particles ([`crate::Sink`]); a collider sink names a collider.
+    #[serde(default, deserialize_with = "values::checked_vec")]
+    pub sinks: Vec<SinkDesc>,
+    /// Most particles the fluid may hold; emitters pause when it is reached
+    /// ([`Fluid::set_capacity`], which reserves the memory up front). Default: no limit.
+    #[serde(default)]
+    pub capacity: Option<usize>,
 }
 
 impl FluidDesc {
@@ -260,6 +302,9 @@ impl FluidDesc {
 
 impl values::Validate for FluidDesc {
     fn validate(&self) -> Result<(), String> {
+        if self.capacity == Some(0) {
+            return Err("capacity must be at least 1 (0 would stop every emitter)".into());
+        }
         self.params().map(|_| ()).map_err(|e| e.to_string())
     }
 }
@@ -301,10 +346,15 @@ pub struct BodyDesc {
     /// Orientation as a rotation vector (axis × angle in radians), as rapier's builders take.
     #[serde(default)]
     pub rotation: Vec3,
-    /// Initial linear velocity (m/s).
+    /// Initial linear velocity (m/s); for a `KinematicVelocityBased` body, the velocity it
+    /// keeps. Only `Dynamic` and `KinematicVelocityBased` bodies may have one (rapier
+    /// ignores it on the others).
     #[serde(default)]
     pub linvel: Vec3,
-    /// Initial angular velocity (rad/s).
+    /// Initial angular velocity (rad/s, axis × rate); for a `KinematicVelocityBased` body,
+    /// the spin it keeps (a paddle wheel). Only `Dynamic` and `KinematicVelocityBased` bodies
+    /// may have one: a `KinematicPositionBased` body moves only when its next pose is set
+    /// each step, which a file cannot do.
     #[serde(default)]
     pub angvel: Vec3,
     /// The colliders attached to the body.
@@ -312,10 +362,29 @@ pub struct BodyDesc {
     pub colliders: Vec<ColliderDesc>,
 }
 
+impl values::Validate for BodyDesc {
+    fn validate(&self) -> Result<(), String> {
+        let moving = self.linvel.vector() != Vector::ZERO || self.angvel.vector() != Vector::ZERO;
+        match self.kind {
+            BodyKind::Fixed | BodyKind::KinematicPositionBased if moving => Err(format!(
+                "a {:?} body does not keep a velocity (rapier ignores linvel and angvel on it); \
+                 use KinematicVelocityBased for a body that moves or spins at a constant rate",
+                self.kind
+            )),
+            _ => Ok(()),
+        }
+    }
+}
+
 /// A rapier collider.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, rename = "Collider")]
 pub struct ColliderDesc {
+    /// A name, unique in the file, by which a sink refers to the collider
+    /// (`Sink(region: Collider(name: "drain"))`); the runner also reports the fluid inside
+    /// named sensors.
+    #[serde(default)]
+    pub name: Option<ColliderName>,
     /// The shape (every parry shape; see [`ShapeDesc`]).
     pub shape: ShapeDesc,
     /// Position relative to the body (m).
@@ -472,6 +541,64 @@ impl SceneFile {
     /// Parses and checks scene text; `path` is only used in error messages.
     pub fn parse(text: &str, path: impl AsRef<Path>) -> Result<Self, SceneError> {
         let path = path.as_ref();
+        let scene = Self::read(text, path)?;
+        // Collider names can only be checked once the whole file is read (a sink may come
+        // before the collider it names). When they do not match, the file is read again with
+        // the names known, so the error points at the offending name.
+        if let Err((field, message)) = scene.check_names() {
+            let _check = sources::NameCheckGuard::new(scene.collider_names());
+            Self::read(text, path)?;
+            return Err(SceneError::Invalid {
+                path: path.to_path_buf(),
+                field,
+                message,
+            });
+        }
+        Ok(scene)
+    }
+
+    /// The names given to colliders.
+    fn collider_names(&self) -> BTreeSet<String> {
+        self.bodies
+            .iter()
+            .flat_map(|b| &b.colliders)
+            .filter_map(|c| c.name.as_ref().map(|n| n.0.clone()))
+            .collect()
+    }
+
+    /// Checks that collider names are unique and that every collider sink names one.
+    /// Returns the field and the message of the first problem.
+    fn check_names(&self) -> Result<(), (String, String)> {
+        let mut names = BTreeSet::new();
+        for (bi, b) in self.bodies.iter().enumerate() {
+            for (ci, c) in b.colliders.iter().enumerate() {
+                if let Some(n) = &c.name
+                    && !names.insert(n.0.clone())
+                {
+                    return Err((
+                        format!("bodies[{bi}].colliders[{ci}].name"),
+                        format!("another collider is already named `{}`", n.0),
+                    ));
+                }
+            }
+        }
+        for (fi, f) in self.fluids.iter().enumerate() {
+            for (si, s) in f.sinks.iter().enumerate() {
+                if let SinkRegionDesc::Collider { name, .. } = &s.region
+                    && !names.contains(&name.0)
+                {
+                    return Err((
+                        format!("fluids[{fi}].sinks[{si}].region.Collider.name"),
+                        sources::unknown_name(&name.0, &names),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Deserialises and checks values (not names).
+    fn read(text: &str, path: &Path) -> Result<Self, SceneError> {
         let options = ron::Options::default()
             .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
         let spanned = |e: ron::error::SpannedError, field: String| SceneError::Parse {
@@ -535,6 +662,8 @@ impl SceneFile {
             field,
             message,
         };
+        self.check_names().map_err(|(f, m)| invalid(f, m))?;
+        let mut named_colliders: Vec<(String, ColliderHandle)> = Vec::new();
         let mut world = FluidWorld::new();
         world.physics.gravity = self.gravity.vector();
         let (dt, steps_per_frame) = self.time_step();
@@ -570,7 +699,10 @@ impl SceneFile {
                 if let Some(r) = c.restitution {
                     cb = cb.restitution(r.0);
                 }
-                world.physics.insert_collider(cb, Some(handle));
+                let ch = world.physics.insert_collider(cb, Some(handle));
+                if let Some(n) = &c.name {
+                    named_colliders.push((n.0.clone(), ch));
+                }
             }
             bodies.push(handle);
         }
@@ -588,12 +720,40 @@ impl SceneFile {
             fluid
                 .add_particles(&points)
                 .map_err(|e| invalid(field(".particles"), e.to_string()))?;
+            let spacing = fluid.params().particle_spacing;
+            for (k, e) in f.emitters.iter().enumerate() {
+                let field = field(&format!(".emitters[{k}]"));
+                let emitter = e.emitter(spacing).map_err(|m| invalid(field.clone(), m))?;
+                fluid
+                    .add_emitter(emitter)
+                    .map_err(|e| invalid(field, e.to_string()))?;
+            }
+            for (k, s) in f.sinks.iter().enumerate() {
+                let field = field(&format!(".sinks[{k}]"));
+                let sink = s
+                    .sink(|name| {
+                        named_colliders
+                            .iter()
+                            .find(|(n, _)| n == name)
+                            .map(|(_, h)| *h)
+                    })
+                    .map_err(|m| invalid(field.clone(), m))?;
+                fluid
+                    .add_sink(sink)
+                    .map_err(|e| invalid(field, e.to_string()))?;
+            }
+            if f.capacity.is_some() {
+                fluid
+                    .set_capacity(f.capacity)
+                    .map_err(|e| invalid(field(".capacity"), e.to_string()))?;
+            }
             fluids.push(world.fluids.insert(fluid));
         }
         Ok(BuiltScene {
             world,
             fluids,
             bodies,
+            named_colliders,
             dt,
             steps_per_frame,
             frames: self.frames(),
@@ -623,6 +783,8 @@ pub struct BuiltScene {
     pub fluids: Vec<FluidHandle>,
     /// Handles of the bodies, in file order.
     pub bodies: Vec<RigidBodyHandle>,
+    /// The colliders that have a name, with their handles, in file order.
+    pub named_colliders: Vec<(String, ColliderHandle)>,
     /// The time step (s).
     pub dt: Real,
     /// Steps per frame.

@@ -55,6 +55,12 @@ impl Default for Finite {
     }
 }
 
+impl Default for NonNegative {
+    fn default() -> Self {
+        NonNegative(0.0)
+    }
+}
+
 /// A vector `(x, y, z)` of finite numbers.
 #[derive(Copy, Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "(f64, f64, f64)", into = "(f64, f64, f64)")]

@@ -22,8 +22,9 @@
 //! `c²/(h·ρ0)`, `c` the fluid's speed of sound, so that a relative compression `δ` pushes with
 //! an acceleration of about `c²·δ/h`, like an equation of state with that speed of sound; the
 //! time step obeys the same acoustic limit as WCSPH. Viscosity is the fluid's own viscosity
-//! stage (the paper's pairwise viscosity impulses and viscoelastic springs are not
-//! implemented). Walls take part through contact only.
+//! stage (the paper's pairwise viscosity impulses are not implemented); its viscoelastic
+//! springs are an option ([`Clavet::springs`], [`super::springs`]). Walls take part through
+//! contact only.
 
 use crate::domain::{Open, Separation};
 use crate::math::{Real, Vector};
@@ -44,6 +45,10 @@ pub struct Clavet {
     /// neither boils off its top layer (near pressure too strong: the paper's ratio 2.5 did,
     /// the fluid expanded at once) nor pulls it in.
     pub near_stiffness: Option<Real>,
+    /// Viscoelastic springs between neighbours (section 5 of the paper; see
+    /// [`super::springs`]). `None` (default): a plain liquid, and the spring stage is skipped.
+    #[cfg_attr(feature = "snapshot", serde(default))]
+    pub springs: Option<super::Springs>,
 }
 
 impl Default for Clavet {
@@ -51,6 +56,7 @@ impl Default for Clavet {
         Self {
             stiffness: 1.0,
             near_stiffness: None,
+            springs: None,
         }
     }
 }

@@ -48,7 +48,7 @@ use rayon::prelude::*;
 /// energy whose fluid part gives `(π_i + π_j)`. Full mirroring (`γ = 2`, as in IISPH) was
 /// tried: it does net work over every oscillation, and a column at rest in a closed tank
 /// gained kinetic energy until it sloshed.
-const WALL_MIRROR: Real = 1.0;
+pub const WALL_MIRROR: Real = 1.0;
 
 /// Settings of the DFSPH solver. Defaults follow Bender & Koschier (2017): 0.1 % average
 /// density error, 1 % divergence error.

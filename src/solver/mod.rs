@@ -13,10 +13,12 @@ pub mod clavet;
 pub mod dfsph;
 pub(crate) mod pairs;
 pub mod pbf;
+pub mod springs;
 
 pub use clavet::Clavet;
 pub use dfsph::Dfsph;
 pub use pbf::Pbf;
+pub use springs::Springs;
 
 /// Which pressure solver a fluid uses.
 #[derive(Copy, Clone, Debug, PartialEq)]

@@ -332,6 +332,7 @@ pub fn reference_step(params: &crate::FluidParams, v: Real, g: Real) -> Real {
             let c = params.equation_of_state.speed_of_sound()
                 * cl.stiffness
                     .max(cl.near_stiffness.unwrap_or(cl.stiffness))
+                    .max(cl.springs.map_or(0.0, |s| s.stiffness))
                     .max(1e-6)
                     .sqrt();
             dt = dt.min(courant * params.smoothing_length / (c + v));

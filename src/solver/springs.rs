@@ -1,0 +1,342 @@
+//! Viscoelastic springs for the double-density relaxation: Clavet, Beaudoin & Poulin,
+//! "Particle-based Viscoelastic Fluid Simulation", SCA 2005, section 5 (Algorithms 3 and 4).
+//!
+//! Every pair of particles closer than `h` is joined by a spring. A new spring starts at rest
+//! length `L = h` (Alg. 4); while the pair's distance `r` stays within the yield band
+//! `|r − L| ≤ γ·L` the rest length keeps its value, beyond it the rest length flows towards
+//! `r` at the plasticity rate `α`:
+//!
+//! ```text
+//! r > L + γL:  L += dt·α·(r − L − γL)        r < L − γL:  L −= dt·α·(L − γL − r)
+//! ```
+//!
+//! Springs whose rest length exceeds `h` are removed. Each spring displaces its two particles
+//! (Alg. 3) by `∓D/2` with `D = dt²·k·(1 − L/h)·(L − r)·r̂_ij`, `r̂_ij` from `i` towards `j`:
+//! a spring shorter than its rest length pushes the pair apart, a longer one pulls it together,
+//! and springs near the support radius (`L → h`) fade out. The fluid then remembers its recent
+//! shape: a blob that is stretched pulls back, one that is compressed slowly flows.
+//!
+//! How it runs here: the paper loops over pairs and moves both particles; here each particle
+//! keeps its own copy of each of its springs (keyed by the partner's id, which survives the
+//! per-step re-sort) and gathers the displacements of its springs in one Jacobi pass. Both
+//! copies of a spring see the same distance bit for bit (`|x_i − x_j|` and `|x_j − x_i|` round
+//! alike) and apply the same update, so they stay equal; the pair's displacements are exact
+//! opposites, so linear momentum is conserved. A spring whose partner was drained or
+//! quarantined is dropped. Deterministic, and the same with any thread count.
+//!
+//! Units: `k` is a multiple of `c²/(h²·N)`, `c` the fluid's speed of sound and `N` the number
+//! of neighbours in the rest lattice ([`crate::FluidParams::expected_neighbours`]): the `N`
+//! springs of a particle together then push like an equation of state with speed of sound
+//! `c·√k`, and the time step obeys that acoustic limit (as the relaxation's stiffness does).
+//! Without the `1/N` a particle's thirty-odd springs add up: the first version, in units of
+//! `c²/h²`, blew an isolated blob apart at 3× the acoustic step. `α` is a rate in 1/s; `γ` a
+//! ratio. The defaults are a starting point (the paper gives no SI values), not a calibrated
+//! material.
+
+use crate::domain::{Open, Separation};
+use crate::math::{Real, Vector};
+use crate::neighbors::NeighborLists;
+use crate::par::CHUNK;
+#[cfg(feature = "parallel")]
+use rayon::prelude::*;
+
+/// Settings of the viscoelastic springs ([`super::Clavet::springs`]).
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub struct Springs {
+    /// Spring stiffness `k`, as a multiple of `c²/(h²·N)` (see the module docs; default 0.3).
+    pub stiffness: Real,
+    /// Yield ratio `γ`: the relative deformation a spring takes before its rest length starts
+    /// to flow (default 0.1).
+    pub yield_ratio: Real,
+    /// Plasticity `α` (1/s): how fast a rest length flows once past the yield band (default
+    /// 5/s: a deformation is forgotten in about 0.2 s).
+    pub plasticity: Real,
+}
+
+impl Default for Springs {
+    fn default() -> Self {
+        Self {
+            stiffness: 0.3,
+            yield_ratio: 0.1,
+            plasticity: 5.0,
+        }
+    }
+}
+
+/// The springs of a fluid, row by row: row `r` belongs to the particle with id `owners[r]`
+/// and holds `(partner id, rest length)` pairs at `offsets[r]..offsets[r + 1]`, sorted by
+/// partner id. Rows follow the particle order of the step that made them.
+#[derive(Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub struct SpringSet {
+    owners: Vec<u32>,
+    offsets: Vec<u32>,
+    partners: Vec<u32>,
+    rest: Vec<Real>,
+}
+
+impl SpringSet {
+    /// Number of springs (each pair counted twice, once per particle).
+    pub fn len(&self) -> usize {
+        self.partners.len()
+    }
+
+    /// `true` when there is no spring.
+    pub fn is_empty(&self) -> bool {
+        self.partners.is_empty()
+    }
+
+    /// The springs of the particle with id `id`: `(partner id, rest length)`.
+    pub fn of(&self, id: u32) -> impl Iterator<Item = (u32, Real)> + '_ {
+        let row = self.owners.iter().position(|&o| o == id);
+        let range = row.map_or(0..0, |r| {
+            self.offsets[r] as usize..self.offsets[r + 1] as usize
+        });
+        self.partners[range.clone()]
+            .iter()
+            .copied()
+            .zip(self.rest[range].iter().copied())
+    }
+
+    /// `true` when the rows are well formed (used when a snapshot is restored).
+    #[cfg(feature = "snapshot")]
+    pub(crate) fn is_consistent(&self) -> bool {
+        self.offsets.len() == self.owners.len() + 1
+            && self.offsets.first() == Some(&0)
+            && self.offsets.windows(2).all(|w| w[0] <= w[1])
+            && self.offsets.last().map(|&e| e as usize) == Some(self.partners.len())
+            && self.partners.len() == self.rest.len()
+            && self.rest.iter().all(|l| l.is_finite() && *l > 0.0)
+            || (self.owners.is_empty() && self.offsets.is_empty() && self.partners.is_empty())
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        (self.owners.capacity()
+            + self.offsets.capacity()
+            + self.partners.capacity()
+            + self.rest.capacity())
+            * 4
+    }
+}
+
+const NONE: u32 = u32::MAX;
+
+/// Scratch of the spring stage (reused from step to step).
+#[derive(Clone, Debug, Default)]
+pub struct SpringBuffers {
+    /// Row of the previous spring set by particle id (`NONE` elsewhere).
+    row_of_id: Vec<u32>,
+    /// Current particle index by id (`NONE` elsewhere).
+    index_of_id: Vec<u32>,
+    chunks: Vec<SpringChunk>,
+    displacement: Vec<Vector>,
+}
+
+#[derive(Clone, Debug, Default)]
+struct SpringChunk {
+    offsets: Vec<u32>,
+    partners: Vec<u32>,
+    rest: Vec<Real>,
+    /// `(partner id, distance, partner index)` of the pairs within h of the particle being
+    /// processed.
+    row: Vec<(u32, Real, u32)>,
+}
+
+impl SpringBuffers {
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        (self.row_of_id.capacity() + self.index_of_id.capacity()) * 4
+            + self.displacement.capacity() * 12
+            + self
+                .chunks
+                .iter()
+                .map(|c| {
+                    (c.offsets.capacity() + c.partners.capacity() + c.rest.capacity()) * 4
+                        + c.row.capacity() * 12
+                })
+                .sum::<usize>()
+    }
+}
+
+/// Inputs of one spring stage.
+pub struct SpringContext<'a> {
+    /// Neighbour lists of the predicted positions.
+    pub neighbors: &'a NeighborLists,
+    /// Stable particle ids, in the current order.
+    pub ids: &'a [u32],
+    /// Support radius.
+    pub h: Real,
+    /// Speed of sound of the fluid (m/s).
+    pub speed_of_sound: Real,
+    /// Neighbours of a particle in the rest lattice.
+    pub expected_neighbours: Real,
+    /// Time step.
+    pub dt: Real,
+}
+
+/// Updates the springs (Alg. 4) for the predicted `positions` and applies their displacements
+/// (Alg. 3). Returns the number of springs after the update.
+pub fn apply(
+    ctx: &SpringContext<'_>,
+    settings: &Springs,
+    springs: &mut SpringSet,
+    buffers: &mut SpringBuffers,
+    positions: &mut [Vector],
+) -> usize {
+    apply_in(ctx, settings, springs, buffers, positions, Open)
+}
+
+/// [`apply`] with the separations formed by `sep` (see [`crate::domain`]).
+pub fn apply_in<S: Separation>(
+    ctx: &SpringContext<'_>,
+    settings: &Springs,
+    springs: &mut SpringSet,
+    buffers: &mut SpringBuffers,
+    positions: &mut [Vector],
+    sep: S,
+) -> usize {
+    let n = positions.len();
+    let h = ctx.h;
+    let k = settings.stiffness * ctx.speed_of_sound * ctx.speed_of_sound
+        / (h * h * ctx.expected_neighbours.max(1.0));
+    let (gamma, alpha, dt) = (settings.yield_ratio, settings.plasticity, ctx.dt);
+    let dt2k_half = 0.5 * dt * dt * k;
+    let ids = ctx.ids;
+    let max_id = ids
+        .iter()
+        .chain(springs.owners.iter())
+        .copied()
+        .max()
+        .map_or(0, |m| m as usize + 1);
+    let SpringBuffers {
+        row_of_id,
+        index_of_id,
+        chunks,
+        displacement,
+    } = buffers;
+    if row_of_id.len() < max_id {
+        row_of_id.resize(max_id, NONE);
+        index_of_id.resize(max_id, NONE);
+    }
+    for (r, &o) in springs.owners.iter().enumerate() {
+        row_of_id[o as usize] = r as u32;
+    }
+    for (i, &id) in ids.iter().enumerate() {
+        index_of_id[id as usize] = i as u32;
+    }
+    displacement.resize(n, Vector::ZERO);
+    chunks.resize_with(n.div_ceil(CHUNK), SpringChunk::default);
+    {
+        let old: &SpringSet = springs;
+        let (row_of_id, index_of_id): (&[u32], &[u32]) = (row_of_id, index_of_id);
+        let positions: &[Vector] = positions;
+        crate::par_iter_mut!(chunks)
+            .zip(crate::par_chunks_mut!(displacement, CHUNK))
+            .enumerate()
+            .for_each(|(c, (chunk, out))| {
+                chunk.offsets.clear();
+                chunk.partners.clear();
+                chunk.rest.clear();
+                chunk.offsets.push(0);
+                let base = c * CHUNK;
+                for (k_, dx) in out.iter_mut().enumerate() {
+                    let i = base + k_;
+                    let xi = positions[i];
+                    let old_row = match row_of_id[ids[i] as usize] {
+                        NONE => 0..0,
+                        r => old.offsets[r as usize] as usize..old.offsets[r as usize + 1] as usize,
+                    };
+                    let (old_partners, old_rest) =
+                        (&old.partners[old_row.clone()], &old.rest[old_row]);
+                    // Pairs within h, by partner id, then one merge with the old row (also by
+                    // partner id): existing springs flow, new ones start at L = h (Alg. 4);
+                    // springs to particles now beyond h keep their rest length (Alg. 4 only
+                    // adjusts pairs within h), springs to removed particles are dropped.
+                    let row = &mut chunk.row;
+                    row.clear();
+                    for &j in ctx.neighbors.of(i) {
+                        let r = sep.sep(xi, positions[j as usize]).length();
+                        if r < h {
+                            row.push((ids[j as usize], r, j));
+                        }
+                    }
+                    row.sort_unstable_by_key(|e| e.0);
+                    let mut acc = Vector::ZERO;
+                    let (mut a, mut b) = (0, 0);
+                    while a < row.len() || b < old_partners.len() {
+                        let next_new = row.get(a).map_or(u32::MAX, |e| e.0);
+                        let next_old = old_partners.get(b).copied().unwrap_or(u32::MAX);
+                        let (partner, l, j) = if next_new <= next_old {
+                            let (partner, r, j) = row[a];
+                            a += 1;
+                            let mut l = if next_new == next_old {
+                                b += 1;
+                                old_rest[b - 1]
+                            } else {
+                                h
+                            };
+                            let band = gamma * l;
+                            if r > l + band {
+                                l += dt * alpha * (r - l - band);
+                            } else if r < l - band {
+                                l -= dt * alpha * (l - band - r);
+                            }
+                            (partner, l, j)
+                        } else {
+                            b += 1;
+                            match index_of_id.get(next_old as usize).copied() {
+                                Some(j) if j != NONE => (next_old, old_rest[b - 1], j),
+                                _ => continue,
+                            }
+                        };
+                        if l > h {
+                            continue;
+                        }
+                        let d = sep.sep(positions[j as usize], xi);
+                        let r = d.length();
+                        if r > 1e-6 * h {
+                            // −D/2 for particle i, D along r̂ from i to j.
+                            acc -= d * (dt2k_half * (1.0 - l / h) * (l - r) / r);
+                        }
+                        chunk.partners.push(partner);
+                        chunk.rest.push(l);
+                    }
+                    *dx = acc;
+                    chunk.offsets.push(chunk.partners.len() as u32);
+                }
+            });
+    }
+    // Reset the id tables for the next step (only the entries set above).
+    for &o in &springs.owners {
+        row_of_id[o as usize] = NONE;
+    }
+    for &id in ids {
+        index_of_id[id as usize] = NONE;
+    }
+    // The new set, rows in the current particle order.
+    springs.owners.clear();
+    springs.owners.extend_from_slice(ids);
+    springs.offsets.clear();
+    springs.partners.clear();
+    springs.rest.clear();
+    springs.offsets.push(0);
+    for chunk in chunks.iter() {
+        let start = springs.partners.len() as u32;
+        springs
+            .offsets
+            .extend(chunk.offsets[1..].iter().map(|&o| start + o));
+        springs.partners.extend_from_slice(&chunk.partners);
+        springs.rest.extend_from_slice(&chunk.rest);
+    }
+    let displacement: &[Vector] = displacement;
+    crate::par_chunks_mut!(positions, CHUNK)
+        .enumerate()
+        .for_each(|(c, x)| {
+            for (k_, x) in x.iter_mut().enumerate() {
+                *x += displacement[c * CHUNK + k_];
+            }
+        });
+    springs.len()
+}
