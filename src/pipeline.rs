@@ -377,6 +377,12 @@ fn step_fluid(
     if n == 0 {
         return 0.0;
     }
+    // Periodic box: particles added outside it (or moved there by the caller) start in it.
+    if let Some(d) = fluid.params().domain.minimum_image() {
+        timed(report, Stage::ParticleUpdate, || {
+            integrate::wrap_positions(&d, &mut fluid.positions)
+        });
+    }
     if fluid.needs_depenetration {
         relax_overlaps(fluid, colliders, report);
     }
