@@ -51,6 +51,15 @@ fn the_reference_scene_has_every_shape() {
     let f = &built.world.fluids[built.fluids[0]];
     assert_eq!(f.len(), 7 * 7 * 10 + 2);
     assert_eq!(f.params().viscosity, 0.5);
+    assert_eq!(
+        f.params().solver,
+        rapier_sph::Solver::Dfsph(rapier_sph::Dfsph {
+            max_density_error: 0.001,
+            warm_start: 0.75,
+            ..Default::default()
+        })
+    );
+    assert!(f.params().wall_density);
     // The OBJ ramp was read and scaled: 8 triangles, 0.5 m long.
     let ramp = built
         .world
@@ -609,4 +618,63 @@ fn the_module_docs_example_parses() {
     let scene = SceneFile::parse(&text, "docs.ron").unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(scene.fluids[0].emitters.len(), 1);
     assert_eq!(scene.fluids[0].sinks.len(), 2);
+}
+
+/// A fluid's solver and wall densities come from the file, unset fields keep the solver's
+/// defaults, and bad solver values are named at their line like every other field.
+#[test]
+fn solvers_come_from_the_file() {
+    use rapier_sph::solver::{Clavet, Dfsph, Pbf, Solver, Springs};
+    let with = |extra: &str| {
+        GOOD.replace(
+            "preset: Water(spacing: 0.1),",
+            &format!("preset: Water(spacing: 0.1), {extra}"),
+        )
+    };
+    for (text, expected) in [
+        ("solver: Wcsph,", Solver::Wcsph),
+        ("solver: Dfsph(),", Solver::dfsph()),
+        (
+            "solver: Dfsph(max_density_error: 0.0005, warm_start: 0.5),",
+            Solver::Dfsph(Dfsph {
+                max_density_error: 0.0005,
+                warm_start: 0.5,
+                ..Dfsph::default()
+            }),
+        ),
+        (
+            "solver: Pbf(iterations: 8),",
+            Solver::Pbf(Pbf {
+                iterations: 8,
+                ..Pbf::default()
+            }),
+        ),
+        (
+            "solver: Clavet(stiffness: 2.0, springs: Some(Springs(plasticity: 2.0))),",
+            Solver::Clavet(Clavet {
+                stiffness: 2.0,
+                springs: Some(Springs {
+                    plasticity: 2.0,
+                    ..Springs::default()
+                }),
+                ..Clavet::default()
+            }),
+        ),
+    ] {
+        let scene =
+            SceneFile::parse(&with(text), "s.ron").unwrap_or_else(|e| panic!("{text}: {e}"));
+        assert_eq!(scene.fluids[0].params().unwrap().solver, expected, "{text}");
+    }
+    let walls = SceneFile::parse(&with("wall_density: true,"), "s.ron").unwrap();
+    assert!(walls.fluids[0].params().unwrap().wall_density);
+    // A negative value: refused by its type, at its line.
+    let (line, _, field, _) = parse_err(&with("solver: Dfsph(warm_start: -0.5),"));
+    assert_eq!(line, 5);
+    assert!(field.ends_with("warm_start"), "{field}");
+    // Out of range for the solver: refused by the parameter check, naming the field.
+    let (_, _, _, message) = parse_err(&with("solver: Dfsph(warm_start: 1.5),"));
+    assert!(message.contains("warm_start"), "{message}");
+    // A misspelt field.
+    let (_, _, _, message) = parse_err(&with("solver: Pbf(iteratoins: 3),"));
+    assert!(message.contains("iteratoins"), "{message}");
 }

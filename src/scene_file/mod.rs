@@ -138,6 +138,154 @@ pub enum Preset {
     Paper,
 }
 
+/// A pressure solver, as in [`crate::Solver`]: every field is optional and defaults to the
+/// solver's own default, e.g. `Dfsph()` or `Dfsph(max_density_error: 0.0005)`, `Pbf(iterations:
+/// 8)`, `Clavet(springs: Some(Springs()))`, `Wcsph`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum SolverDesc {
+    /// Weakly compressible SPH (the paper's method).
+    Wcsph,
+    /// Divergence-free SPH ([`crate::Dfsph`]).
+    Dfsph {
+        /// Average density error target (fraction of ρ0).
+        #[serde(default)]
+        max_density_error: Option<Positive>,
+        /// Average divergence error target.
+        #[serde(default)]
+        max_divergence_error: Option<Positive>,
+        /// Iterations always run by the constant-density solve.
+        #[serde(default)]
+        min_iterations: Option<u32>,
+        /// Iterations always run by the divergence solve.
+        #[serde(default)]
+        min_divergence_iterations: Option<u32>,
+        /// Iteration cap of each solve.
+        #[serde(default)]
+        max_iterations: Option<u32>,
+        /// Run the divergence solve.
+        #[serde(default)]
+        divergence_solve: Option<bool>,
+        /// Warm-start fraction of the constant-density solve, in `[0, 1]`.
+        #[serde(default)]
+        warm_start: Option<NonNegative>,
+    },
+    /// Position-based fluids ([`crate::solver::Pbf`]).
+    Pbf {
+        /// Jacobi iterations per step.
+        #[serde(default)]
+        iterations: Option<u32>,
+        /// Constraint relaxation ε.
+        #[serde(default)]
+        relaxation: Option<Positive>,
+        /// Artificial pressure k.
+        #[serde(default)]
+        artificial_pressure: Option<NonNegative>,
+        /// Artificial pressure exponent n.
+        #[serde(default)]
+        artificial_pressure_exponent: Option<i32>,
+        /// Artificial pressure distance Δq, as a fraction of h.
+        #[serde(default)]
+        artificial_pressure_distance: Option<NonNegative>,
+    },
+    /// Double-density relaxation ([`crate::solver::Clavet`]).
+    Clavet {
+        /// Stiffness, in units of `c²/(h·ρ0)`.
+        #[serde(default)]
+        stiffness: Option<NonNegative>,
+        /// Near stiffness, same units. Default: the flat-surface equilibrium value.
+        #[serde(default)]
+        near_stiffness: Option<NonNegative>,
+        /// Viscoelastic springs. Default: none.
+        #[serde(default)]
+        springs: Option<SpringsDesc>,
+    },
+}
+
+/// Viscoelastic springs, as in [`crate::solver::Springs`]; unset fields keep its defaults.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Springs")]
+pub struct SpringsDesc {
+    /// Stiffness, in units of `c²/(h²·N)`.
+    #[serde(default)]
+    pub stiffness: Option<NonNegative>,
+    /// Yield ratio γ.
+    #[serde(default)]
+    pub yield_ratio: Option<NonNegative>,
+    /// Plasticity α (1/s).
+    #[serde(default)]
+    pub plasticity: Option<NonNegative>,
+}
+
+impl SolverDesc {
+    /// The solver, defaults filled in (validated with the rest of the parameters).
+    pub fn solver(&self) -> crate::Solver {
+        use crate::solver::{Clavet, Dfsph, Pbf, Solver, Springs};
+        match self {
+            SolverDesc::Wcsph => Solver::Wcsph,
+            SolverDesc::Dfsph {
+                max_density_error,
+                max_divergence_error,
+                min_iterations,
+                min_divergence_iterations,
+                max_iterations,
+                divergence_solve,
+                warm_start,
+            } => {
+                let d = Dfsph::default();
+                Solver::Dfsph(Dfsph {
+                    max_density_error: max_density_error.map_or(d.max_density_error, |v| v.0),
+                    max_divergence_error: max_divergence_error
+                        .map_or(d.max_divergence_error, |v| v.0),
+                    min_iterations: min_iterations.unwrap_or(d.min_iterations),
+                    min_divergence_iterations: min_divergence_iterations
+                        .unwrap_or(d.min_divergence_iterations),
+                    max_iterations: max_iterations.unwrap_or(d.max_iterations),
+                    divergence_solve: divergence_solve.unwrap_or(d.divergence_solve),
+                    warm_start: warm_start.map_or(d.warm_start, |v| v.0),
+                })
+            }
+            SolverDesc::Pbf {
+                iterations,
+                relaxation,
+                artificial_pressure,
+                artificial_pressure_exponent,
+                artificial_pressure_distance,
+            } => {
+                let d = Pbf::default();
+                Solver::Pbf(Pbf {
+                    iterations: iterations.unwrap_or(d.iterations),
+                    relaxation: relaxation.map_or(d.relaxation, |v| v.0),
+                    artificial_pressure: artificial_pressure.map_or(d.artificial_pressure, |v| v.0),
+                    artificial_pressure_exponent: artificial_pressure_exponent
+                        .unwrap_or(d.artificial_pressure_exponent),
+                    artificial_pressure_distance: artificial_pressure_distance
+                        .map_or(d.artificial_pressure_distance, |v| v.0),
+                })
+            }
+            SolverDesc::Clavet {
+                stiffness,
+                near_stiffness,
+                springs,
+            } => {
+                let d = Clavet::default();
+                Solver::Clavet(Clavet {
+                    stiffness: stiffness.map_or(d.stiffness, |v| v.0),
+                    near_stiffness: near_stiffness.map(|v| v.0),
+                    springs: springs.as_ref().map(|s| {
+                        let d = Springs::default();
+                        Springs {
+                            stiffness: s.stiffness.map_or(d.stiffness, |v| v.0),
+                            yield_ratio: s.yield_ratio.map_or(d.yield_ratio, |v| v.0),
+                            plasticity: s.plasticity.map_or(d.plasticity, |v| v.0),
+                        }
+                    }),
+                })
+            }
+        }
+    }
+}
+
 /// The equation of state, as in [`EquationOfState`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -224,6 +372,13 @@ pub struct FluidDesc {
     /// Contact friction μ.
     #[serde(default)]
     pub friction: Option<NonNegative>,
+    /// Pressure solver ([`crate::Solver`]). Default: the preset's (WCSPH).
+    #[serde(default)]
+    pub solver: Option<SolverDesc>,
+    /// Walls count in the density ([`FluidParamsBuilder::wall_density`]). Default: the
+    /// preset's (off).
+    #[serde(default)]
+    pub wall_density: Option<bool>,
     /// Boxes filled with particles at the fluid's spacing ([`Fluid::add_block`]).
     #[serde(default)]
     pub blocks: Vec<BlockDesc>,
@@ -295,6 +450,12 @@ impl FluidDesc {
         }
         if let Some(v) = self.friction {
             b = b.friction(v.0);
+        }
+        if let Some(solver) = &self.solver {
+            b = b.solver(solver.solver());
+        }
+        if let Some(v) = self.wall_density {
+            b = b.wall_density(v);
         }
         b.build()
     }
