@@ -466,6 +466,21 @@ fn bad_scene_configs_are_refused() {
     let mut c = DamBreakConfig::tower(params, 0.5);
     c.tank_height_ratio = Real::NAN;
     assert_eq!(field_of(dam_break(&c).map(|_| ())), "tank_height_ratio");
+    let floating = |density: Real| {
+        rapier_sph::scenes::FloatingBox::new(rapier_sph::scenes::FloatingBoxConfig {
+            spacing: 0.05,
+            tank: 0.5,
+            depth: 0.2,
+            half_width: 0.1,
+            half_height: 0.05,
+            density,
+            solver: rapier_sph::Solver::Wcsph,
+        })
+        .map(|_| ())
+    };
+    for v in [Real::NAN, 0.0, -500.0] {
+        assert_eq!(field_of(floating(v)), "density");
+    }
 }
 
 /// Error messages are printable and mention the field.
