@@ -70,6 +70,9 @@ struct Args {
     /// Walls count in the density (`FluidParams::wall_density`).
     #[arg(long)]
     walls: bool,
+    /// DFSPH only: walls with hydrostatic pressure (`Dfsph::hydrostatic_walls`).
+    #[arg(long)]
+    hydrostatic_walls: bool,
     /// One substep per frame of exactly --dt (default: adaptive CFL substeps within each frame).
     #[arg(long)]
     fixed: bool,
@@ -163,9 +166,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Preset::Paper => FluidParamsBuilder::paper(),
         Preset::Water => FluidParamsBuilder::water(args.spacing),
     };
+    if args.hydrostatic_walls && !matches!(args.solver, Some(SolverArg::Dfsph)) {
+        return Err("--hydrostatic-walls is a DFSPH setting: add --solver dfsph".into());
+    }
     match args.solver {
         Some(SolverArg::Wcsph) => builder = builder.solver(Solver::Wcsph),
-        Some(SolverArg::Dfsph) => builder = builder.solver(Solver::dfsph()),
+        Some(SolverArg::Dfsph) => {
+            builder = builder.solver(Solver::Dfsph(rapier_sph::solver::Dfsph {
+                hydrostatic_walls: args.hydrostatic_walls,
+                ..Default::default()
+            }))
+        }
         Some(SolverArg::Pbf) => builder = builder.solver(Solver::pbf()),
         Some(SolverArg::Clavet) => builder = builder.solver(Solver::clavet()),
         Some(SolverArg::ClavetSprings) => {

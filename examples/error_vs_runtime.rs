@@ -54,6 +54,8 @@ struct Args {
     out: PathBuf,
     scenes: Vec<Scene>,
     skip_scaling: bool,
+    /// DFSPH with [`rapier_sph::solver::Dfsph::hydrostatic_walls`] (reported as `DFSPH-HW`).
+    hydrostatic_walls: bool,
 }
 
 fn parse_args() -> Args {
@@ -62,6 +64,7 @@ fn parse_args() -> Args {
         out: PathBuf::from("report"),
         scenes: Scene::ALL.to_vec(),
         skip_scaling: false,
+        hydrostatic_walls: false,
     };
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
@@ -78,9 +81,11 @@ fn parse_args() -> Args {
                 assert!(!args.scenes.is_empty(), "unknown scene {name}");
             }
             "--no-scaling" => args.skip_scaling = true,
+            "--hydrostatic-walls" => args.hydrostatic_walls = true,
             "-h" | "--help" => {
                 println!(
                     "error_vs_runtime [--quick | --full] [--out DIR] [--scene NAME] [--no-scaling]\n\
+                     \x20                [--hydrostatic-walls]   (DFSPH runs as DFSPH-HW, hydrostatic walls on)\n\
                      scenes: {}",
                     Scene::ALL.map(|s| s.name()).join(", ")
                 );
@@ -676,7 +681,15 @@ fn main() {
     let machine = machine();
     let git = git_revision();
     let started = Instant::now();
-    let methods = methods();
+    let mut methods = methods();
+    if args.hydrostatic_walls {
+        for m in &mut methods {
+            if let rapier_sph::Solver::Dfsph(d) = &mut m.solver {
+                d.hydrostatic_walls = true;
+                m.name = "DFSPH-HW";
+            }
+        }
+    }
     let method_names: Vec<&'static str> = methods.iter().map(|m| m.name).collect();
     let mut plan = Vec::new();
     for &scene in &args.scenes {

@@ -486,6 +486,11 @@ fn step_fluid(
                     bodies,
                     p.collision_groups,
                     coupling.as_deref(),
+                    // The hydrostatic wall pressure is a DFSPH option (see `boundary::wall`).
+                    match p.solver {
+                        Solver::Dfsph(d) if d.hydrostatic_walls => Some(gravity),
+                        _ => None,
+                    },
                 )
             });
             report.particles_near_walls += near;
@@ -568,7 +573,8 @@ fn step_fluid(
     // particle's wall term gave it over the substep, and so minus the body's, is
     // - WCSPH: `−m·g_c·p/(2ρ²)·dt` (the wall pressure force);
     // - DFSPH: `−m·γ·g_c·Σπ·dt`, `Σπ` all the pressure values the divergence and density
-    //   solves applied this substep (warm starts included: what `warm_*` hold now);
+    //   solves applied this substep (warm starts included: what `warm_*` hold now), plus
+    //   minus the dynamic bodies' share of the hydrostatic wall term (when on), `m·h_c·dt`;
     // - PBF: `m·g_c·Σλ/(ρ0·dt)`, the wall's share of the position corrections over all
     //   iterations turned into velocity (`v = Δx/dt`).
     // Clavet's relaxation has no wall term (walls act through contact, whose impulses reach
@@ -583,7 +589,8 @@ fn step_fluid(
             let records = &mut ws.wall_impulses;
             records.resize_with(1, Vec::new);
             records[0].clear();
-            for (i, &(gc, e, point)) in w.coupled.iter().enumerate() {
+            for (i, cw) in w.coupled.iter().enumerate() {
+                let (gc, e, point) = (cw.gradient, cw.entry, cw.point);
                 if e == u32::MAX {
                     continue;
                 }
@@ -595,12 +602,14 @@ fn step_fluid(
                     Solver::Dfsph(_) => {
                         let pi =
                             warm_density[i] + if divergence { warm_divergence[i] } else { 0.0 };
-                        dfsph::WALL_MIRROR * pi * m * dt
+                        w.mirror * pi * m * dt
                     }
                     Solver::Pbf(_) => -ws.pbf.lambda_sum[i] * m / (p.rest_density * dt),
                     Solver::Clavet(_) => 0.0,
                 };
-                let impulse = gc * scale;
+                // The hydrostatic wall term (DFSPH; see `boundary::wall`) pushed the particle
+                // by `m·h_c·dt`: the body takes the opposite.
+                let impulse = gc * scale - cw.hydrostatic * (m * dt);
                 if impulse != Vector::ZERO {
                     records[0].push(crate::boundary::bodies::ImpulseRecord {
                         entry: e,
@@ -889,6 +898,7 @@ fn relax_overlaps(
                         bodies,
                         p.collision_groups,
                         None,
+                        None,
                     )
                 });
                 ws.wall.any().then_some(&ws.wall)
@@ -1085,6 +1095,13 @@ fn step_dfsph<S: Separation>(
                 forces::external::add_gravity(gravity, accelerations);
             } else {
                 accelerations.fill(gravity);
+            }
+            if let Some(w) = wall
+                && !w.hydrostatic.is_empty()
+            {
+                for (a, h) in accelerations.iter_mut().zip(&w.hydrostatic) {
+                    *a += *h;
+                }
             }
         });
         forces = true;

@@ -31,6 +31,30 @@ use rapier3d::geometry::{ColliderSet, InteractionGroups};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
+/// A particle's wall terms due to dynamic bodies (see [`WallWorkspace::coupled`]).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Coupled {
+    /// Dynamic bodies' share of the wall density's gradient (kg/m⁴).
+    pub gradient: Vector,
+    /// Dynamic bodies' share of the hydrostatic wall acceleration (m/s²).
+    pub hydrostatic: Vector,
+    /// Coupling-table entry of the body contributing most (`u32::MAX`: none).
+    pub entry: u32,
+    /// Closest point on that body's surface.
+    pub point: Vector,
+}
+
+impl Default for Coupled {
+    fn default() -> Self {
+        Self {
+            gradient: Vector::ZERO,
+            hydrostatic: Vector::ZERO,
+            entry: u32::MAX,
+            point: Vector::ZERO,
+        }
+    }
+}
+
 /// Per-particle wall contributions of the current step (indexed like the sorted particles).
 #[derive(Clone, Debug, Default)]
 pub struct WallWorkspace {
@@ -53,12 +77,22 @@ pub struct WallWorkspace {
     pub motion: Vec<Real>,
     /// Fraction `Φ ∈ [0, 1]` of each particle's kernel covered by walls.
     pub coverage: Vec<Real>,
-    /// The part of `gradient` due to dynamic bodies of the coupling table, with the table
-    /// entry and surface point of the body contributing most (`u32::MAX`: none). Empty when
-    /// no dynamic body is near (see [`super::bodies`]).
-    pub coupled: Vec<(Vector, u32, Vector)>,
+    /// Acceleration from the walls' hydrostatic pressure (m/s²; empty without gravity): the
+    /// wall's pressure is the particle's plus the hydrostatic difference, `p_b = p_i +
+    /// ρ0·g·(x_b − x_i)` (Adami et al. 2012's wall pressure), and the mirrored part `p_i`
+    /// acts through `gradient`; this is the rest, `−Σ_b V_b (g·(x_b − x_i)) ∇W_ib =
+    /// −(M·n⊗n + Φ·(I − n⊗n))·g` per wall (see [`HalfSpaceTable::eval_moment`]).
+    pub hydrostatic: Vec<Vector>,
+    /// The parts of `gradient` and of `hydrostatic` due to dynamic bodies of the coupling
+    /// table, with the table entry and surface point of the body contributing most
+    /// (`u32::MAX`: none). Empty when no dynamic body is near (see [`super::bodies`]).
+    pub coupled: Vec<Coupled>,
     /// `true` when `coupled` holds data for this update.
     pub coupled_any: bool,
+    /// Weight `γ` of the wall's pressure force for DFSPH: [`crate::solver::WALL_MIRROR`], or
+    /// [`crate::solver::HYDROSTATIC_WALL_MIRROR`] when the update was asked for the
+    /// hydrostatic wall pressure.
+    pub mirror: Real,
     near: usize,
 }
 
@@ -81,6 +115,7 @@ impl WallWorkspace {
         self.gradient.clear();
         self.motion.clear();
         self.coverage.clear();
+        self.hydrostatic.clear();
         self.coupled.clear();
         self.coupled_any = false;
     }
@@ -114,6 +149,7 @@ impl WallWorkspace {
         bodies: &RigidBodySet,
         groups: InteractionGroups,
         coupling: Option<&super::Coupling>,
+        hydrostatic: Option<Vector>,
     ) -> usize {
         let n = positions.len();
         self.tables(density_kernel, force_kernel, h, spacing);
@@ -125,16 +161,28 @@ impl WallWorkspace {
         self.gradient.resize(n, Vector::ZERO);
         self.motion.resize(n, 0.0);
         self.coverage.resize(n, 0.0);
+        self.mirror = if hydrostatic.is_some() {
+            crate::solver::HYDROSTATIC_WALL_MIRROR
+        } else {
+            crate::solver::WALL_MIRROR
+        };
+        let gravity = hydrostatic.unwrap_or(Vector::ZERO);
+        let hydro = gravity != Vector::ZERO;
+        if hydro {
+            self.hydrostatic.resize(n, Vector::ZERO);
+        } else {
+            self.hydrostatic.clear();
+        }
         let any_dynamic = table.iter().any(|m| m.dynamic);
         self.coupled_any = any_dynamic;
         // Read only when `coupled_any`; sized always so the chunks line up.
-        self.coupled
-            .resize(n, (Vector::ZERO, u32::MAX, Vector::ZERO));
+        self.coupled.resize(n, Coupled::default());
         if !self.candidates.any() {
             self.density.fill(0.0);
             self.gradient.fill(Vector::ZERO);
             self.motion.fill(0.0);
             self.coverage.fill(0.0);
+            self.hydrostatic.fill(Vector::ZERO);
             self.near = 0;
             return 0;
         }
@@ -143,13 +191,22 @@ impl WallWorkspace {
         };
         let candidates = &self.candidates;
         let (full_d, full_f) = (td.full(), tf.full());
+        // Without gravity `hydrostatic` is empty: hand out empty chunks.
+        let mut no_hydro: Vec<Vector> = Vec::new();
+        let hydro_slice = if hydro {
+            &mut self.hydrostatic[..]
+        } else {
+            no_hydro.resize(n, Vector::ZERO);
+            &mut no_hydro[..]
+        };
         let counts = crate::par_chunks_mut!(self.density, CHUNK)
             .zip(crate::par_chunks_mut!(self.gradient, CHUNK))
             .zip(crate::par_chunks_mut!(self.motion, CHUNK))
             .zip(crate::par_chunks_mut!(self.coverage, CHUNK))
             .zip(crate::par_chunks_mut!(self.coupled, CHUNK))
+            .zip(crate::par_chunks_mut!(hydro_slice, CHUNK))
             .enumerate()
-            .map(|(c, ((((dens, grad), motion), cover), coupled))| {
+            .map(|(c, (((((dens, grad), motion), cover), coupled), hyd))| {
                 let base = c * CHUNK;
                 let mut near = 0usize;
                 for k in 0..dens.len() {
@@ -159,8 +216,10 @@ impl WallWorkspace {
                     let mut u: Real = 0.0;
                     let mut g = Vector::ZERO;
                     let mut m: Real = 0.0;
+                    let mut hs = Vector::ZERO;
                     // Share of the gradient from dynamic bodies, and the largest one's entry.
                     let mut gc = Vector::ZERO;
+                    let mut hc = Vector::ZERO;
                     let mut main: (Real, u32, Vector) = (0.0, u32::MAX, Vector::ZERO);
                     for &handle in candidates.of_cell(grid.cell_of(i)) {
                         let Some(co) = colliders.get(handle) else {
@@ -205,14 +264,23 @@ impl WallWorkspace {
                         // ∇Φ = −A(d)·n (into the wall), in units of the whole kernel.
                         let ga = -normal * (area / full_f);
                         let gk = ga * (1.0 - u);
+                        let mut hk = Vector::ZERO;
+                        if hydro {
+                            let (phi_f, mom) = tf.eval_moment(d);
+                            let gn = normal * normal.dot(gravity);
+                            hk = -(gn * mom + (gravity - gn) * phi_f) * (1.0 - u);
+                            hs = hs * (1.0 - a) + hk;
+                        }
                         g = g * (1.0 - a) + gk;
                         u = 1.0 - (1.0 - u) * (1.0 - a);
                         if any_dynamic {
                             gc *= 1.0 - a;
+                            hc *= 1.0 - a;
                             if let Some((e, mc)) = found
                                 && mc.dynamic
                             {
                                 gc += gk;
+                                hc += hk;
                                 let l = gk.length_squared();
                                 if l > main.0 {
                                     main = (l, e, proj.point);
@@ -233,8 +301,16 @@ impl WallWorkspace {
                     grad[k] = g * (rest_density * full_f);
                     motion[k] = m * rest_density * full_f;
                     cover[k] = u;
+                    if hydro {
+                        hyd[k] = hs;
+                    }
                     if any_dynamic {
-                        coupled[k] = (gc * (rest_density * full_f), main.1, main.2);
+                        coupled[k] = Coupled {
+                            gradient: gc * (rest_density * full_f),
+                            hydrostatic: hc,
+                            entry: main.1,
+                            point: main.2,
+                        };
                     }
                     near += (u > 0.0 || g != Vector::ZERO) as usize;
                 }

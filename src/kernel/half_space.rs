@@ -48,6 +48,7 @@ pub struct HalfSpaceTable {
     inv_step: Real,
     phi: Vec<Real>,
     area: Vec<Real>,
+    moment: Vec<Real>,
 }
 
 impl HalfSpaceTable {
@@ -75,6 +76,24 @@ impl HalfSpaceTable {
         };
         // A(z): the kernel integrated over the plane at height z.
         let area_at = |z: f64| 2.0 * std::f64::consts::PI * radial(z);
+        // N(z) = ∫_plane |W'(r)|·z²/r dA = 2π·z²·W(|z|): the plane's share of the normal
+        // component of the first moment (see `moment` below).
+        let normal_at = |z: f64| {
+            if z.abs() >= hf {
+                0.0
+            } else {
+                2.0 * std::f64::consts::PI * z * z * kernel.w(z.abs() as Real) as f64
+            }
+        };
+        let moment_at = |d: f64| -> f64 {
+            let mut sum = 0.0;
+            let mut z = d + 0.5 * s;
+            while z < hf {
+                sum += s * normal_at(z);
+                z += s;
+            }
+            sum
+        };
         // Φ_s(d): ghost rows at d + s/2 + k·s behind the wall, each a plane integral.
         let phi_at = |d: f64| -> f64 {
             let mut sum = 0.0;
@@ -96,11 +115,15 @@ impl HalfSpaceTable {
                 -(phi_at(d + e) - phi_at(d - e)) / (2.0 * e)
             })
             .collect();
+        let moment = (0..=INTERVALS)
+            .map(|k| moment_at(d_at(k)) as Real)
+            .collect();
         Self {
             h,
             inv_step: (1.0 / step) as Real,
             phi: phi.into_iter().map(|v| v as Real).collect(),
             area: area.into_iter().map(|v| v as Real).collect(),
+            moment,
         }
     }
 
@@ -125,6 +148,27 @@ impl HalfSpaceTable {
         let t = x - k as Real;
         let lerp = |v: &[Real]| v[k] + (v[k + 1] - v[k]) * t;
         (lerp(&self.phi), lerp(&self.area))
+    }
+
+    /// `(Φ(d), M(d))`: the wall's share of the kernel's first moment. The moment
+    /// `Σ_b V_b (x_b − x_i) ⊗ ∇W_ib` over the wall's ghost rows (the identity over the whole
+    /// space) is `M·n⊗n + Φ·(I − n⊗n)` for a wall of normal `n`: its tangential part equals
+    /// `Φ` (per plane, `π∫|W'|(r² − z²)dr = 2π∫W r dr`), its normal part is
+    /// `M(d) = Σ_k s·2π z_k² W(z_k)` over the rows `z_k = d + s/2 + k·s`. The wall's
+    /// hydrostatic pressure acts through it (see [`crate::boundary::wall`]).
+    #[inline]
+    pub fn eval_moment(&self, d: Real) -> (Real, Real) {
+        if self.phi.is_empty() {
+            return (0.0, 0.0);
+        }
+        let x = ((d + self.h) * self.inv_step).clamp(0.0, INTERVALS as Real);
+        if x.is_nan() {
+            return (0.0, 0.0);
+        }
+        let k = (x as usize).min(INTERVALS - 1);
+        let t = x - k as Real;
+        let lerp = |v: &[Real]| v[k] + (v[k + 1] - v[k]) * t;
+        (lerp(&self.phi), lerp(&self.moment))
     }
 
     /// The whole kernel's integral `Φ(−h)` (1 for a normalised kernel).
@@ -191,6 +235,58 @@ mod tests {
         check::<WendlandC2>();
         check::<Poly6>();
         check::<Spiky>();
+    }
+
+    #[test]
+    fn wall_moment_completes_the_lattice_moment() {
+        // The first moment Σ V (x_j − x_i) ⊗ ∇W_ij of a full lattice is about the identity. A
+        // particle half a spacing above a wall has the lattice only on its side: the wall's
+        // normal moment M(s/2) and tangential moment Φ(s/2) must stand in for the missing
+        // half, component by component.
+        let s: Real = 0.05;
+        let h = 2.0 * s;
+        let k = CubicSpline::new(h);
+        let t = HalfSpaceTable::new::<CubicSpline>(h, s);
+        let (mut full_n, mut full_t, mut half_n, mut half_t) = (0.0, 0.0, 0.0, 0.0);
+        for i in -4i32..=4 {
+            for j in -4i32..=4 {
+                for l in -4i32..=4 {
+                    let p = [i as Real * s, j as Real * s, l as Real * s];
+                    let d = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+                    if d == 0.0 {
+                        continue;
+                    }
+                    // |∇W|·r_a²/r, per component (V = s³).
+                    let g = -k.dw(d) / d * s * s * s;
+                    let (n, tan) = (g * p[2] * p[2], g * p[0] * p[0]);
+                    full_n += n;
+                    full_t += tan;
+                    if l >= 0 {
+                        half_n += n;
+                        half_t += tan;
+                    }
+                }
+            }
+        }
+        let (phi, m) = t.eval_moment(0.5 * s);
+        // Two rows per support radius: the lattice's moment is the identity within a few per
+        // cent (1.020 for the cubic spline).
+        assert!((full_n - 1.0).abs() < 0.03, "lattice moment {full_n}");
+        assert!(
+            (half_n + m - full_n).abs() < 0.01 * full_n,
+            "normal: {half_n} + {m} vs {full_n}"
+        );
+        assert!(
+            (half_t + phi - full_t).abs() < 0.01 * full_t,
+            "tangential: {half_t} + {phi} vs {full_t}"
+        );
+        // Deep inside the wall the ghost rows hold the whole moment; beyond h nothing.
+        assert!(
+            (t.eval_moment(-h).1 - 1.0).abs() < 0.03,
+            "{}",
+            t.eval_moment(-h).1
+        );
+        assert_eq!(t.eval_moment(h).1, 0.0);
     }
 
     #[test]

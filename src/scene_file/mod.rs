@@ -169,6 +169,9 @@ pub enum SolverDesc {
         /// Warm-start fraction of the constant-density solve, in `[0, 1]`.
         #[serde(default)]
         warm_start: Option<NonNegative>,
+        /// Walls with hydrostatic pressure ([`crate::solver::Dfsph::hydrostatic_walls`]).
+        #[serde(default)]
+        hydrostatic_walls: Option<bool>,
     },
     /// Position-based fluids ([`crate::solver::Pbf`]).
     Pbf {
@@ -231,6 +234,7 @@ impl SolverDesc {
                 max_iterations,
                 divergence_solve,
                 warm_start,
+                hydrostatic_walls,
             } => {
                 let d = Dfsph::default();
                 Solver::Dfsph(Dfsph {
@@ -243,6 +247,7 @@ impl SolverDesc {
                     max_iterations: max_iterations.unwrap_or(d.max_iterations),
                     divergence_solve: divergence_solve.unwrap_or(d.divergence_solve),
                     warm_start: warm_start.map_or(d.warm_start, |v| v.0),
+                    hydrostatic_walls: hydrostatic_walls.unwrap_or(d.hydrostatic_walls),
                 })
             }
             SolverDesc::Pbf {

@@ -16,7 +16,7 @@ pub mod pbf;
 pub mod springs;
 
 pub use clavet::Clavet;
-pub use dfsph::Dfsph;
+pub use dfsph::{Dfsph, HYDROSTATIC_WALL_MIRROR, WALL_MIRROR};
 pub use pbf::Pbf;
 pub use springs::Springs;
 
