@@ -20,6 +20,7 @@ use crate::diagnostics::{Stage, StepReport};
 use crate::domain::{MinimumImage, Separation};
 use crate::error::{SphError, SphResult};
 use crate::fluid::{Fluid, FluidSet};
+use crate::kernel::ViscosityLaplacian;
 use crate::math::{Real, Vector};
 use crate::solver::{Solver, dfsph};
 use crate::{density, forces, integrate, par, pressure};
@@ -1040,12 +1041,20 @@ fn step_dfsph<S: Separation>(
 ) -> (usize, Real) {
     let h = p.smoothing_length;
     let n = positions.len();
-    ws.dfsph.alpha.resize(n, 0.0);
-    // 3. Density and DFSPH factors.
+    ws.dfsph.resize(n);
+    // 3. Density and DFSPH factors, and the divergence solve's warm start (same pass).
+    let pushed = settings.divergence_solve && dfsph::divergence_warm_start(warm_divergence);
     timed(report, Stage::Density, || {
+        let viscosity = (p.viscosity > 0.0).then(|| ViscosityLaplacian::new(h));
+        let push = pushed.then_some(dfsph::WarmPush {
+            pi: warm_divergence,
+            velocities,
+            dt,
+        });
         crate::with_kernel!(p.density_kernel, K => dfsph::density_and_factors_in::<K, S>(
-            positions, &ws.neighbors, p.particle_mass, h, wall,
-            densities, &mut ws.inv_densities, &mut ws.dfsph.alpha, &mut ws.gradients, sep));
+            positions, &ws.neighbors, p.particle_mass, h, wall, viscosity, push,
+            densities, &mut ws.inv_densities, &mut ws.dfsph.alpha, &mut ws.gradients,
+            &mut ws.dfsph.velocities, sep));
     });
     let ctx = dfsph::SolveContext {
         positions,
@@ -1063,7 +1072,14 @@ fn step_dfsph<S: Separation>(
     // 4. Divergence solve.
     if settings.divergence_solve {
         let stats = timed(report, Stage::DivergenceSolve, || {
-            dfsph::divergence_solve(&ctx, settings, &mut ws.dfsph, warm_divergence, velocities)
+            dfsph::divergence_solve(
+                &ctx,
+                settings,
+                &mut ws.dfsph,
+                pushed,
+                warm_divergence,
+                velocities,
+            )
         });
         report.divergence_iterations += stats.iterations;
         report.solver_divergence_error = report.solver_divergence_error.max(stats.error);
@@ -1076,16 +1092,16 @@ fn step_dfsph<S: Separation>(
         forces = true;
         timed(report, Stage::ViscosityForce, || {
             accelerations.fill(Vector::ZERO);
-            forces::viscosity::add_accelerations_in(
-                ctx.positions,
+            // From the pair Laplacians stored by the density pass.
+            dfsph::viscosity(
+                &ws.neighbors,
+                ctx.gradients,
                 velocities,
                 &ws.inv_densities,
-                &ws.neighbors,
                 p.particle_mass,
                 p.viscosity,
-                h,
+                &mut ws.dfsph.velocities,
                 accelerations,
-                sep,
             );
         });
     }

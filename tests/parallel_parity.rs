@@ -223,3 +223,71 @@ fn coupled_scene_is_bitwise_identical_across_thread_counts_and_builds() {
         }
     }
 }
+
+/// DFSPH with walls in the density (the salva comparison's setup, small): the solves' pair
+/// passes, the stored gradients and Laplacians, and the warm start pushed by the density
+/// pass give bitwise the same state on 1, 2 and 3 threads, and in the serial build.
+#[test]
+fn dfsph_with_wall_density_is_bitwise_identical_across_thread_counts_and_builds() {
+    let run = || {
+        let params = FluidParamsBuilder::water(0.04)
+            .solver(rapier_sph::Solver::dfsph())
+            .wall_density(true)
+            .build()
+            .unwrap();
+        let mut scene = dam_break(&DamBreakConfig::tower(params, 0.8)).unwrap();
+        scene.world.physics.integration_parameters.dt = 1.0 / 60.0;
+        let mut iterations = 0;
+        for _ in 0..60 {
+            iterations += scene.world.step().unwrap().solver_iterations;
+        }
+        let f = &scene.world.fluids[scene.fluid];
+        (
+            f.positions().to_vec(),
+            f.velocities().to_vec(),
+            f.ids().to_vec(),
+            iterations,
+        )
+    };
+    let mut results = Vec::new();
+    for threads in [1, 2, 3] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        results.push((threads, pool.install(run)));
+    }
+    let (_, (p1, v1, i1, it1)) = &results[0];
+    // The solver did work: the density solve iterated.
+    assert!(*it1 > 60, "{it1} density iterations over 60 frames");
+    for (threads, (p, v, i, it)) in &results[1..] {
+        assert_eq!(i, i1, "{threads} threads: particle order differs");
+        assert_eq!(it, it1, "{threads} threads: iteration counts differ");
+        assert!(bits(p) == bits(p1), "{threads} threads: positions differ");
+        assert!(bits(v) == bits(v1), "{threads} threads: velocities differ");
+    }
+    let hash = fnv(p1, v1, i1);
+    let build = if cfg!(feature = "parallel") {
+        "parallel"
+    } else {
+        "serial"
+    };
+    if let Some(path) = std::env::var_os("RAPIER_SPH_PARITY_FILE") {
+        let mut path = std::path::PathBuf::from(path).into_os_string();
+        path.push(".dfsph");
+        match std::fs::read_to_string(&path) {
+            Ok(text) => {
+                let recorded = text.split_whitespace().next().expect("empty parity file");
+                assert_eq!(
+                    recorded,
+                    format!("{hash:016x}"),
+                    "the {build} build's DFSPH run differs (recorded in {path:?})"
+                );
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                std::fs::write(&path, format!("{hash:016x} {build}\n")).unwrap();
+            }
+            Err(e) => panic!("cannot read {path:?}: {e}"),
+        }
+    }
+}

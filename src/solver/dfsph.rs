@@ -36,10 +36,11 @@
 use super::pairs::{PairGradients, gradient_block, gradient_one, reduce_partials};
 use crate::boundary::WallWorkspace;
 use crate::domain::{Open, Separation};
-use crate::kernel::Kernel;
+use crate::kernel::{Kernel, ViscosityLaplacian};
 use crate::math::{Real, Vector};
 use crate::neighbors::NeighborLists;
 use crate::par::{CHUNK, LANES, lane_sum};
+use rapier3d::glamx::Vec3A;
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
@@ -62,6 +63,10 @@ pub const WALL_MIRROR: Real = 1.0;
 /// moment), vertical support next to side walls included. Together they make the linear
 /// hydrostatic pressure an equilibrium next to walls.
 pub const HYDROSTATIC_WALL_MIRROR: Real = 2.0;
+
+/// Accumulators of the solves' pair sums (pair `t` of a particle goes to `t % ACC`), summed
+/// as `(a0 + a1) + (a2 + a3)`: independent add chains, and a fixed order.
+const ACC: usize = 4;
 
 /// Settings of the DFSPH solver. Defaults follow Bender & Koschier (2017): 0.1 % average
 /// density error, 1 % divergence error.
@@ -147,24 +152,86 @@ pub struct DfsphBuffers {
     pub pi: Vec<Real>,
     /// Per-chunk partial sums.
     pub partials: Vec<(f64, Real)>,
+    /// The velocities being corrected, 16 bytes wide (copied in and out by each solve; the
+    /// pair passes load a neighbour's velocity in one instruction). Also the scratch copy
+    /// of [`viscosity`].
+    pub velocities: Vec<Vec3A>,
 }
 
 impl DfsphBuffers {
-    fn resize(&mut self, n: usize) {
+    /// Sizes every array for `n` particles (no allocation once warm).
+    pub fn resize(&mut self, n: usize) {
         self.alpha.resize(n, 0.0);
         self.pi.resize(n, 0.0);
         self.partials.resize(n.div_ceil(CHUNK), (0.0, 0.0));
+        self.velocities.resize(n, Vec3A::ZERO);
     }
 
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
-        (self.alpha.capacity() + self.pi.capacity()) * 4 + self.partials.capacity() * 16
+        (self.alpha.capacity() + self.pi.capacity()) * 4
+            + self.partials.capacity() * 16
+            + self.velocities.capacity() * std::mem::size_of::<Vec3A>()
     }
+}
+
+/// `out[l] = (x[l], y[l], z[l])` for the [`LANES`] lanes of a block: a 4×4 transpose of
+/// shuffles on x86-64 (built lane by lane, the vectors went through the stack and stalled
+/// on store forwarding).
+#[inline(always)]
+fn to_vectors(x: &[Real; LANES], y: &[Real; LANES], z: &[Real; LANES], out: &mut [Vec3A]) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        for (h, out) in out.chunks_exact_mut(4).enumerate() {
+            let o = 4 * h;
+            // SAFETY: the loads read lanes `o..o + 4` of arrays of LANES = 8 (o is 0 or 4);
+            // SSE is part of every x86-64 CPU.
+            let v = unsafe {
+                let xv = _mm_loadu_ps(x.as_ptr().add(o));
+                let yv = _mm_loadu_ps(y.as_ptr().add(o));
+                let zv = _mm_loadu_ps(z.as_ptr().add(o));
+                let xy_lo = _mm_unpacklo_ps(xv, yv); // x0 y0 x1 y1
+                let xy_hi = _mm_unpackhi_ps(xv, yv); // x2 y2 x3 y3
+                let zz_lo = _mm_unpacklo_ps(zv, zv); // z0 z0 z1 z1
+                let zz_hi = _mm_unpackhi_ps(zv, zv); // z2 z2 z3 z3
+                [
+                    _mm_movelh_ps(xy_lo, zz_lo),
+                    _mm_movehl_ps(zz_lo, xy_lo),
+                    _mm_movelh_ps(xy_hi, zz_hi),
+                    _mm_movehl_ps(zz_hi, xy_hi),
+                ]
+            };
+            for (o, v) in out.iter_mut().zip(v) {
+                *o = Vec3A::from(v);
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    for l in 0..LANES {
+        out[l] = Vec3A::new(x[l], y[l], z[l]);
+    }
+}
+
+/// The divergence solve's warm start, applied by [`density_and_factors`] in its pass over
+/// the neighbours (it needs only the pairs' gradients, which that pass computes), which
+/// saves the solve one pass; see [`divergence_warm_start`].
+#[derive(Copy, Clone, Debug)]
+pub struct WarmPush<'a> {
+    /// Pressure values `π` to apply (the previous step's divergence values, halved).
+    pub pi: &'a [Real],
+    /// Velocities before the push.
+    pub velocities: &'a [Vector],
+    /// Time step.
+    pub dt: Real,
 }
 
 /// Density (fluid sum plus walls), its inverse, and the DFSPH factor of every particle, in
 /// one pass over the neighbours, which also stores every pair's kernel gradient in `grads`
-/// for the solves (the positions do not move until the step's end).
+/// for the solves (the positions do not move until the step's end), with
+/// `viscosity = Some(∇²W_v)` every pair's viscosity Laplacian for [`viscosity`], and with
+/// `push = Some(..)` the pushed velocities `v_i − dt·(Σ_j m (π_i + π_j) ∇W_ij + γ π_i ∇ρ_wall,i)`
+/// in `pushed` (as the solves' pressure pass; `pushed` is left alone without a push).
 #[allow(clippy::too_many_arguments)]
 pub fn density_and_factors<K: Kernel>(
     positions: &[Vector],
@@ -172,10 +239,13 @@ pub fn density_and_factors<K: Kernel>(
     mass: Real,
     h: Real,
     wall: Option<&WallWorkspace>,
+    viscosity: Option<ViscosityLaplacian>,
+    push: Option<WarmPush<'_>>,
     densities: &mut [Real],
     inv_densities: &mut [Real],
     alpha: &mut [Real],
     grads: &mut PairGradients,
+    pushed: &mut [Vec3A],
 ) {
     density_and_factors_in::<K, Open>(
         positions,
@@ -183,10 +253,13 @@ pub fn density_and_factors<K: Kernel>(
         mass,
         h,
         wall,
+        viscosity,
+        push,
         densities,
         inv_densities,
         alpha,
         grads,
+        pushed,
         Open,
     );
 }
@@ -199,31 +272,42 @@ pub fn density_and_factors_in<K: Kernel, S: Separation>(
     mass: Real,
     h: Real,
     wall: Option<&WallWorkspace>,
+    viscosity: Option<ViscosityLaplacian>,
+    push: Option<WarmPush<'_>>,
     densities: &mut [Real],
     inv_densities: &mut [Real],
     alpha: &mut [Real],
     grads: &mut PairGradients,
+    pushed: &mut [Vec3A],
     sep: S,
 ) {
     let kernel = K::new(h);
     let self_term = mass * kernel.w(0.0);
     let n = positions.len();
+    assert_eq!(pushed.len(), n, "one pushed velocity per particle");
     let grad_chunks = grads.chunks_mut(n);
     crate::par_chunks_mut!(densities, CHUNK)
         .zip(crate::par_chunks_mut!(inv_densities, CHUNK))
         .zip(crate::par_chunks_mut!(alpha, CHUNK))
         .zip(crate::par_iter_mut!(grad_chunks))
+        .zip(crate::par_chunks_mut!(pushed, CHUNK))
         .enumerate()
-        .for_each(|(c, (((dens, inv), alpha), gc))| {
+        .for_each(|(c, ((((dens, inv), alpha), gc), pushed))| {
             let base = c * CHUNK;
             let (offsets, indices) = neighbors.chunk(c);
-            gc.resize(offsets[dens.len()] as usize);
+            let pairs = offsets[dens.len()] as usize;
+            gc.grad.resize(pairs, Vec3A::ZERO);
+            gc.laplacian.resize(viscosity.map_or(0, |_| pairs), 0.0);
             for k in 0..dens.len() {
                 let i = base + k;
                 let xi = positions[i];
                 let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
                 let nb = &indices[s..e];
-                let (ox, oy, oz) = (&mut gc.x[s..e], &mut gc.y[s..e], &mut gc.z[s..e]);
+                let out = &mut gc.grad[s..e];
+                let lap_out: &mut [Real] = match viscosity {
+                    Some(_) => &mut gc.laplacian[s..e],
+                    None => &mut [],
+                };
                 let (mut w, mut sx, mut sy, mut sz, mut s2) = (
                     [0.0; LANES],
                     [0.0; LANES],
@@ -235,9 +319,15 @@ pub fn density_and_factors_in<K: Kernel, S: Separation>(
                 for (t, block) in nb[..full].chunks_exact(LANES).enumerate() {
                     let b = gradient_block(&sep, &kernel, i, xi, positions, block);
                     let o = t * LANES;
-                    ox[o..o + LANES].copy_from_slice(&b.gx);
-                    oy[o..o + LANES].copy_from_slice(&b.gy);
-                    oz[o..o + LANES].copy_from_slice(&b.gz);
+                    to_vectors(&b.gx, &b.gy, &b.gz, &mut out[o..o + LANES]);
+                    if let Some(lap) = &viscosity {
+                        let lap_out: &mut [Real; LANES] =
+                            (&mut lap_out[o..o + LANES]).try_into().unwrap();
+                        for (o, &d) in lap_out.iter_mut().zip(&b.d) {
+                            *o = lap.laplacian(d);
+                        }
+                    }
+                    // A separate loop: mixed with the stores above it did not vectorise.
                     for l in 0..LANES {
                         w[l] += kernel.w(b.d[l]);
                         sx[l] += b.gx[l];
@@ -251,7 +341,10 @@ pub fn density_and_factors_in<K: Kernel, S: Separation>(
                 let mut g2 = lane_sum(s2);
                 for t in full..nb.len() {
                     let (gr, d) = gradient_one(&sep, &kernel, i, xi, positions, nb[t]);
-                    (ox[t], oy[t], oz[t]) = (gr.x, gr.y, gr.z);
+                    out[t] = Vec3A::from(gr);
+                    if let Some(lap) = &viscosity {
+                        lap_out[t] = lap.laplacian(d);
+                    }
                     wsum += kernel.w(d);
                     g += gr;
                     g2 += gr.length_squared();
@@ -265,6 +358,10 @@ pub fn density_and_factors_in<K: Kernel, S: Separation>(
                     rho += wall.density[i];
                     let gw = wall.gradient[i];
                     denom = (grad + gw * wall.mirror).dot(grad + gw) + mass * mass * g2;
+                }
+                if let Some(push) = &push {
+                    let v = Vec3A::from(push.velocities[i]);
+                    pushed[k] = v - pressure_push(nb, out, push.pi, i, mass, wall, push.dt);
                 }
                 dens[k] = rho;
                 inv[k] = 1.0 / rho;
@@ -282,9 +379,12 @@ pub fn density_and_factors_in<K: Kernel, S: Separation>(
 /// velocities, `Dρ_i/Dt = Σ_j m (v_i − v_j)·∇W_ij + (v_i − v_wall)·∇ρ_wall,i` (eq. 6), handed to
 /// `finish(i, rate)`, which returns `(π_i, error_i)`. Writes `π`; returns the per-chunk error
 /// sums into `partials`.
+///
+/// The pair sum runs over 16-byte vectors (one packed subtract, multiply and add per pair)
+/// into [`ACC`] accumulators taken in a fixed order, so the result depends on the data only.
 #[allow(clippy::too_many_arguments)]
 fn rate_pass<F: Fn(usize, Real) -> (Real, Real) + Sync>(
-    velocities: &[Vector],
+    velocities: &[Vec3A],
     neighbors: &NeighborLists,
     grads: &PairGradients,
     mass: Real,
@@ -299,33 +399,31 @@ fn rate_pass<F: Fn(usize, Real) -> (Real, Real) + Sync>(
         .for_each(|(c, (pi, partial))| {
             let base = c * CHUNK;
             let (offsets, indices) = neighbors.chunk(c);
-            let gc = grads.chunk(c);
+            let gc = &grads.chunk(c).grad;
             let mut err_sum = 0.0f64;
             let mut err_max: Real = 0.0;
             for k in 0..pi.len() {
                 let i = base + k;
                 let vi = velocities[i];
                 let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
-                let (nb, gx, gy, gz) = (&indices[s..e], &gc.x[s..e], &gc.y[s..e], &gc.z[s..e]);
-                let mut acc = [0.0; LANES];
-                let full = nb.len() / LANES * LANES;
-                for t in (0..full).step_by(LANES) {
-                    let j: &[u32; LANES] = nb[t..t + LANES].try_into().unwrap();
-                    let bx: &[Real; LANES] = gx[t..t + LANES].try_into().unwrap();
-                    let by: &[Real; LANES] = gy[t..t + LANES].try_into().unwrap();
-                    let bz: &[Real; LANES] = gz[t..t + LANES].try_into().unwrap();
-                    for l in 0..LANES {
-                        let v = vi - velocities[j[l] as usize];
-                        acc[l] += v.x * bx[l] + v.y * by[l] + v.z * bz[l];
+                let (nb, g) = (&indices[s..e], &gc[s..e]);
+                let mut acc = [Vec3A::ZERO; ACC];
+                let full = nb.len() / ACC * ACC;
+                for (j, g) in nb[..full]
+                    .chunks_exact(ACC)
+                    .zip(g[..full].chunks_exact(ACC))
+                {
+                    for l in 0..ACC {
+                        acc[l] += (vi - velocities[j[l] as usize]) * g[l];
                     }
                 }
-                let mut rate = lane_sum(acc);
-                for t in full..nb.len() {
-                    let v = vi - velocities[nb[t] as usize];
-                    rate += v.dot(Vector::new(gx[t], gy[t], gz[t]));
+                for (l, (&j, &g)) in nb[full..].iter().zip(&g[full..]).enumerate() {
+                    acc[l] += (vi - velocities[j as usize]) * g;
                 }
-                rate *= mass;
+                let a = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+                let mut rate = (a.x + a.y + a.z) * mass;
                 if let Some(wall) = wall {
+                    let vi = Vector::from(vi);
                     rate += vi.dot(wall.gradient[i]) - wall.motion[i];
                 }
                 let (p, e) = finish(i, rate);
@@ -337,6 +435,41 @@ fn rate_pass<F: Fn(usize, Real) -> (Real, Real) + Sync>(
         });
 }
 
+/// `dt·(Σ_j m (π_i + π_j) ∇W_ij + γ π_i ∇ρ_wall,i)`: how much the pressure values `pi`
+/// change particle `i`'s velocity over `dt` (subtracted), from its neighbours `nb` and
+/// their gradients `g`. The pair sum runs like [`rate_pass`]'s.
+#[inline(always)]
+fn pressure_push(
+    nb: &[u32],
+    g: &[Vec3A],
+    pi: &[Real],
+    i: usize,
+    mass: Real,
+    wall: Option<&WallWorkspace>,
+    dt: Real,
+) -> Vec3A {
+    let pii = pi[i];
+    let mut acc = [Vec3A::ZERO; ACC];
+    let full = nb.len() / ACC * ACC;
+    for (j, g) in nb[..full]
+        .chunks_exact(ACC)
+        .zip(g[..full].chunks_exact(ACC))
+    {
+        for l in 0..ACC {
+            acc[l] += g[l] * (pii + pi[j[l] as usize]);
+        }
+    }
+    for (l, (&j, &g)) in nb[full..].iter().zip(&g[full..]).enumerate() {
+        acc[l] += g * (pii + pi[j as usize]);
+    }
+    let f = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+    let mut dv = Vector::from(f) * (dt * mass);
+    if let Some(wall) = wall {
+        dv += wall.gradient[i] * (wall.mirror * pii * dt);
+    }
+    Vec3A::from(dv)
+}
+
 /// Pass B of an iteration: `v_i −= dt·(Σ_j m (π_i + π_j) ∇W_ij + π_i ∇ρ_wall,i)`.
 fn apply_pressure(
     neighbors: &NeighborLists,
@@ -345,43 +478,70 @@ fn apply_pressure(
     wall: Option<&WallWorkspace>,
     pi: &[Real],
     dt: Real,
-    velocities: &mut [Vector],
+    velocities: &mut [Vec3A],
 ) {
-    let dtm = dt * mass;
     crate::par_chunks_mut!(velocities, CHUNK)
         .enumerate()
         .for_each(|(c, out)| {
             let base = c * CHUNK;
             let (offsets, indices) = neighbors.chunk(c);
-            let gc = grads.chunk(c);
+            let gc = &grads.chunk(c).grad;
             for (k, v) in out.iter_mut().enumerate() {
-                let i = base + k;
-                let pii = pi[i];
                 let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
-                let (nb, gx, gy, gz) = (&indices[s..e], &gc.x[s..e], &gc.y[s..e], &gc.z[s..e]);
-                let (mut fx, mut fy, mut fz) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
-                let full = nb.len() / LANES * LANES;
-                for t in (0..full).step_by(LANES) {
-                    let j: &[u32; LANES] = nb[t..t + LANES].try_into().unwrap();
-                    let bx: &[Real; LANES] = gx[t..t + LANES].try_into().unwrap();
-                    let by: &[Real; LANES] = gy[t..t + LANES].try_into().unwrap();
-                    let bz: &[Real; LANES] = gz[t..t + LANES].try_into().unwrap();
-                    for l in 0..LANES {
-                        let s = pii + pi[j[l] as usize];
-                        fx[l] += s * bx[l];
-                        fy[l] += s * by[l];
-                        fz[l] += s * bz[l];
+                *v -= pressure_push(&indices[s..e], &gc[s..e], pi, base + k, mass, wall, dt);
+            }
+        });
+}
+
+/// Adds the viscosity acceleration (Müller et al. 2003, as
+/// [`crate::forces::viscosity::add_accelerations`]) to `accelerations`,
+/// `a_i += ε m/ρ_i Σ_j (v_j − v_i)/ρ_j ∇²W_v(|x_i − x_j|)`, from the Laplacians stored by
+/// [`density_and_factors`] (called with `Some` viscosity): a gather of velocities and
+/// densities, with no distance or kernel evaluated. `wide` is scratch for a 16-byte copy of
+/// the velocities.
+#[allow(clippy::too_many_arguments)]
+pub fn viscosity(
+    neighbors: &NeighborLists,
+    pairs: &PairGradients,
+    velocities: &[Vector],
+    inv_densities: &[Real],
+    mass: Real,
+    viscosity: Real,
+    wide: &mut Vec<Vec3A>,
+    accelerations: &mut [Vector],
+) {
+    wide.clear();
+    wide.extend(velocities.iter().map(|&v| Vec3A::from(v)));
+    let velocities: &[Vec3A] = wide;
+    let em = viscosity * mass;
+    crate::par_chunks_mut!(accelerations, CHUNK)
+        .enumerate()
+        .for_each(|(c, out)| {
+            let base = c * CHUNK;
+            let (offsets, indices) = neighbors.chunk(c);
+            let lap = &pairs.chunk(c).laplacian;
+            for (k, a) in out.iter_mut().enumerate() {
+                let i = base + k;
+                let vi = velocities[i];
+                let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
+                let (nb, lap) = (&indices[s..e], &lap[s..e]);
+                let mut acc = [Vec3A::ZERO; ACC];
+                let full = nb.len() / ACC * ACC;
+                for (j, lap) in nb[..full]
+                    .chunks_exact(ACC)
+                    .zip(lap[..full].chunks_exact(ACC))
+                {
+                    for l in 0..ACC {
+                        let j = j[l] as usize;
+                        acc[l] += (velocities[j] - vi) * (lap[l] * inv_densities[j]);
                     }
                 }
-                let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
-                for t in full..nb.len() {
-                    f += Vector::new(gx[t], gy[t], gz[t]) * (pii + pi[nb[t] as usize]);
+                for (l, (&j, &lap)) in nb[full..].iter().zip(&lap[full..]).enumerate() {
+                    let j = j as usize;
+                    acc[l] += (velocities[j] - vi) * (lap * inv_densities[j]);
                 }
-                let mut dv = f * dtm;
-                if let Some(wall) = wall {
-                    dv += wall.gradient[i] * (wall.mirror * pii * dt);
-                }
-                *v -= dv;
+                let f = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+                *a += Vector::from(f) * (em * inv_densities[i]);
             }
         });
 }
@@ -415,8 +575,9 @@ pub struct SolveContext<'a> {
 /// How a solve reuses the previous step's pressure values.
 #[derive(Copy, Clone)]
 enum WarmStart {
-    /// Half of every value (the divergence solve: its values are small and noisy).
-    Half,
+    /// Already applied by [`density_and_factors`] (see [`divergence_warm_start`]); `true` when
+    /// something was pushed, `buffers.velocities` then holds the pushed velocities.
+    Pushed(bool),
     /// This fraction of the values of particles that compress without pressure, zero for
     /// the others ([`Dfsph::warm_start`]).
     WhereCompressing(Real),
@@ -446,8 +607,15 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
         alpha,
         pi,
         partials,
+        velocities: wide,
     } = buffers;
-    let apply = |pi: &[Real], velocities: &mut [Vector]| {
+    // The passes work on a 16-byte copy of the velocities (see [`PairGradients`]).
+    if !matches!(warm_start, WarmStart::Pushed(true)) {
+        for (w, &v) in wide.iter_mut().zip(velocities.iter()) {
+            *w = Vec3A::from(v);
+        }
+    }
+    let apply = |pi: &[Real], velocities: &mut [Vec3A]| {
         apply_pressure(
             ctx.neighbors,
             ctx.gradients,
@@ -459,7 +627,7 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
         )
     };
     let alpha: &[Real] = alpha;
-    let rate = |velocities: &[Vector], pi: &mut [Real], partials: &mut [(f64, Real)]| {
+    let rate = |velocities: &[Vec3A], pi: &mut [Real], partials: &mut [(f64, Real)]| {
         rate_pass(
             velocities,
             ctx.neighbors,
@@ -471,28 +639,21 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
             |i, r| finish(alpha, i, r),
         )
     };
-    match warm_start {
-        WarmStart::Half => {
-            for w in warm.iter_mut() {
-                *w *= 0.5;
-            }
+    if let WarmStart::WhereCompressing(fraction) = warm_start
+        && warm.iter().any(|&w| w != 0.0)
+    {
+        // One rate pass without any pressure: which particles still compress.
+        rate(wide, pi, partials);
+        for (w, &p) in warm.iter_mut().zip(pi.iter()) {
+            *w = if p > 0.0 { *w * fraction } else { 0.0 };
         }
-        WarmStart::WhereCompressing(fraction) => {
-            if warm.iter().any(|&w| w != 0.0) {
-                // One rate pass without any pressure: which particles still compress.
-                rate(velocities, pi, partials);
-                for (w, &p) in warm.iter_mut().zip(pi.iter()) {
-                    *w = if p > 0.0 { *w * fraction } else { 0.0 };
-                }
-            }
+        if warm.iter().any(|&w| w != 0.0) {
+            apply(warm, wide);
         }
-    }
-    if warm.iter().any(|&w| w != 0.0) {
-        apply(warm, velocities);
     }
     let mut stats = SolveStats::default();
     loop {
-        rate(velocities, pi, partials);
+        rate(wide, pi, partials);
         let (sum, _) = reduce_partials(partials);
         stats.error = (sum / n as f64) as Real * error_scale;
         let done = stats.error <= target;
@@ -502,21 +663,37 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
             stats.capped = !done;
             break;
         }
-        apply(pi, velocities);
+        apply(pi, wide);
         for (w, p) in warm.iter_mut().zip(pi.iter()) {
             *w += p;
         }
         stats.iterations += 1;
     }
+    for (v, &w) in velocities.iter_mut().zip(wide.iter()) {
+        *v = Vector::from(w);
+    }
     stats
 }
 
+/// Halves the previous step's divergence pressure values `warm` (the divergence solve's
+/// warm start, section 4.4: its values are small and noisy) and says whether any is left to
+/// apply, i.e. whether [`density_and_factors`] should be given a [`WarmPush`].
+pub fn divergence_warm_start(warm: &mut [Real]) -> bool {
+    for w in warm.iter_mut() {
+        *w *= 0.5;
+    }
+    warm.iter().any(|&w| w != 0.0)
+}
+
 /// Divergence solve (Alg. 2): corrects `velocities` until `Dρ/Dt ≈ 0`. `warm` holds the
-/// previous step's pressure values on entry (used at half weight) and this step's sum on exit.
+/// warm start on entry, already applied (see [`divergence_warm_start`]; `pushed` is its
+/// result, and then `buffers.velocities` holds the pushed velocities), and this step's sum
+/// on exit.
 pub fn divergence_solve(
     ctx: &SolveContext<'_>,
     settings: &Dfsph,
     buffers: &mut DfsphBuffers,
+    pushed: bool,
     warm: &mut [Real],
     velocities: &mut [Vector],
 ) -> SolveStats {
@@ -526,7 +703,7 @@ pub fn divergence_solve(
     jacobi(
         ctx,
         settings,
-        WarmStart::Half,
+        WarmStart::Pushed(pushed),
         settings.min_divergence_iterations,
         settings.max_divergence_error,
         dt / ctx.rest_density,

@@ -7,6 +7,7 @@ use crate::domain::Separation;
 use crate::kernel::Kernel;
 use crate::math::{Real, Vector};
 use crate::par::{CHUNK, LANES};
+use rapier3d::glamx::Vec3A;
 
 /// A block of [`LANES`] neighbours of one particle: separations, distances, gradients.
 pub(crate) struct Block {
@@ -85,44 +86,40 @@ pub(crate) fn reduce_partials(partials: &[(f64, Real)]) -> (f64, Real) {
 
 /// Kernel gradients `∇W(x_i − x_j)` of every neighbour pair, stored in the neighbour lists'
 /// own layout (per chunk of [`CHUNK`] particles, the pair at `indices[t]` of a chunk has its
-/// gradient at `x[t], y[t], z[t]`), three flat arrays (structure of arrays).
+/// gradient at `grad[t]`), one 16-byte [`Vec3A`] per pair; and, when the fluid is viscous,
+/// the viscosity kernel's Laplacian `∇²W_v(|x_i − x_j|)` of every pair at `laplacian[t]`.
 ///
 /// An iterative solver visits every pair twice per iteration (density rate, then pressure
 /// push) with the positions unchanged: computing each gradient once per step (distance,
 /// square root, kernel polynomial) and streaming it afterwards makes every later pass a plain
-/// gather-and-multiply.
+/// gather-and-multiply. The 16-byte layout makes a pair's gradient one aligned SIMD load,
+/// combined with a neighbour's velocity (also held 16 bytes wide during the solves) in
+/// three packed operations.
 #[derive(Clone, Debug, Default)]
 pub struct PairGradients {
-    chunks: Vec<GradientChunk>,
+    chunks: Vec<PairChunk>,
 }
 
+/// The pair values of one chunk of particles (see [`PairGradients`]).
 #[derive(Clone, Debug, Default)]
-pub(crate) struct GradientChunk {
-    pub x: Vec<Real>,
-    pub y: Vec<Real>,
-    pub z: Vec<Real>,
-}
-
-impl GradientChunk {
-    /// Sizes the arrays for `pairs` pairs (no allocation once warm).
-    pub fn resize(&mut self, pairs: usize) {
-        self.x.resize(pairs, 0.0);
-        self.y.resize(pairs, 0.0);
-        self.z.resize(pairs, 0.0);
-    }
+pub(crate) struct PairChunk {
+    /// `∇W_ij`, `w` lane unused.
+    pub grad: Vec<Vec3A>,
+    /// `∇²W_v(|x_i − x_j|)`; empty when the fluid is not viscous.
+    pub laplacian: Vec<Real>,
 }
 
 impl PairGradients {
     /// One chunk per neighbour-list chunk, for `n` particles.
-    pub(crate) fn chunks_mut(&mut self, n: usize) -> &mut [GradientChunk] {
+    pub(crate) fn chunks_mut(&mut self, n: usize) -> &mut [PairChunk] {
         self.chunks
-            .resize_with(n.div_ceil(CHUNK), GradientChunk::default);
+            .resize_with(n.div_ceil(CHUNK), PairChunk::default);
         &mut self.chunks
     }
 
-    /// The gradients of chunk `c`.
+    /// The pair values of chunk `c`.
     #[inline(always)]
-    pub(crate) fn chunk(&self, c: usize) -> &GradientChunk {
+    pub(crate) fn chunk(&self, c: usize) -> &PairChunk {
         &self.chunks[c]
     }
 
@@ -130,8 +127,8 @@ impl PairGradients {
     pub fn heap_bytes(&self) -> usize {
         self.chunks
             .iter()
-            .map(|c| (c.x.capacity() + c.y.capacity() + c.z.capacity()) * 4)
+            .map(|c| c.grad.capacity() * std::mem::size_of::<Vec3A>() + c.laplacian.capacity() * 4)
             .sum::<usize>()
-            + self.chunks.capacity() * std::mem::size_of::<GradientChunk>()
+            + self.chunks.capacity() * std::mem::size_of::<PairChunk>()
     }
 }
