@@ -1048,6 +1048,14 @@ fn step_dfsph<S: Separation>(
         rest_density: p.rest_density,
         dt,
         expected_neighbours: p.expected_neighbours(),
+        closed: dfsph::fills_periodic_box(
+            &p.domain,
+            n,
+            p.particle_mass,
+            p.rest_density,
+            wall.is_some(),
+            settings.max_density_error,
+        ),
     };
 
     // 4. Divergence solve.
