@@ -1043,7 +1043,16 @@ fn step_dfsph<S: Separation>(
     let n = positions.len();
     ws.dfsph.resize(n);
     // 3. Density and DFSPH factors, and the divergence solve's warm start (same pass).
-    let pushed = settings.divergence_solve && dfsph::divergence_warm_start(warm_divergence);
+    // A fluid filling a periodic box has no free surface (see `dfsph::SolveContext::closed`).
+    let closed = dfsph::fills_periodic_box(
+        &p.domain,
+        n,
+        p.particle_mass,
+        p.rest_density,
+        wall.is_some(),
+        settings.max_density_error,
+    );
+    let pushed = settings.divergence_solve && dfsph::divergence_warm_start(warm_divergence, closed);
     timed(report, Stage::Density, || {
         let viscosity = (p.viscosity > 0.0).then(|| ViscosityLaplacian::new(h));
         let push = pushed.then_some(dfsph::WarmPush {
@@ -1067,6 +1076,7 @@ fn step_dfsph<S: Separation>(
         rest_density: p.rest_density,
         dt,
         expected_neighbours: p.expected_neighbours(),
+        closed,
     };
 
     // 4. Divergence solve.

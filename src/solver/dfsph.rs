@@ -30,6 +30,10 @@
 //! the pressure the step applied (the divergence solve carries part of the load: reporting the
 //! density solve alone read 5–25 % low in a settled column).
 //!
+//! A fluid that fills a periodic box (no free surface, no wall) is solved in the form of a
+//! periodic pressure Poisson problem: both conditions as equalities about the fluid's mean,
+//! zero-mean pressure (see [`SolveContext::closed`]).
+//!
 //! The solver uses the fluid's *density* kernel for every gradient, so the factor is exact for
 //! the forces it predicts (the pressure-kernel setting is used by WCSPH only).
 
@@ -570,6 +574,50 @@ pub struct SolveContext<'a> {
     /// that (walls counted by the fraction of the kernel they cover) is a surface particle
     /// and is left out of the divergence solve (Bender & Koschier use 20 of about 33).
     pub expected_neighbours: Real,
+    /// The fluid fills a periodic box: no free surface and no wall term (see
+    /// [`fills_periodic_box`]). Both solves then hold their conditions as equalities about
+    /// the fluid's mean, with zero-mean pressure, in Jacobi steps relaxed by
+    /// [`CLOSED_RELAXATION`]: the increment of particle `i` is `ω·α_i·(e_i − ē)/dt²` (density:
+    /// `e_i` = predicted density − `ρ0`) or `ω·α_i·(e_i − ē)/dt` (divergence: `e_i = Dρ_i/Dt`),
+    /// with the increments' mean removed, and the solve is held to `Σ|e_i − ē|/n`.
+    ///
+    /// Why: with no free surface nothing pins the pressure's level, and a uniform pressure
+    /// moves a particle only through the disorder of its neighbourhood (`Σ_j ∇W_ij`, zero on a
+    /// lattice): it is a near-null mode of the system. The kernel sum's mean over disordered
+    /// particles reads above `ρ0` (second order in the lattice's deformation; the mass and
+    /// the box fix the true density at `ρ0`), and the one-sided solve could remove that mean
+    /// only through the near-null mode: it ran to its iteration cap and piled up a uniform
+    /// pressure (measured in the Taylor–Green vortex, N = 12, dt = 0.02: 180 → 890 within
+    /// four steps, where the vortex's own pressure is ±0.4), which then turned the particles'
+    /// disorder into kinetic energy (E: 0.03 → 1.3 in two steps; the warm start carried 75 %
+    /// of it into each next step). So the conditions are the incompressible ones of a
+    /// periodic pressure Poisson problem: the residual's mean is its compatibility part, which
+    /// no pressure corrects, and is left out; the pressure's level (the gauge) is fixed at
+    /// zero mean; both signs are solved for (the one-sided clamp exists for free surfaces,
+    /// and there is none). The warm start carries every value (the solve can take back what
+    /// over-corrects).
+    pub closed: bool,
+}
+
+/// `true` when a fluid of `n` particles of `mass` in `domain` has no free surface: the domain
+/// is periodic, no wall term is present (`walls = false`), and the particles' rest volume
+/// `n·m/ρ0` is the box's volume to within `tolerance` (the density solve's own
+/// `max_density_error`). Such a fluid is enclosed by its own periodic images.
+pub fn fills_periodic_box(
+    domain: &crate::Domain,
+    n: usize,
+    mass: Real,
+    rest_density: Real,
+    walls: bool,
+    tolerance: Real,
+) -> bool {
+    match domain.minimum_image() {
+        Some(d) if !walls => {
+            let box_volume = d.len.x as f64 * d.len.y as f64 * d.len.z as f64;
+            n as f64 * mass as f64 / rest_density as f64 >= (1.0 - tolerance as f64) * box_volume
+        }
+        _ => false,
+    }
 }
 
 /// How a solve reuses the previous step's pressure values.
@@ -585,7 +633,8 @@ enum WarmStart {
 
 /// The Jacobi loop both solves share: warm start from the previous pressure values (section
 /// 4.4) as `warm_start` says (never all of them: the increments are never negative, so the
-/// whole value could only grow), then rate pass → error check → velocity update until the average error, `Σ error_i / n` times
+/// whole value could only grow; a closed box carries all of them, see
+/// [`SolveContext::closed`]), then rate pass → error check → velocity update until the average error, `Σ error_i / n` times
 /// `error_scale`, is at most `target` (after at least `min_iterations`), or the cap binds.
 /// `finish(i, Dρ_i/Dt) = (π increment, error_i)`. `warm` ends as this step's summed pressure.
 #[allow(clippy::too_many_arguments)]
@@ -599,6 +648,7 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
     buffers: &mut DfsphBuffers,
     warm: &mut [Real],
     velocities: &mut [Vector],
+    gain: Real,
     finish: F,
 ) -> SolveStats {
     let n = ctx.positions.len();
@@ -639,22 +689,40 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
             |i, r| finish(alpha, i, r),
         )
     };
-    if let WarmStart::WhereCompressing(fraction) = warm_start
-        && warm.iter().any(|&w| w != 0.0)
-    {
-        // One rate pass without any pressure: which particles still compress.
-        rate(wide, pi, partials);
-        for (w, &p) in warm.iter_mut().zip(pi.iter()) {
-            *w = if p > 0.0 { *w * fraction } else { 0.0 };
+    match warm_start {
+        // Applied with the density pass (a closed box's mean removed before it).
+        WarmStart::Pushed(_) => {}
+        // Closed: the solve takes back what over-corrects, so every value is carried.
+        WarmStart::WhereCompressing(fraction) if ctx.closed => {
+            for w in warm.iter_mut() {
+                *w *= fraction;
+            }
+            remove_mean(warm);
+            if warm.iter().any(|&w| w != 0.0) {
+                apply(warm, wide);
+            }
         }
-        if warm.iter().any(|&w| w != 0.0) {
-            apply(warm, wide);
+        WarmStart::WhereCompressing(fraction) => {
+            if warm.iter().any(|&w| w != 0.0) {
+                // One rate pass without any pressure: which particles still compress.
+                rate(wide, pi, partials);
+                for (w, &p) in warm.iter_mut().zip(pi.iter()) {
+                    *w = if p > 0.0 { *w * fraction } else { 0.0 };
+                }
+                if warm.iter().any(|&w| w != 0.0) {
+                    apply(warm, wide);
+                }
+            }
         }
     }
     let mut stats = SolveStats::default();
     loop {
         rate(wide, pi, partials);
-        let (sum, _) = reduce_partials(partials);
+        let sum = if ctx.closed {
+            closed_increments(pi, alpha, gain)
+        } else {
+            reduce_partials(partials).0
+        };
         stats.error = (sum / n as f64) as Real * error_scale;
         let done = stats.error <= target;
         if (done && stats.iterations >= min_iterations)
@@ -676,11 +744,15 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
 }
 
 /// Halves the previous step's divergence pressure values `warm` (the divergence solve's
-/// warm start, section 4.4: its values are small and noisy) and says whether any is left to
-/// apply, i.e. whether [`density_and_factors`] should be given a [`WarmPush`].
-pub fn divergence_warm_start(warm: &mut [Real]) -> bool {
+/// warm start, section 4.4: its values are small and noisy), removes their mean in a fluid
+/// that fills a periodic box (`closed`, see [`SolveContext::closed`]), and says whether any
+/// is left to apply, i.e. whether [`density_and_factors`] should be given a [`WarmPush`].
+pub fn divergence_warm_start(warm: &mut [Real], closed: bool) -> bool {
     for w in warm.iter_mut() {
         *w *= 0.5;
+    }
+    if closed {
+        remove_mean(warm);
     }
     warm.iter().any(|&w| w != 0.0)
 }
@@ -710,7 +782,11 @@ pub fn divergence_solve(
         buffers,
         warm,
         velocities,
+        1.0 / dt,
         |alpha, i, rate| {
+            if ctx.closed {
+                return (rate, rate);
+            }
             // Surface particles (few neighbours, walls counted by their coverage) are left
             // out: their density deficit is not compression.
             let count =
@@ -748,11 +824,48 @@ pub fn density_solve(
         buffers,
         warm,
         velocities,
+        inv_dt2,
         |alpha, i, rate| {
+            if ctx.closed {
+                let e = densities[i] + dt * rate - rho0;
+                return (e, e);
+            }
             // Predicted density, clamped below at ρ0: only compression is corrected (a free
             // surface is allowed to be under-dense).
             let excess = (densities[i] + dt * rate - rho0).max(0.0);
             (excess * alpha[i] * inv_dt2, excess)
         },
     )
+}
+
+/// Relaxation `ω` of the closed-box Jacobi update (see [`SolveContext::closed`]). With signed
+/// increments plain Jacobi (`ω = 1`) diverges on this system (measured: the Taylor–Green vortex
+/// at N = 12 reached infinite energy in the second step); `ω = 0.5` is IISPH's relaxed Jacobi
+/// (Ihmsen et al., "Implicit Incompressible SPH", IEEE TVCG 2014), on the same diagonal.
+pub const CLOSED_RELAXATION: Real = 0.5;
+
+/// One Jacobi update of a fluid that fills a periodic box (see [`SolveContext::closed`]). On
+/// entry `e` holds every particle's signed error; on exit, its pressure increment
+/// `ω·α_i·gain·(e_i − ē)` (`gain` = `1/dt²` or `1/dt`) with the increments' mean removed.
+/// Returns `Σ|e_i − ē|`. Serial sums: the same bits for any thread count.
+fn closed_increments(e: &mut [Real], alpha: &[Real], gain: Real) -> f64 {
+    let n = e.len().max(1) as f64;
+    let mean = (e.iter().map(|&x| x as f64).sum::<f64>() / n) as Real;
+    let k = CLOSED_RELAXATION * gain;
+    let mut error = 0.0f64;
+    for (x, &a) in e.iter_mut().zip(alpha) {
+        let d = *x - mean;
+        error += d.abs() as f64;
+        *x = k * a * d;
+    }
+    remove_mean(e);
+    error
+}
+
+/// Subtracts the mean of `x` from every value.
+fn remove_mean(x: &mut [Real]) {
+    let mean = (x.iter().map(|&v| v as f64).sum::<f64>() / x.len().max(1) as f64) as Real;
+    for v in x.iter_mut() {
+        *v -= mean;
+    }
 }
