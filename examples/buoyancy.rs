@@ -3,6 +3,7 @@
 //! ```text
 //! cargo run --release --example buoyancy                      # WCSPH, densities 250/500/750
 //! cargo run --release --example buoyancy -- --solver pbf --spacing 0.03 --seconds 5
+//! cargo run --release --example buoyancy -- --solver dfsph-hw   # DFSPH, hydrostatic walls
 //! cargo run --release --example buoyancy --features render -- --render out/  # PNG + GIF per box
 //! ```
 //!
@@ -30,8 +31,14 @@ fn main() {
                 solver = match value.as_str() {
                     "wcsph" => Solver::Wcsph,
                     "dfsph" => Solver::dfsph(),
+                    "dfsph-hw" => Solver::Dfsph(rapier_sph::solver::Dfsph {
+                        hydrostatic_walls: true,
+                        ..Default::default()
+                    }),
                     "pbf" => Solver::Pbf(Default::default()),
-                    other => exit(&format!("unknown solver {other} (wcsph, dfsph, pbf)")),
+                    other => exit(&format!(
+                        "unknown solver {other} (wcsph, dfsph, dfsph-hw, pbf)"
+                    )),
                 }
             }
             "--spacing" => s = parse(&value, "--spacing"),
