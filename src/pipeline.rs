@@ -1123,7 +1123,7 @@ fn step_dfsph<S: Separation>(
                 accelerations.fill(gravity);
             }
             if let Some(w) = wall
-                && !w.hydrostatic.is_empty()
+                && w.hydrostatic_on
             {
                 for (a, h) in accelerations.iter_mut().zip(&w.hydrostatic) {
                     *a += *h;

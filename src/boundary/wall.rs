@@ -77,12 +77,15 @@ pub struct WallWorkspace {
     pub motion: Vec<Real>,
     /// Fraction `Φ ∈ [0, 1]` of each particle's kernel covered by walls.
     pub coverage: Vec<Real>,
-    /// Acceleration from the walls' hydrostatic pressure (m/s²; empty without gravity): the
+    /// Acceleration from the walls' hydrostatic pressure (m/s²; zero unless
+    /// `hydrostatic_on`): the
     /// wall's pressure is the particle's plus the hydrostatic difference, `p_b = p_i +
     /// ρ0·g·(x_b − x_i)` (Adami et al. 2012's wall pressure), and the mirrored part `p_i`
     /// acts through `gradient`; this is the rest, `−Σ_b V_b (g·(x_b − x_i)) ∇W_ib =
     /// −(M·n⊗n + Φ·(I − n⊗n))·g` per wall (see [`HalfSpaceTable::eval_moment`]).
     pub hydrostatic: Vec<Vector>,
+    /// `true` when the last update computed `hydrostatic` (asked for it, under gravity).
+    pub hydrostatic_on: bool,
     /// The parts of `gradient` and of `hydrostatic` due to dynamic bodies of the coupling
     /// table, with the table entry and surface point of the body contributing most
     /// (`u32::MAX`: none). Empty when no dynamic body is near (see [`super::bodies`]).
@@ -116,6 +119,7 @@ impl WallWorkspace {
         self.motion.clear();
         self.coverage.clear();
         self.hydrostatic.clear();
+        self.hydrostatic_on = false;
         self.coupled.clear();
         self.coupled_any = false;
     }
@@ -168,11 +172,9 @@ impl WallWorkspace {
         };
         let gravity = hydrostatic.unwrap_or(Vector::ZERO);
         let hydro = gravity != Vector::ZERO;
-        if hydro {
-            self.hydrostatic.resize(n, Vector::ZERO);
-        } else {
-            self.hydrostatic.clear();
-        }
+        self.hydrostatic_on = hydro;
+        // Sized always so the chunks line up (zeros when off; allocated once, like `coupled`).
+        self.hydrostatic.resize(n, Vector::ZERO);
         let any_dynamic = table.iter().any(|m| m.dynamic);
         self.coupled_any = any_dynamic;
         // Read only when `coupled_any`; sized always so the chunks line up.
@@ -191,20 +193,12 @@ impl WallWorkspace {
         };
         let candidates = &self.candidates;
         let (full_d, full_f) = (td.full(), tf.full());
-        // Without gravity `hydrostatic` is empty: hand out empty chunks.
-        let mut no_hydro: Vec<Vector> = Vec::new();
-        let hydro_slice = if hydro {
-            &mut self.hydrostatic[..]
-        } else {
-            no_hydro.resize(n, Vector::ZERO);
-            &mut no_hydro[..]
-        };
         let counts = crate::par_chunks_mut!(self.density, CHUNK)
             .zip(crate::par_chunks_mut!(self.gradient, CHUNK))
             .zip(crate::par_chunks_mut!(self.motion, CHUNK))
             .zip(crate::par_chunks_mut!(self.coverage, CHUNK))
             .zip(crate::par_chunks_mut!(self.coupled, CHUNK))
-            .zip(crate::par_chunks_mut!(hydro_slice, CHUNK))
+            .zip(crate::par_chunks_mut!(self.hydrostatic, CHUNK))
             .enumerate()
             .map(|(c, (((((dens, grad), motion), cover), coupled), hyd))| {
                 let base = c * CHUNK;
@@ -301,9 +295,7 @@ impl WallWorkspace {
                     grad[k] = g * (rest_density * full_f);
                     motion[k] = m * rest_density * full_f;
                     cover[k] = u;
-                    if hydro {
-                        hyd[k] = hs;
-                    }
+                    hyd[k] = hs;
                     if any_dynamic {
                         coupled[k] = Coupled {
                             gradient: gc * (rest_density * full_f),
@@ -328,6 +320,8 @@ impl WallWorkspace {
     pub fn heap_bytes(&self) -> usize {
         self.candidates.heap_bytes()
             + (self.density.capacity() + self.motion.capacity() + self.coverage.capacity()) * 4
-            + self.gradient.capacity() * std::mem::size_of::<Vector>()
+            + (self.gradient.capacity() + self.hydrostatic.capacity())
+                * std::mem::size_of::<Vector>()
+            + self.coupled.capacity() * std::mem::size_of::<Coupled>()
     }
 }

@@ -137,6 +137,13 @@ impl HalfSpaceTable {
     /// kernel's integral and `A = 0`.
     #[inline]
     pub fn eval(&self, d: Real) -> (Real, Real) {
+        self.lookup(d, &self.area)
+    }
+
+    /// `(Φ(d), v(d))` for the table `v`, linearly interpolated; zeros for an empty table or
+    /// a NaN distance.
+    #[inline]
+    fn lookup(&self, d: Real, v: &[Real]) -> (Real, Real) {
         if self.phi.is_empty() {
             return (0.0, 0.0);
         }
@@ -147,7 +154,7 @@ impl HalfSpaceTable {
         let k = (x as usize).min(INTERVALS - 1);
         let t = x - k as Real;
         let lerp = |v: &[Real]| v[k] + (v[k + 1] - v[k]) * t;
-        (lerp(&self.phi), lerp(&self.area))
+        (lerp(&self.phi), lerp(v))
     }
 
     /// `(Φ(d), M(d))`: the wall's share of the kernel's first moment. The moment
@@ -158,17 +165,7 @@ impl HalfSpaceTable {
     /// hydrostatic pressure acts through it (see [`crate::boundary::wall`]).
     #[inline]
     pub fn eval_moment(&self, d: Real) -> (Real, Real) {
-        if self.phi.is_empty() {
-            return (0.0, 0.0);
-        }
-        let x = ((d + self.h) * self.inv_step).clamp(0.0, INTERVALS as Real);
-        if x.is_nan() {
-            return (0.0, 0.0);
-        }
-        let k = (x as usize).min(INTERVALS - 1);
-        let t = x - k as Real;
-        let lerp = |v: &[Real]| v[k] + (v[k + 1] - v[k]) * t;
-        (lerp(&self.phi), lerp(&self.moment))
+        self.lookup(d, &self.moment)
     }
 
     /// The whole kernel's integral `Φ(−h)` (1 for a normalised kernel).
