@@ -606,14 +606,27 @@ fn jet(solver: &Solver, size: SuiteSize, trimesh: bool) -> Option<SphResult<Setu
         // A column of fluid flying at 30 m/s along +x at a wall at x = 0.6: a 2 mm plate or a
         // zero-thickness square of two triangles. Nothing may reach x > 0.6.
         let params = water(solver, s).build()?;
-        let k = if size == SuiteSize::Quick { 6 } else { 12 };
-        let pos = crate::fluid::lattice(Vector::new(0.1, 0.4, 0.4), 3 * k, k, k, s);
+        let plate_x = 0.6;
+        // Cross-section k × k, length 3k spacings (quick) or 24 (full: 3 × 12 would reach past
+        // the plate); the block must start entirely on the near side.
+        let (k, nx) = if size == SuiteSize::Quick {
+            (6, 18)
+        } else {
+            (12, 24)
+        };
+        let pos = crate::fluid::lattice(Vector::new(0.1, 0.4, 0.4), nx, k, k, s);
+        if pos.iter().any(|p| p.x + 0.5 * s > plate_x) {
+            return Err(crate::SphError::InvalidParameter {
+                field: "jet length",
+                value: nx as f64,
+                reason: "the jet must start on the near side of the plate",
+            });
+        }
         let vel = vec![Vector::new(30.0, 0.0, 0.0); pos.len()];
         let frames = (seconds(size, 0.25, 1.0) * 60.0) as usize;
         let (min, max) = (Vector::ZERO, Vector::new(1.2, 1.2, 1.2));
         let mut setup = boxed(params, min, max, &pos, Some(&vel), frames)?;
         let body = setup.world.physics.insert_body(RigidBodyBuilder::fixed());
-        let plate_x = 0.6;
         let collider = if trimesh {
             let v = [
                 Vector::new(plate_x, 0.0, 0.0),
