@@ -272,7 +272,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut mean_err_sum = 0.0f64;
     let mut non_finite = 0;
     let mut fallbacks = 0;
-    let mut relaxed = 0;
+    let (mut relaxed, mut relax_rounds, mut relax_unfinished) = (0, 0u64, 0u64);
     let (mut substeps, mut iterations, mut div_iterations) = (0u64, 0u64, 0u64);
     let t0 = Instant::now();
     for step in 1..=args.steps {
@@ -283,6 +283,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         non_finite += report.non_finite;
         fallbacks += report.contact_fallbacks;
         relaxed = relaxed.max(report.relaxed);
+        relax_rounds += report.relax_rounds as u64;
+        relax_unfinished += report.relax_unfinished as u64;
         substeps += report.substeps as u64;
         iterations += report.solver_iterations as u64;
         div_iterations += report.divergence_iterations as u64;
@@ -365,7 +367,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     println!("escaped              {}", scene.escaped());
     println!("contact fallbacks    {fallbacks}");
-    println!("overlap relaxation   {relaxed} particles moved at most (spawn overlaps)");
+    println!(
+        "overlap relaxation   {relaxed} particles moved at most, {relax_rounds} rounds, \
+         {relax_unfinished} steps stopped by the round cap (spawn overlaps)"
+    );
     println!("NaN/inf particles    {non_finite}");
     println!(
         "memory               {:.0} bytes/particle",

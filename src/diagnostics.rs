@@ -145,6 +145,13 @@ pub struct StepReport {
     /// Most particles moved by one round of overlap relaxation (particles just added, or pushed
     /// out of a solid, overlapping beyond 1 % compression; 0 when nothing overlapped).
     pub relaxed: usize,
+    /// Overlap relaxation rounds run over all substeps and fluids (each: one neighbour search
+    /// and one position projection).
+    pub relax_rounds: u32,
+    /// An overlap relaxation was stopped by its round cap before every particle was within
+    /// 2 % of the rest lattice's density: the rest of the overlap met the solver (which turns
+    /// it into velocity) and the relaxation goes on in the next substep.
+    pub relax_unfinished: bool,
     /// Particles removed because their position or velocity was no longer finite (they are
     /// taken out before they can poison their neighbours; see [`crate::Fluid::quarantined`]).
     pub quarantined: usize,

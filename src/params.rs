@@ -199,6 +199,13 @@ impl FluidParams {
                     reason: "must be a fraction of the support radius, in (0, 1)",
                 });
             }
+            if b.max_density_error.is_nan() || b.max_density_error <= 0.0 {
+                return Err(SphError::InvalidParameter {
+                    field: "max_density_error",
+                    value: b.max_density_error as f64,
+                    reason: "must be positive (infinity switches the time step control off)",
+                });
+            }
             if !(1..=16).contains(&b.artificial_pressure_exponent) {
                 return Err(SphError::InvalidParameter {
                     field: "artificial_pressure_exponent",

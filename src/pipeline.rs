@@ -306,6 +306,10 @@ impl FluidPipeline {
 }
 
 /// The longest stable substep for `fluid` (see [`TimeStepping::Adaptive`]), at most `remaining`.
+/// Largest growth of PBF's substep from one substep to the next under error control (the
+/// compression grows with dt², so 1.25× in dt is at most 1.56× in error).
+const PBF_GROWTH: Real = 1.25;
+
 fn stable_time_step(fluid: &Fluid, gravity: Vector, courant: Real, remaining: Real) -> Real {
     if fluid.is_empty() {
         return remaining;
@@ -352,7 +356,31 @@ fn stable_time_step(fluid: &Fluid, gravity: Vector, courant: Real, remaining: Re
             // default 0.1 % target this is 5 ms for 5 cm particles and 3.2 ms for 2 cm.
             limit = limit.min((5.0 * d.max_density_error * s / g).sqrt());
         }
-        Solver::Dfsph(_) | Solver::Pbf(_) => {}
+        Solver::Pbf(b) if b.max_density_error.is_finite() => {
+            // Error control: the compression a fixed number of iterations leaves grows with
+            // dt² (measured: 6.0 % at 1/60 s, 1.6 % at 1/120 s, a 1 m column of 5 cm
+            // particles), so the substep that meets the target is the last one scaled by
+            // √(0.9·target/measured). It approaches the target from below: the first substep
+            // keeps gravity's displacement g·dt² within `target` spacings, and each substep
+            // grows at most by PBF_GROWTH. Shortening the substep after an overshoot is what
+            // must stay rare: the compression a long substep left behind is corrected by the
+            // next, short one and becomes a velocity ∝ 1/dt (starting at 1/60 s and cutting to
+            // 2 ms threw a 1 m column at the ceiling, stability case 7).
+            limit = limit.min(match fluid.workspace.solve_feedback {
+                Some((dt, err)) if dt > 0.0 => {
+                    let grow = if err > 0.0 {
+                        (0.9 * b.max_density_error / err).sqrt()
+                    } else {
+                        PBF_GROWTH
+                    };
+                    dt * grow.min(PBF_GROWTH)
+                }
+                _ if g > 0.0 => (b.max_density_error * s / g).sqrt(),
+                _ => remaining,
+            });
+        }
+        Solver::Pbf(_) => {}
+        Solver::Dfsph(_) => {}
     }
     limit.min(remaining)
 }
@@ -384,8 +412,9 @@ fn step_fluid(
             integrate::wrap_positions(&d, &mut fluid.positions)
         });
     }
-    if fluid.needs_depenetration {
-        relax_overlaps(fluid, colliders, report);
+    if fluid.needs_depenetration || fluid.relax_pending {
+        fluid.relax_pending = !relax_overlaps(fluid, colliders, report);
+        report.relax_unfinished |= fluid.relax_pending;
     }
     // Moving bodies near this fluid during this substep (none: nothing more is done).
     let mut coupling = match colliders {
@@ -767,11 +796,19 @@ fn collider_contact(
     counts.depenetrated
 }
 
-/// Most relaxation rounds per substep (each: neighbour search, one projection).
-const RELAX_ROUNDS: u32 = 50;
+/// Most relaxation rounds per substep (each: neighbour search, one projection). A block
+/// of 20³ particles spawned at half spacing (8× ρ0) needs about 170 (stability case 6); a
+/// relaxation the cap stops carries on in the next substep and the report says so
+/// ([`StepReport::relax_unfinished`]).
+const RELAX_ROUNDS: u32 = 1000;
 /// Compression the relaxation leaves alone (1 %: the fluid's own rest lattice is within
 /// 0.003 % of ρ0, and WCSPH is designed for about 1 %).
 const RELAX_TOLERANCE: Real = 0.01;
+/// The relaxation is done when no particle is compressed more than this. Jacobi projection
+/// approaches [`RELAX_TOLERANCE`] from above only slowly (the last 0.1 % takes as many
+/// rounds as the first 700 %); leaving the solver at most 1 % more than the tolerance, the
+/// compression WCSPH is designed for, turns into velocities of a few centimetres per second.
+const RELAX_SETTLED: Real = 2.0 * RELAX_TOLERANCE;
 /// Largest move of a particle per relaxation round, in spacings (a position-based
 /// safeguard: the projection's linearisation holds for small moves).
 const RELAX_MAX_MOVE: Real = 0.2;
@@ -783,14 +820,16 @@ const RELAX_MAX_MOVE: Real = 0.2;
 /// that overlap into velocity within one step (an explosion). Instead, the overlap beyond
 /// [`RELAX_TOLERANCE`] is projected out of the *positions* only, with the PBF density
 /// constraint (unilateral, no artificial pressure, moves of at most [`RELAX_MAX_MOVE`] spacings
-/// per round, up to [`RELAX_ROUNDS`] rounds with a fresh neighbour search each), then the whole
-/// move is swept through collider contact. Velocities are left as they were. Runs only when
-/// particles were added or depenetrated; otherwise it costs one flag check.
+/// per round, up to [`RELAX_ROUNDS`] rounds with a fresh neighbour search each), each round's
+/// move swept through collider contact. Velocities are left as they were. Runs only when
+/// particles were added or depenetrated (or an earlier relaxation was stopped by
+/// [`RELAX_ROUNDS`]); otherwise it costs one flag check. Returns whether it finished: no
+/// particle compressed beyond [`RELAX_SETTLED`].
 fn relax_overlaps(
     fluid: &mut Fluid,
     colliders: Option<(&parry3d::partitioning::Bvh, &ColliderSet, &RigidBodySet)>,
     report: &mut StepReport,
-) {
+) -> bool {
     let p = fluid.params().clone();
     let h = p.smoothing_length;
     let domain = p.domain.minimum_image();
@@ -832,8 +871,9 @@ fn relax_overlaps(
         }
         (sum * p.particle_mass).max(p.rest_density)
     };
-    let mut moved = false;
+    let mut finished = false;
     for round in 0..RELAX_ROUNDS {
+        report.relax_rounds += 1;
         timed(report, Stage::NeighbourSearch, || {
             search_neighbours(
                 h,
@@ -923,23 +963,24 @@ fn relax_overlaps(
                     sep)))
         });
         if stats.moved == 0 {
+            finished = true;
             break;
         }
-        moved = true;
         report.relaxed = report.relaxed.max(stats.moved);
+        // Each round's move is swept through the solids before the next projection sees it
+        // (an expanding block must meet the walls it expands against, not pile onto them
+        // after the last round).
+        collider_contact(&p, ws, colliders, false, positions, velocities, report, None);
+        ws.previous_positions.copy_from_slice(positions);
+        // `densities` are those the round corrected: within the settled bound, this round's
+        // moves were the last small ones.
+        let densest = densities.iter().copied().fold(0.0, Real::max);
+        if densest <= lattice_density * (1.0 + RELAX_SETTLED) {
+            finished = true;
+            break;
+        }
     }
-    if moved {
-        collider_contact(
-            &p,
-            ws,
-            colliders,
-            depenetrate,
-            positions,
-            velocities,
-            report,
-            None,
-        );
-    }
+    finished
 }
 
 /// Stages 3–8 of WCSPH (the Unity paper). Returns `(non-finite count, max speed)`.
@@ -1198,6 +1239,7 @@ fn step_pbf<S: Separation>(
     });
     report.solver_iterations += stats.iterations;
     report.solver_density_error = report.solver_density_error.max(stats.error);
+    ws.solve_feedback = Some((dt, stats.error));
     // The pressure the corrections stand for: Δx = dt²·a with a = −Σ m (π_i + π_j) ∇W gives
     // π = −Σλ/(ρ0·dt²).
     let scale = -1.0 / (p.rest_density * dt * dt);

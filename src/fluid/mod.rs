@@ -38,6 +38,9 @@ pub(crate) struct Workspace {
     pub scratch_reals: Vec<Real>,
     /// Largest speed after the last substep (the adaptive time step's input).
     pub max_speed: Real,
+    /// The last substep's length and the average compression its position solve ended with
+    /// (PBF; the adaptive time step's error control). `None` before the first solve.
+    pub solve_feedback: Option<(Real, Real)>,
     /// Particles that became non-finite during the last substep.
     pub non_finite: usize,
 
@@ -84,6 +87,9 @@ pub struct Fluid {
     /// Set when particles were added: the next contact stage first pushes particles that
     /// start inside a solid out through its nearest surface.
     pub(crate) needs_depenetration: bool,
+    /// Set when an overlap relaxation was stopped by its round cap: the next substep goes on
+    /// relaxing.
+    pub(crate) relax_pending: bool,
     pub(crate) workspace: Workspace,
 }
 
@@ -109,6 +115,7 @@ impl Fluid {
             sources: Default::default(),
             capacity: None,
             needs_depenetration: false,
+            relax_pending: false,
             workspace: Workspace::default(),
         })
     }

@@ -24,6 +24,8 @@ pub(crate) struct FluidState {
     next_id: u32,
     quarantined: usize,
     needs_depenetration: bool,
+    #[serde(default)]
+    relax_pending: bool,
     emitted: usize,
     drained: usize,
     sources: crate::emitter::Sources,
@@ -46,6 +48,7 @@ impl FluidState {
             next_id: f.next_id,
             quarantined: f.quarantined,
             needs_depenetration: f.needs_depenetration,
+            relax_pending: f.relax_pending,
             emitted: f.emitted,
             drained: f.drained,
             sources: f.sources.clone(),
@@ -91,6 +94,7 @@ impl FluidState {
         f.next_id = self.next_id;
         f.quarantined = self.quarantined;
         f.needs_depenetration = self.needs_depenetration;
+        f.relax_pending = self.relax_pending;
         f.emitted = self.emitted;
         f.drained = self.drained;
         for e in self.sources.emitters.iter() {

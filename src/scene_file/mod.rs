@@ -190,6 +190,9 @@ pub enum SolverDesc {
         /// Artificial pressure distance Δq, as a fraction of h.
         #[serde(default)]
         artificial_pressure_distance: Option<NonNegative>,
+        /// Average compression the adaptive time step holds the solve to.
+        #[serde(default)]
+        max_density_error: Option<Positive>,
     },
     /// Double-density relaxation ([`crate::solver::Clavet`]).
     Clavet {
@@ -256,6 +259,7 @@ impl SolverDesc {
                 artificial_pressure,
                 artificial_pressure_exponent,
                 artificial_pressure_distance,
+                max_density_error,
             } => {
                 let d = Pbf::default();
                 Solver::Pbf(Pbf {
@@ -266,6 +270,7 @@ impl SolverDesc {
                         .unwrap_or(d.artificial_pressure_exponent),
                     artificial_pressure_distance: artificial_pressure_distance
                         .map_or(d.artificial_pressure_distance, |v| v.0),
+                    max_density_error: max_density_error.map_or(d.max_density_error, |v| v.0),
                 })
             }
             SolverDesc::Clavet {
