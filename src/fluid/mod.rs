@@ -38,9 +38,6 @@ pub(crate) struct Workspace {
     pub scratch_reals: Vec<Real>,
     /// Largest speed after the last substep (the adaptive time step's input).
     pub max_speed: Real,
-    /// The last substep's length and the average compression its position solve ended with
-    /// (PBF; the adaptive time step's error control). `None` before the first solve.
-    pub solve_feedback: Option<(Real, Real)>,
     /// Particles that became non-finite during the last substep.
     pub non_finite: usize,
 

@@ -57,14 +57,13 @@ pub struct Pbf {
     /// Artificial-pressure reference distance `Δq` as a fraction of the support radius
     /// (default 0.2; the paper suggests 0.1–0.3).
     pub artificial_pressure_distance: Real,
-    /// Average compression (fraction of ρ0) the adaptive time step holds the solve to
-    /// (default 0.01, 1 %; `INFINITY` switches the control off). A fixed number of Jacobi
-    /// iterations leaves a compression that grows with the substep squared and with the
-    /// fluid's depth (a tall column left alone at 1/60 s substeps compresses by several per
-    /// cent, then throws itself up when its bottom layers are corrected); with
-    /// [`crate::TimeStepping::Adaptive`] the next substep is shortened by
-    /// `√(max_density_error / measured)` whenever a solve ends above this (see
-    /// `stable_time_step` in `src/pipeline.rs`). Fixed time steps are not changed.
+    /// Average compression (fraction of ρ0) the adaptive time step aims the solve at (default
+    /// 0.01, 1 %; `INFINITY` switches the limit off). A fixed number of Jacobi iterations
+    /// leaves a compression that grows with gravity's displacement per substep `g·dt²` (a
+    /// 1 m column left at 1/60 s substeps compresses by several per cent, then throws itself
+    /// up when its bottom layers are corrected); with [`crate::TimeStepping::Adaptive`] the
+    /// substep keeps `g·dt²` within `max_density_error` spacings (see `stable_time_step` in
+    /// `src/pipeline.rs`). Fixed time steps are not changed.
     #[cfg_attr(feature = "snapshot", serde(default = "default_max_density_error"))]
     pub max_density_error: Real,
 }
