@@ -954,7 +954,9 @@ fn relax_overlaps(
         // Each round's move is swept through the solids before the next projection sees it
         // (an expanding block must meet the walls it expands against, not pile onto them
         // after the last round).
-        collider_contact(&p, ws, colliders, false, positions, velocities, report, None);
+        collider_contact(
+            &p, ws, colliders, false, positions, velocities, report, None,
+        );
         ws.previous_positions.copy_from_slice(positions);
         // `densities` are those the round corrected: within the settled bound, this round's
         // moves were the last small ones.
