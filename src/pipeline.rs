@@ -363,8 +363,7 @@ fn stable_time_step(fluid: &Fluid, gravity: Vector, courant: Real, remaining: Re
             // it threw a Taylor–Green box apart).
             limit = limit.min((b.max_density_error * s / g).sqrt());
         }
-        Solver::Pbf(_) => {}
-        Solver::Dfsph(_) => {}
+        Solver::Dfsph(_) | Solver::Pbf(_) => {}
     }
     limit.min(remaining)
 }
@@ -781,7 +780,7 @@ fn collider_contact(
 }
 
 /// Most relaxation rounds per substep (each: neighbour search, one projection). A block
-/// of 20³ particles spawned at half spacing (8× ρ0) needs about 170 (stability case 6); a
+/// of 20³ particles spawned at half spacing (8× ρ0) needs about 190 (stability case 6); a
 /// relaxation the cap stops carries on in the next substep and the report says so
 /// ([`StepReport::relax_unfinished`]).
 const RELAX_ROUNDS: u32 = 1000;
