@@ -336,7 +336,12 @@ fn resolve_static(
 
                 // 1. Sweep the motion: the centre never crosses a surface.
                 let mut target = start + motion;
-                if let Some((t, normal)) = sweep(colliders, cands, boxes, r, start, motion) {
+                // Ray casts are skipped for candidates whose box the segment's box does not
+                // reach within round-off (`tight`: 1 % of r plus a few ulps of the
+                // coordinates), so particles gliding at distance r along a wall cast none.
+                let scale = start.abs().max_element().max(xs[k].abs().max_element());
+                let tight = 0.01 * r + 8.0 * Real::EPSILON * scale;
+                if let Some((t, normal)) = sweep(colliders, cands, boxes, tight, start, motion) {
                     let mut n = if normal.dot(motion) > 0.0 {
                         -normal
                     } else {
@@ -399,7 +404,9 @@ fn resolve_static(
                 if touched {
                     counts.contacts += 1;
                     let finite = crate::math::is_finite(target) && crate::math::is_finite(v);
-                    if !finite || !segment_is_free(colliders, cands, boxes, r, start, target) {
+                    let scale = scale.max(target.abs().max_element());
+                    let tight = 0.01 * r + 8.0 * Real::EPSILON * scale;
+                    if !finite || !segment_is_free(colliders, cands, boxes, tight, start, target) {
                         target = start;
                         v = Vector::ZERO;
                         counts.fallbacks += 1;
