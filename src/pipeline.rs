@@ -215,8 +215,12 @@ impl FluidPipeline {
             // Quarantine what the caller may have broken since the last frame (a NaN written
             // through `velocities_mut`), and measure the speeds the first substep starts from.
             for (_, fluid) in fluids.iter_mut() {
-                report.quarantined += fluid.quarantine_non_finite();
-                let (_, vmax) = integrate::scan(&fluid.positions, &fluid.velocities);
+                // The scan (parallel) counts them and skips them in the maximum speed; the
+                // serial removal runs only when there is something to remove.
+                let (bad, vmax) = integrate::scan(&fluid.positions, &fluid.velocities);
+                if bad > 0 {
+                    report.quarantined += fluid.quarantine_non_finite();
+                }
                 fluid.workspace.max_speed = vmax;
             }
             let mut elapsed: Real = 0.0;

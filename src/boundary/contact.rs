@@ -65,10 +65,26 @@ pub fn reflect(v: Vector, n: Vector, restitution: Real, friction: Real) -> Vecto
     vt * keep - n * (restitution * vn)
 }
 
+/// `true` when the box `lo..hi` is farther than `margin` from `b` along some axis. Written as
+/// "clearly apart" so NaN coordinates never count as apart (the queries then run as before).
+#[inline(always)]
+fn apart(b: &Aabb, lo: Vector, hi: Vector, margin: Real) -> bool {
+    hi.x < b.mins.x - margin
+        || hi.y < b.mins.y - margin
+        || hi.z < b.mins.z - margin
+        || lo.x > b.maxs.x + margin
+        || lo.y > b.maxs.y + margin
+        || lo.z > b.maxs.z + margin
+}
+
 /// Earliest hit of the segment `from → from + motion` among `candidates`: `(t ∈ [0,1], normal)`.
+/// A candidate whose box (`boxes`, same order) is farther than `margin` from the segment's
+/// box cannot be hit and is not queried.
 fn sweep(
     colliders: &ColliderSet,
     candidates: &[ColliderHandle],
+    boxes: &[Aabb],
+    margin: Real,
     from: Vector,
     motion: Vector,
 ) -> Option<(Real, Vector)> {
@@ -76,8 +92,12 @@ fn sweep(
         return None;
     }
     let ray = Ray::new(from, motion);
+    let (lo, hi) = (from.min(from + motion), from.max(from + motion));
     let mut best: Option<(Real, Vector)> = None;
-    for &h in candidates {
+    for (&h, b) in candidates.iter().zip(boxes) {
+        if apart(b, lo, hi, margin) {
+            continue;
+        }
         let Some(co) = colliders.get(h) else { continue };
         let max_t = best.map_or(1.0, |b| b.0);
         if let Some(hit) = co
@@ -91,10 +111,13 @@ fn sweep(
     best
 }
 
-/// `true` when the segment `from → to` crosses no candidate's surface.
+/// `true` when the segment `from → to` crosses no candidate's surface (candidates whose box
+/// is farther than `margin` from the segment's are not queried, as in [`sweep`]).
 fn segment_is_free(
     colliders: &ColliderSet,
     candidates: &[ColliderHandle],
+    boxes: &[Aabb],
+    margin: Real,
     from: Vector,
     to: Vector,
 ) -> bool {
@@ -103,12 +126,14 @@ fn segment_is_free(
         return true;
     }
     let ray = Ray::new(from, motion);
-    candidates.iter().all(|&h| {
-        colliders.get(h).is_none_or(|co| {
-            co.shape()
-                .cast_ray(co.position(), &ray, 1.0, false)
-                .is_none()
-        })
+    let (lo, hi) = (from.min(to), from.max(to));
+    candidates.iter().zip(boxes).all(|(&h, b)| {
+        apart(b, lo, hi, margin)
+            || colliders.get(h).is_none_or(|co| {
+                co.shape()
+                    .cast_ray(co.position(), &ray, 1.0, false)
+                    .is_none()
+            })
     })
 }
 
@@ -311,7 +336,12 @@ fn resolve_static(
 
                 // 1. Sweep the motion: the centre never crosses a surface.
                 let mut target = start + motion;
-                if let Some((t, normal)) = sweep(colliders, cands, start, motion) {
+                // Ray casts are skipped for candidates whose box the segment's box does not
+                // reach within round-off (`tight`: 1 % of r plus a few ulps of the
+                // coordinates), so particles gliding at distance r along a wall cast none.
+                let scale = start.abs().max_element().max(xs[k].abs().max_element());
+                let tight = 0.01 * r + 8.0 * Real::EPSILON * scale;
+                if let Some((t, normal)) = sweep(colliders, cands, boxes, tight, start, motion) {
                     let mut n = if normal.dot(motion) > 0.0 {
                         -normal
                     } else {
@@ -328,7 +358,13 @@ fn resolve_static(
                 // 2. Keep one contact radius off every surface (corners: a few passes).
                 for _ in 0..4 {
                     let mut moved = false;
-                    for &h in cands {
+                    for (&h, b) in cands.iter().zip(boxes) {
+                        // Within `r` of a shape is within `r` of its box: a candidate whose
+                        // box is farther than `2r` has nothing to project (margin `r` for
+                        // round-off).
+                        if apart(b, target, target, 2.0 * r) {
+                            continue;
+                        }
                         let Some(co) = colliders.get(h) else { continue };
                         let Some(proj) =
                             co.shape()
@@ -368,7 +404,9 @@ fn resolve_static(
                 if touched {
                     counts.contacts += 1;
                     let finite = crate::math::is_finite(target) && crate::math::is_finite(v);
-                    if !finite || !segment_is_free(colliders, cands, start, target) {
+                    let scale = scale.max(target.abs().max_element());
+                    let tight = 0.01 * r + 8.0 * Real::EPSILON * scale;
+                    if !finite || !segment_is_free(colliders, cands, boxes, tight, start, target) {
                         target = start;
                         v = Vector::ZERO;
                         counts.fallbacks += 1;

@@ -311,8 +311,15 @@ impl Fluid {
         mut remove: impl FnMut(Vector, Vector, u32) -> bool,
     ) -> usize {
         let n = self.positions.len();
-        let mut w = 0;
-        for r in 0..n {
+        // Nothing moves before the first removed particle: find it first (most calls remove
+        // nothing and then only read).
+        let Some(first) =
+            (0..n).position(|r| remove(self.positions[r], self.velocities[r], self.ids[r]))
+        else {
+            return 0;
+        };
+        let mut w = first;
+        for r in first + 1..n {
             if !remove(self.positions[r], self.velocities[r], self.ids[r]) {
                 self.positions[w] = self.positions[r];
                 self.velocities[w] = self.velocities[r];

@@ -195,11 +195,12 @@ impl NeighborLists {
                 // all its lanes and the end advances only over the accepted ones.
                 let buf = &mut chunk.indices;
                 let mut used = 0usize;
-                let ranges_of = |c: u32| {
+                let mut window = super::grid::Window::default();
+                let mut ranges_of = |c: u32| {
                     if S::PERIODIC {
-                        grid.periodic_neighbor_ranges(c)
+                        grid.neighbor_ranges_after::<true>(c, &mut window)
                     } else {
-                        grid.neighbor_ranges(c)
+                        grid.neighbor_ranges_after::<false>(c, &mut window)
                     }
                 };
                 let mut cached_cell = grid.cell_of(start);
