@@ -46,7 +46,10 @@ fn main() {
         }
         let n = w.fluids.num_particles();
 
-        print!("{n} particles, {threads} threads, median µs/step: whole {:.0}", median(&mut whole));
+        print!(
+            "{n} particles, {threads} threads, median µs/step: whole {:.0}",
+            median(&mut whole)
+        );
         for (k, s) in Stage::ALL.iter().enumerate() {
             let m = median(&mut per_stage[k]);
             if m > 0.0 {
@@ -56,4 +59,3 @@ fn main() {
         println!();
     });
 }
-
