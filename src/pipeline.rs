@@ -209,8 +209,9 @@ impl FluidPipeline {
             if has_colliders { bodies } else { no_bodies },
             colliders,
         );
+        // The stages read the bodies; the coupling writes its impulses once they are done.
         let bodies_mut = bodies;
-        let bodies: &RigidBodySet = bodies_mut;
+        let bodies: &RigidBodySet = &*bodies_mut;
         let mut run = || {
             // Quarantine what the caller may have broken since the last frame (a NaN written
             // through `velocities_mut`), and measure the speeds the first substep starts from.
