@@ -68,6 +68,42 @@ fn fnv(pos: &[Vector], vel: &[Vector], ids: &[u32]) -> u64 {
     h
 }
 
+/// Serial vs parallel build: with `RAPIER_SPH_PARITY_FILE` set (path + `suffix`), the first
+/// build to run writes `hash` there and the second must find the same (see the module docs).
+fn check_parity_file(suffix: &str, what: &str, hash: u64) {
+    let build = if cfg!(feature = "parallel") {
+        "parallel"
+    } else {
+        "serial"
+    };
+    let Some(path) = std::env::var_os("RAPIER_SPH_PARITY_FILE") else {
+        return;
+    };
+    let mut path = std::path::PathBuf::from(path).into_os_string();
+    path.push(suffix);
+    match std::fs::read_to_string(&path) {
+        Ok(text) => {
+            let mut parts = text.split_whitespace();
+            let recorded = parts.next().expect("empty parity file");
+            let recorded_by = parts.next().unwrap_or("?");
+            assert_eq!(
+                recorded,
+                format!("{hash:016x}"),
+                "the {build} build's {what} differs from the {recorded_by} build's \
+                 (recorded in {path:?})"
+            );
+            eprintln!(
+                "parity: {build} build's {what} matches the {recorded_by} build ({hash:016x})"
+            );
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            std::fs::write(&path, format!("{hash:016x} {build}\n")).unwrap();
+            eprintln!("parity: {build} build wrote its {what}, {hash:016x}, to {path:?}");
+        }
+        Err(e) => panic!("cannot read {path:?}: {e}"),
+    }
+}
+
 #[test]
 fn thread_counts_give_bitwise_identical_results() {
     let mut results = Vec::new();
@@ -122,33 +158,7 @@ fn thread_counts_give_bitwise_identical_results() {
     }
 
     // Serial vs parallel build, through a file shared by two runs (see the module docs).
-    let hash = fnv(p1, v1, i1);
-    let build = if cfg!(feature = "parallel") {
-        "parallel"
-    } else {
-        "serial"
-    };
-    if let Some(path) = std::env::var_os("RAPIER_SPH_PARITY_FILE") {
-        match std::fs::read_to_string(&path) {
-            Ok(text) => {
-                let mut parts = text.split_whitespace();
-                let recorded = parts.next().expect("empty parity file");
-                let recorded_by = parts.next().unwrap_or("?");
-                assert_eq!(
-                    recorded,
-                    format!("{hash:016x}"),
-                    "the {build} build's final state differs from the {recorded_by} build's \
-                     (recorded in {path:?})"
-                );
-                eprintln!("parity: {build} build matches the {recorded_by} build ({hash:016x})");
-            }
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                std::fs::write(&path, format!("{hash:016x} {build}\n")).unwrap();
-                eprintln!("parity: {build} build wrote {hash:016x} to {path:?}");
-            }
-            Err(e) => panic!("cannot read {path:?}: {e}"),
-        }
-    }
+    check_parity_file("", "final state", fnv(p1, v1, i1));
 }
 
 /// The obstacle course for 2 s at 5 cm: emitters, sinks, a kinematic wheel and dynamic
@@ -199,29 +209,7 @@ fn coupled_scene_is_bitwise_identical_across_thread_counts_and_builds() {
         assert!(bits(b) == bits(b1), "{threads} threads: crates differ");
     }
     let hash = fnv(p1, v1, i1) ^ fnv(b1, b1, &vec![0; b1.len()]).rotate_left(1);
-    let build = if cfg!(feature = "parallel") {
-        "parallel"
-    } else {
-        "serial"
-    };
-    if let Some(path) = std::env::var_os("RAPIER_SPH_PARITY_FILE") {
-        let mut path = std::path::PathBuf::from(path).into_os_string();
-        path.push(".coupled");
-        match std::fs::read_to_string(&path) {
-            Ok(text) => {
-                let recorded = text.split_whitespace().next().expect("empty parity file");
-                assert_eq!(
-                    recorded,
-                    format!("{hash:016x}"),
-                    "the {build} build's coupled scene differs (recorded in {path:?})"
-                );
-            }
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                std::fs::write(&path, format!("{hash:016x} {build}\n")).unwrap();
-            }
-            Err(e) => panic!("cannot read {path:?}: {e}"),
-        }
-    }
+    check_parity_file(".coupled", "coupled scene", hash);
 }
 
 /// DFSPH with walls in the density (the salva comparison's setup, small): the solves' pair
@@ -266,28 +254,5 @@ fn dfsph_with_wall_density_is_bitwise_identical_across_thread_counts_and_builds(
         assert!(bits(p) == bits(p1), "{threads} threads: positions differ");
         assert!(bits(v) == bits(v1), "{threads} threads: velocities differ");
     }
-    let hash = fnv(p1, v1, i1);
-    let build = if cfg!(feature = "parallel") {
-        "parallel"
-    } else {
-        "serial"
-    };
-    if let Some(path) = std::env::var_os("RAPIER_SPH_PARITY_FILE") {
-        let mut path = std::path::PathBuf::from(path).into_os_string();
-        path.push(".dfsph");
-        match std::fs::read_to_string(&path) {
-            Ok(text) => {
-                let recorded = text.split_whitespace().next().expect("empty parity file");
-                assert_eq!(
-                    recorded,
-                    format!("{hash:016x}"),
-                    "the {build} build's DFSPH run differs (recorded in {path:?})"
-                );
-            }
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                std::fs::write(&path, format!("{hash:016x} {build}\n")).unwrap();
-            }
-            Err(e) => panic!("cannot read {path:?}: {e}"),
-        }
-    }
+    check_parity_file(".dfsph", "DFSPH run", fnv(p1, v1, i1));
 }
