@@ -419,11 +419,6 @@ fn periodic_runs_are_bitwise_identical_across_thread_counts() {
                 .unwrap();
         }
         let f = &fluids[h];
-        let bits = |v: &[Vector]| -> Vec<[u32; 3]> {
-            v.iter()
-                .map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
-                .collect()
-        };
         (bits(f.positions()), bits(f.velocities()), f.ids().to_vec())
     };
     for solver in [
@@ -432,16 +427,7 @@ fn periodic_runs_are_bitwise_identical_across_thread_counts() {
         Solver::pbf(),
         Solver::clavet(),
     ] {
-        let results: Vec<_> = [1, 3]
-            .into_iter()
-            .map(|threads| {
-                rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .build()
-                    .unwrap()
-                    .install(|| run(solver))
-            })
-            .collect();
+        let results = on_1_and_3_threads(|| run(solver));
         assert!(
             results[0] == results[1],
             "{}: 1 vs 3 threads differ",
@@ -469,25 +455,33 @@ fn closed_box_dfsph_is_bitwise_identical_across_thread_counts() {
             world.step_fluids().unwrap();
         }
         let f = &world.fluids[h];
-        let bits: Vec<[u32; 3]> = f
-            .velocities()
-            .iter()
-            .map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
-            .collect();
+        let bits = bits(f.velocities());
         let pressures: Vec<u32> = f.pressures().iter().map(|p| p.to_bits()).collect();
         // The closed path ran: its pressure has zero mean, so some is negative.
         assert!(f.pressures().iter().any(|&p| p < 0.0));
         (bits, pressures)
     };
-    let results: Vec<_> = [1, 3]
+    let results = on_1_and_3_threads(run);
+    assert!(results[0] == results[1], "1 vs 3 threads differ");
+}
+
+/// The bits of every component, for exact comparisons.
+fn bits(v: &[Vector]) -> Vec<[u32; 3]> {
+    v.iter()
+        .map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
+        .collect()
+}
+
+/// `run`'s result on a pool of 1 thread, then on one of 3.
+fn on_1_and_3_threads<T: Send>(run: impl Fn() -> T + Sync + Send) -> Vec<T> {
+    [1, 3]
         .into_iter()
         .map(|threads| {
             rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(run)
+                .install(&run)
         })
-        .collect();
-    assert!(results[0] == results[1], "1 vs 3 threads differ");
+        .collect()
 }
