@@ -26,6 +26,17 @@
 //! (`front_rms`, `height_rms`), the same over `T ≤ 3` (`front_rms_t3`), and the largest excess
 //! of the front over Ritter's shallow-water bound, `max(Z − (1 + 2T))` over the samples after
 //! release (`ritter_excess`; the bound holds when it is ≤ 0).
+//!
+//! ## What the front converges to
+//!
+//! The model is an instant release on a free-slip floor. Its front, measured with
+//! `examples/dam_front.rs`, converges at first order and runs ahead of both experiments by
+//! about 0.2 in T once converged (Koshizuka & Oka's own MPS solution agrees with it to 1 %
+//! RMS at N = 48, not with their experiment), so the error against the data grows with N once
+//! the discretisation's too-slow front stops hiding that lead. Without wall density the front
+//! is slower by an amount that does not vanish with the spacing: the slab's two outer layers
+//! (of [`LAYERS`]) miss 15 % of their density next to the side walls at every N. See the
+//! README, "Convergence of the dam-break front".
 
 use super::data::{Curve, read_curve};
 use super::{DriveSpec, Method, Metric, RunRecord, SimCurve, TimePolicy, drive, rms_relative};
