@@ -15,7 +15,8 @@
 //! Flags: `--scene n2_1|n2_2|ko` (Martin & Moyce square column, n² = 2, Koshizuka & Oka),
 //! `--solver wcsph|dfsph|pbf`, `--n N` (particles across the column, default 12), `--dt S`
 //! (fixed step in seconds; default: adaptive), `--courant C`, `--viscosity E` (Pa·s),
-//! `--friction F`, `--density-error X`, `--divergence-error X`, `--warm-start W` (DFSPH),
+//! `--friction F`, `--density-error X`, `--divergence-error X`, `--warm-start W`,
+//! `--hydrostatic-walls` (DFSPH),
 //! `--sound C` (WCSPH's Tait speed of sound, m/s), `--wall-density on|off` (default: as
 //! `validation::methods()` runs the solver), `--periodic-z L` (no side walls: L ≥ 6 layers
 //! across a slab periodic in z, floor and end walls only), `--t-end T` (front time, default
@@ -45,6 +46,7 @@ fn main() {
     let mut quiet = false;
     let mut sound: Option<Real> = None;
     let mut periodic_z: Option<usize> = None;
+    let mut hydrostatic_walls = false;
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
         let mut val = || it.next().unwrap_or_else(|| panic!("{a} needs a value"));
@@ -65,6 +67,7 @@ fn main() {
             "--quiet" => quiet = true,
             "--sound" => sound = Some(val().parse().unwrap()),
             "--periodic-z" => periodic_z = Some(val().parse().unwrap()),
+            "--hydrostatic-walls" => hydrostatic_walls = true,
             other => panic!("unknown argument {other}"),
         }
     }
@@ -93,6 +96,7 @@ fn main() {
         if let Some(x) = warm {
             dd.warm_start = x;
         }
+        dd.hydrostatic_walls = hydrostatic_walls;
         *d = dd;
     }
     let mut params: FluidParams = case.params(&method, n).unwrap();
