@@ -16,7 +16,8 @@
 //! `--solver wcsph|dfsph|pbf`, `--n N` (particles across the column, default 12), `--dt S`
 //! (fixed step in seconds; default: adaptive), `--courant C`, `--viscosity E` (Pa·s),
 //! `--friction F`, `--density-error X`, `--divergence-error X`, `--warm-start W`,
-//! `--hydrostatic-walls` (DFSPH),
+//! `--hydrostatic-walls` (DFSPH), `--gate V` (the column held by a gate at x = a that rises at
+//! V m/s from t = 0, instead of an instant release),
 //! `--sound C` (WCSPH's Tait speed of sound, m/s), `--wall-density on|off` (default: as
 //! `validation::methods()` runs the solver), `--periodic-z L` (no side walls: L ≥ 6 layers
 //! across a slab periodic in z, floor and end walls only), `--t-end T` (front time, default
@@ -47,6 +48,7 @@ fn main() {
     let mut sound: Option<Real> = None;
     let mut periodic_z: Option<usize> = None;
     let mut hydrostatic_walls = false;
+    let mut gate: Option<Real> = None;
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
         let mut val = || it.next().unwrap_or_else(|| panic!("{a} needs a value"));
@@ -68,6 +70,7 @@ fn main() {
             "--sound" => sound = Some(val().parse().unwrap()),
             "--periodic-z" => periodic_z = Some(val().parse().unwrap()),
             "--hydrostatic-walls" => hydrostatic_walls = true,
+            "--gate" => gate = Some(val().parse().unwrap()),
             other => panic!("unknown argument {other}"),
         }
     }
@@ -136,6 +139,9 @@ fn main() {
             1,
         ),
     };
+    if let Some(v) = gate {
+        add_gate(&mut db, &params, v);
+    }
     db.world.pipeline.time_stepping = stepping;
     db.world.physics.integration_parameters.dt = step;
     let mut front = vec![(0.0f64, db.measure().0 as f64 / a)];
@@ -144,7 +150,11 @@ fn main() {
     let mut k = 0usize;
     let wall = std::time::Instant::now();
     while t < duration - 1e-9 {
-        let r = db.world.step_fluids().unwrap();
+        let r = if gate.is_some() {
+            db.world.step().unwrap()
+        } else {
+            db.world.step_fluids().unwrap()
+        };
         substeps += r.substeps as u64;
         assert_eq!(r.non_finite, 0, "non-finite particles");
         t += step as f64;
@@ -264,4 +274,22 @@ fn periodic_slab(case: &Case, mut params: FluidParams, layers: usize) -> DamBrea
         tank_max,
         width: case.width,
     }
+}
+
+/// A gate two spacings thick against the column's face (x = a), a little taller than the
+/// column, rising at `speed` (m/s) from t = 0: a kinematic rapier body, so the world must be
+/// stepped with rapier (`FluidWorld::step`).
+fn add_gate(db: &mut DamBreak2d, params: &FluidParams, speed: Real) {
+    use rapier_sph::math::Vector;
+    use rapier_sph::rapier3d::prelude::{ColliderBuilder, RigidBodyBuilder};
+    let s = params.particle_spacing;
+    let half = Vector::new(s, 0.3 * db.tank_max.y, db.tank_max.z);
+    let body = db.world.physics.insert_body(
+        RigidBodyBuilder::kinematic_velocity_based()
+            .translation(Vector::new(db.width + half.x, half.y, 0.5 * db.tank_max.z))
+            .linvel(Vector::new(0.0, speed, 0.0)),
+    );
+    db.world
+        .physics
+        .insert_collider(ColliderBuilder::cuboid(half.x, half.y, half.z), Some(body));
 }
