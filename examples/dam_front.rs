@@ -16,7 +16,7 @@
 //! `--solver wcsph|dfsph|pbf`, `--n N` (particles across the column, default 12), `--dt S`
 //! (fixed step in seconds; default: adaptive), `--courant C`, `--viscosity E` (Pa·s),
 //! `--friction F`, `--density-error X`, `--divergence-error X`, `--warm-start W`,
-//! `--hydrostatic-walls` (DFSPH), `--gate V` (the column held by a gate at x = a that rises at
+//! `--hydrostatic-walls`, `--no-divergence-solve` (DFSPH), `--gate V` (the column held by a gate at x = a that rises at
 //! V m/s from t = 0, instead of an instant release),
 //! `--sound C` (WCSPH's Tait speed of sound, m/s), `--wall-density on|off` (default: as
 //! `validation::methods()` runs the solver), `--periodic-z L` (no side walls: L ≥ 6 layers
@@ -48,6 +48,7 @@ fn main() {
     let mut sound: Option<Real> = None;
     let mut periodic_z: Option<usize> = None;
     let mut hydrostatic_walls = false;
+    let mut no_divergence = false;
     let mut gate: Option<Real> = None;
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
@@ -70,6 +71,7 @@ fn main() {
             "--sound" => sound = Some(val().parse().unwrap()),
             "--periodic-z" => periodic_z = Some(val().parse().unwrap()),
             "--hydrostatic-walls" => hydrostatic_walls = true,
+            "--no-divergence-solve" => no_divergence = true,
             "--gate" => gate = Some(val().parse().unwrap()),
             other => panic!("unknown argument {other}"),
         }
@@ -100,6 +102,7 @@ fn main() {
             dd.warm_start = x;
         }
         dd.hydrostatic_walls = hydrostatic_walls;
+        dd.divergence_solve = !no_divergence;
         *d = dd;
     }
     let mut params: FluidParams = case.params(&method, n).unwrap();
