@@ -527,5 +527,8 @@ mod tests {
         assert_eq!(s.height.as_ref().unwrap().points.len(), 8); // (0, 1) dropped
         let k = dam_break::Case::koshizuka_oka().unwrap();
         assert_eq!(k.front.points.len(), 8); // experiment, (0, 1) dropped
+        let m = dam_break::Case::koshizuka_oka_mps().unwrap();
+        assert_eq!(m.front.points.len(), 17); // MPS, (0, 1.002) dropped
+        assert_eq!(m.front.points[16], (2.943, 3.997));
     }
 }
