@@ -4,6 +4,7 @@
 //! cargo run --release --example buoyancy                      # WCSPH, densities 250/500/750
 //! cargo run --release --example buoyancy -- --solver pbf --spacing 0.03 --seconds 5
 //! cargo run --release --example buoyancy -- --solver dfsph-hw   # DFSPH, hydrostatic walls
+//! cargo run --release --example buoyancy -- --solver dfsph --density 250 --trace 10  # a line every 10 frames
 //! cargo run --release --example buoyancy --features render -- --render out/  # PNG + GIF per box
 //! ```
 //!
@@ -22,6 +23,7 @@ fn main() {
     let (mut s, mut seconds) = (0.04, 3.0);
     let mut densities = vec![250.0, 500.0, 750.0];
     let mut render: Option<std::path::PathBuf> = None;
+    let mut trace: Option<usize> = None;
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut i = 0;
     while i < args.len() {
@@ -45,8 +47,9 @@ fn main() {
             "--seconds" => seconds = parse(&value, "--seconds"),
             "--density" => densities = vec![parse(&value, "--density")],
             "--render" => render = Some(value.into()),
+            "--trace" => trace = Some(parse(&value, "--trace").max(1.0) as usize),
             other => exit(&format!(
-                "unknown argument {other} (--solver, --spacing, --seconds, --density, --render)"
+                "unknown argument {other} (--solver, --spacing, --seconds, --density, --render, --trace N)"
             )),
         }
         i += 2;
@@ -66,7 +69,7 @@ fn main() {
         let dir = render
             .as_ref()
             .map(|d| d.join(format!("density_{density}")));
-        let f = float(solver, s, density, seconds, dir.as_deref());
+        let f = float(solver, s, density, seconds, dir.as_deref(), trace);
         println!(
             "density {density}: submerged {:.3} (expected {:.3}), corners: RMS acceleration \
              {:.3} g, RMS speed {:.4} m/s (water next to it {:.4}); {:.1} s",
@@ -114,6 +117,7 @@ fn float(
     density: Real,
     seconds: Real,
     render: Option<&std::path::Path>,
+    trace: Option<usize>,
 ) -> Floating {
     let mut scene = FloatingBox::new(FloatingBoxConfig {
         spacing: s,
@@ -125,12 +129,27 @@ fn float(
         solver,
     })
     .unwrap_or_else(|e| exit(&e.to_string()));
+    let (body, fluid) = (scene.body, scene.fluid);
     #[cfg(feature = "render")]
     let mut pictures = render.map(|dir| recorder(dir, scene.config.tank, scene.tank_height()));
     #[cfg(not(feature = "render"))]
     let _ = render;
     let f = scene
         .run(seconds, |_frame, _world| {
+            // `--trace N`: the box's height and angular speed and the water's kinetic energy
+            // every N frames (a body at rest should settle, and the water's energy decay).
+            if let Some(every) = trace
+                && _frame % every == 0
+            {
+                let b = &_world.physics.bodies[body];
+                println!(
+                    "  frame {_frame:4}: box centre y {:.4} m, angular speed {:.3} rad/s, water \
+                     kinetic energy {:.4} J",
+                    b.translation().y,
+                    b.angvel().length(),
+                    _world.fluids[fluid].kinetic_energy()
+                );
+            }
             #[cfg(feature = "render")]
             if let Some(p) = pictures.as_mut()
                 && _frame % 4 == 0
