@@ -12,6 +12,9 @@
 //! cube's upright position is unstable there): a cube would rotate for real while settling,
 //! and rotation would not be jitter.
 //!
+//! `pbf_boxes_float_within_5_percent_of_archimedes` reads the criterion strictly (the
+//! fraction within 5 % of itself) for PBF at 2.5 cm, the solver whose boxes float closest.
+//!
 //! **Ignored**: the finer measurement with cubes (2.5 cm particles), about 2.5 minutes on two
 //! cores. Run `cargo test --release --test buoyancy -- --ignored --nocapture` for its
 //! figures (README, "Two-way coupling").
@@ -20,10 +23,34 @@ use rapier_sph::math::Real;
 use rapier_sph::scenes::{Floating, FloatingBox, FloatingBoxConfig};
 
 /// A tank `tank` wide holding `depth` of water at spacing `s` (WCSPH, walls counting in the
-/// density), and a box of half extents (`hw`, `hh`, `hw`) and `density` placed at its expected
+/// density; [`float_with`] for another solver), and a box of half extents (`hw`, `hh`, `hw`) and `density` placed at its expected
 /// floating depth ([`FloatingBox`]); runs `seconds` at 60 Hz, checking after every frame that
 /// no particle was lost, and measures the last second.
 fn float(
+    s: Real,
+    tank: Real,
+    depth: Real,
+    hw: Real,
+    hh: Real,
+    density: Real,
+    seconds: Real,
+) -> Floating {
+    float_with(
+        rapier_sph::Solver::Wcsph,
+        s,
+        tank,
+        depth,
+        hw,
+        hh,
+        density,
+        seconds,
+    )
+}
+
+/// [`float`] with `solver`.
+#[allow(clippy::too_many_arguments)]
+fn float_with(
+    solver: rapier_sph::Solver,
     s: Real,
     tank: Real,
     depth: Real,
@@ -39,7 +66,7 @@ fn float(
         half_width: hw,
         half_height: hh,
         density,
-        solver: rapier_sph::Solver::Wcsph,
+        solver,
     })
     .unwrap();
     let fluid = scene.fluid;
@@ -115,6 +142,51 @@ fn boxes_float_at_the_right_depth_without_jitter() {
             "density 2000: submerged {:.3}, bottom at {:.4} m, speed {:.4} m/s",
             f.submerged, f.bottom, f.speed
         ));
+    }
+    assert!(failures.is_empty(), "{failures:?}");
+}
+
+/// The issue's criterion read strictly: the submerged *fraction* within 5 % of its own value
+/// (Archimedes: density / 1000), at 2.5 cm (the box 8 particles tall), with PBF, whose
+/// boxes float closest (README, "Two-way coupling": WCSPH and DFSPH float them a few % too
+/// high, the 250 kg/m³ box with DFSPH by 30 %). Measured (3 s, the last second): 0.260 /
+/// 0.512 / 0.761 for 250 / 500 / 750 kg/m³ (+4.0 / +2.4 / +1.5 %), corners at 0.053 / 0.022
+/// / 0.022 g RMS. Same jitter and energy bounds as above. About a minute on two cores.
+#[test]
+fn pbf_boxes_float_within_5_percent_of_archimedes() {
+    let s = 0.025;
+    let mut failures = Vec::new();
+    for density in [250.0, 500.0, 750.0] {
+        let f = float_with(
+            rapier_sph::Solver::pbf(),
+            s,
+            0.72,
+            0.3,
+            0.15,
+            0.1,
+            density,
+            3.0,
+        );
+        let expected = density / 1000.0;
+        eprintln!(
+            "PBF, density {density}: submerged {:.3} (expected {expected:.2}), corners: RMS \
+             acceleration {:.3} g, RMS speed {:.4} m/s (water next to it {:.4})",
+            f.submerged,
+            f.shaking / 9.81,
+            f.speed,
+            f.water,
+        );
+        if (f.submerged - expected).abs() > 0.05 * expected {
+            failures.push(format!("density {density}: submerged {:.3}", f.submerged));
+        }
+        if f.shaking > 0.3 * 9.81 || f.speed > f.water {
+            failures.push(format!(
+                "density {density}: corners at {:.3} g, {:.4} m/s (water {:.4})",
+                f.shaking / 9.81,
+                f.speed,
+                f.water
+            ));
+        }
     }
     assert!(failures.is_empty(), "{failures:?}");
 }
