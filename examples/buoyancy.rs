@@ -5,6 +5,7 @@
 //! cargo run --release --example buoyancy -- --solver pbf --spacing 0.03 --seconds 5
 //! cargo run --release --example buoyancy -- --solver dfsph-hw   # DFSPH, hydrostatic walls
 //! cargo run --release --example buoyancy -- --solver dfsph --density 250 --trace 10  # a line every 10 frames
+//! cargo run --release --example buoyancy -- --solver pbf --cubes   # the ignored test's scene: 16 cm cubes, 2.5 cm, 4 s
 //! cargo run --release --example buoyancy --features render -- --render out/  # PNG + GIF per box
 //! ```
 //!
@@ -24,10 +25,18 @@ fn main() {
     let mut densities = vec![250.0, 500.0, 750.0];
     let mut render: Option<std::path::PathBuf> = None;
     let mut trace: Option<usize> = None;
+    let mut cubes = false;
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut i = 0;
     while i < args.len() {
         let value = args.get(i + 1).cloned().unwrap_or_default();
+        if args[i] == "--cubes" {
+            // tests/buoyancy.rs's ignored scene (a 0.5 m tank, 0.2 m of water, 16 cm cubes):
+            // its defaults, which later flags may still override.
+            (cubes, s, seconds) = (true, 0.025, 4.0);
+            i += 1;
+            continue;
+        }
         match args[i].as_str() {
             "--solver" => {
                 solver = match value.as_str() {
@@ -49,7 +58,7 @@ fn main() {
             "--render" => render = Some(value.into()),
             "--trace" => trace = Some(parse(&value, "--trace").max(1.0) as usize),
             other => exit(&format!(
-                "unknown argument {other} (--solver, --spacing, --seconds, --density, --render, --trace N)"
+                "unknown argument {other} (--solver, --spacing, --seconds, --density, --render, --trace N, --cubes)"
             )),
         }
         i += 2;
@@ -69,7 +78,7 @@ fn main() {
         let dir = render
             .as_ref()
             .map(|d| d.join(format!("density_{density}")));
-        let f = float(solver, s, density, seconds, dir.as_deref(), trace);
+        let f = float(solver, s, density, seconds, dir.as_deref(), trace, cubes);
         println!(
             "density {density}: submerged {:.3} (expected {:.3}), corners: RMS acceleration \
              {:.3} g, RMS speed {:.4} m/s (water next to it {:.4}); {:.1} s",
@@ -110,7 +119,8 @@ fn recorder(dir: &std::path::Path, tank: Real, top: Real) -> rapier_sph::render:
 }
 
 /// The test's scene and measurement ([`FloatingBox`]): a 0.72 m tank, 0.3 m of water, a box
-/// 0.3 × 0.2 × 0.3 m at its expected depth; `seconds` of 60 Hz frames, the last one measured.
+/// 0.3 × 0.2 × 0.3 m (with `cubes`: a 0.5 m tank, 0.2 m of water, a 16 cm cube) at its expected depth;
+/// `seconds` of 60 Hz frames, the last one measured.
 fn float(
     solver: Solver,
     s: Real,
@@ -118,13 +128,14 @@ fn float(
     seconds: Real,
     render: Option<&std::path::Path>,
     trace: Option<usize>,
+    cubes: bool,
 ) -> Floating {
     let mut scene = FloatingBox::new(FloatingBoxConfig {
         spacing: s,
-        tank: 0.72,
-        depth: 0.3,
-        half_width: 0.15,
-        half_height: 0.1,
+        tank: if cubes { 0.5 } else { 0.72 },
+        depth: if cubes { 0.2 } else { 0.3 },
+        half_width: if cubes { 0.08 } else { 0.15 },
+        half_height: if cubes { 0.08 } else { 0.1 },
         density,
         solver,
     })
