@@ -81,12 +81,14 @@ fn main() {
         let f = float(solver, s, density, seconds, dir.as_deref(), trace, cubes);
         println!(
             "density {density}: submerged {:.3} (expected {:.3}), corners: RMS acceleration \
-             {:.3} g, RMS speed {:.4} m/s (water next to it {:.4}); {:.1} s",
+             {:.3} g, RMS speed {:.4} m/s (water next to it {:.4}); lowest corner {:.3} m up; \
+             {:.1} s",
             f.submerged,
             (density / 1000.0).min(1.0),
             f.shaking / 9.81,
             f.speed,
             f.water,
+            f.bottom,
             t0.elapsed().as_secs_f64()
         );
     }

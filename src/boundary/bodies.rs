@@ -61,6 +61,10 @@ pub struct MovingCollider {
     /// rapier's substeps spread it, as an acceleration: the body's velocity `back` seconds
     /// before the frame's end is `vel − accel·back` (see [`Coupling::begin_frame`]).
     pub accel: Vector,
+    /// Rapier's velocity change over the frame (gravity, its contacts, user forces) divided by
+    /// the frame's length: the body's acceleration from everything but the fluid, which
+    /// [`Coupling::exchange`] solves together with the fluid's impulses.
+    pub rapier_rate: Vector,
     /// Seconds from the current substep's start and end to the frame's end.
     pub backs: (Real, Real),
     /// Inverse mass per axis (0 along locked axes; 0 for kinematic bodies).
@@ -258,12 +262,11 @@ impl Coupling {
                 let linvel = body.linvel();
                 let angvel = body.angvel();
                 let end = *co.position();
-                let accel = match self.left.binary_search_by_key(&bh.0, |l| l.0.0) {
-                    Ok(k) if body.is_dynamic() && !body.is_sleeping() => {
-                        (linvel - self.left[k].1) * spread
-                    }
+                let rapier_dv = match self.left.binary_search_by_key(&bh.0, |l| l.0.0) {
+                    Ok(k) if body.is_dynamic() && !body.is_sleeping() => linvel - self.left[k].1,
                     _ => Vector::ZERO,
                 };
+                let accel = rapier_dv * spread;
                 self.candidates.push(MovingCollider {
                     handle: ch,
                     body: bh,
@@ -274,6 +277,7 @@ impl Coupling {
                     linvel,
                     vel: linvel,
                     accel,
+                    rapier_rate: rapier_dv / dt,
                     backs: (0.0, 0.0),
                     inv_mass: if body.is_dynamic() {
                         body.mass_properties().effective_inv_mass
@@ -384,7 +388,16 @@ impl Coupling {
     /// instability of explicit coupling). So the body's velocity change `Δu` is solved with
     /// the particles it touched moving along with it in their contact normals:
     /// `(M + Σ m n nᵀ)·Δu = J`, each of those particles then gains `n (n·Δu)`, and the body
-    /// receives `J − Σ m n (n·Δu) = M·Δu`: linear momentum is exchanged exactly. The angular
+    /// receives `J − Σ m n (n·Δu) = M·Δu`: linear momentum is exchanged exactly.
+    ///
+    /// The body's other forces over the substep (rapier's velocity change over the frame,
+    /// gravity mostly, at the substep's share: `a·dt`) enter the same solve,
+    /// `(M + Σ m n nᵀ)·Δu = J + M·a·dt`: the particles then move along with the body's whole
+    /// velocity change, the body keeps `J − Σ m n (n·Δu) = M·(Δu − a·dt)` from the fluid.
+    /// Without it a body resting on water, whose support `J` the fluid gives it in every
+    /// substep while rapier takes its weight off once per frame, shared a one-sided `Δu` with
+    /// the particles under it every substep (they were pushed into it, it kept only part of
+    /// its support) and floated at the wrong depth. The angular
     /// impulse about the centre of mass changes the angular velocity by `I⁻¹·L` (world
     /// inverse inertia at the frame's end). Both changes move the body from the next substep
     /// on ([`Drift`]): the body moves with the substeps the fluid takes, not once per frame.
@@ -420,9 +433,17 @@ impl Coupling {
             if !any {
                 continue;
             }
-            // (I + M⁻¹ A) Δu = M⁻¹ J, with M⁻¹ per axis (locked axes: 0).
+            // (I + M⁻¹ A) Δu = M⁻¹ J + a·dt, with M⁻¹ per axis (locked axes: 0, and no
+            // other force moves them either).
+            let dt_sub = m.backs.0 - m.backs.1;
+            let free = Vector::new(
+                (inv.x > 0.0) as u32 as Real,
+                (inv.y > 0.0) as u32 as Real,
+                (inv.z > 0.0) as u32 as Real,
+            );
+            let ext = m.rapier_rate * dt_sub * free;
             let k_mat = Matrix::IDENTITY + Matrix::from_diagonal(inv) * a;
-            let rhs = inv * j;
+            let rhs = inv * j + ext;
             let mut du = k_mat.inverse() * rhs;
             if !crate::math::is_finite(du) {
                 du = rhs;
@@ -453,7 +474,7 @@ impl Coupling {
             let dw = m.inv_inertia * angular;
             for c in self.candidates.iter_mut().chain(self.table.iter_mut()) {
                 if c.body == body {
-                    c.vel += du;
+                    c.vel += du - ext;
                     c.angvel += dw;
                 }
             }
