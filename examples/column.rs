@@ -332,7 +332,11 @@ fn main() {
 /// recomputed from the particles' positions, reported pressures and densities (the same
 /// half-space tables and union of half-spaces as `boundary::wall`, the box's five faces).
 /// At rest the particle–particle forces cancel in the total, so these terms plus contact
-/// carry the weight; [`WallBalance::fractions`] returns them as fractions of it.
+/// carry the weight; [`WallBalance::fractions`] returns them as fractions of it. With
+/// hydrostatic walls the wall's pressure (its fluid-side neighbours' average carried back to
+/// the particle, see `WallWorkspace::neighbour_pressure`) is taken as the particle's own,
+/// `γ = 2` on `p_i`, and the carrying back is left out: exact in a linear hydrostatic field,
+/// an approximation otherwise.
 struct WallBalance {
     table: rapier_sph::kernel::HalfSpaceTable,
     /// `γ` on `p/ρ²` (DFSPH: the mirror weight; WCSPH: ½).
