@@ -6,6 +6,7 @@
 //! cargo run --release --example column -- --solver wcsph --spacing 0.01 --seconds 5
 //! cargo run --release --example column -- --solver dfsph --hydrostatic-walls --warm-start 0.5
 //! cargo run --release --example column -- --solver dfsph --validation 6,8,12   # the report's scene
+//! cargo run --release --example column -- --solver dfsph --hydrostatic-walls --n 8 --spacing 0.0125 --radius 0.4
 //! ```
 //!
 //! The tank is [`rapier_sph::scenes::HydrostaticTank`] (`n × 2n × n` particles on a lattice
@@ -16,6 +17,18 @@
 //! particles next to a side wall (centre within one spacing of it) and for the interior ones
 //! (at least 3 spacings from every side wall), and the layer's mean density; and the kinetic
 //! energy split between the bulk and the top two layers, next to a side wall or not.
+//!
+//! Per layer it also prints where the layer sits (mean height over the spacing) and the mean
+//! vertical acceleration the pressure forces and gravity leave on its particles (pairs and
+//! walls recomputed from the reported pressures as the solver applies them; viscosity and
+//! contact left out): what contact must carry. And the force balance: at rest the
+//! particle–particle forces cancel in the total, so the walls' SPH terms (floor pressure
+//! term, floor and side hydrostatic terms) and contact carry the weight; it prints each SPH
+//! term's share and the rest (contact, and inertia, about zero averaged at rest).
+//! It also prints the hydrostatic scene's pressure-profile RMS both ways: averaged over the
+//! samples' instantaneous profiles (as the scene reports it) and of the time-averaged profile.
+//! `--solver wcsph-walls` is WCSPH with walls counting in the density (the buoyancy tests'
+//! setting); `--radius r` sets the contact radius to `r` spacings (the preset's is 0.5).
 //!
 //! `--validation 6,8,12` instead runs the report's hydrostatic scene
 //! (`rapier_sph::validation::hydrostatic`, adaptive steps) with the chosen settings at those
@@ -34,6 +47,7 @@ fn main() {
     let mut min_iterations: Option<u32> = None;
     let mut max_density_error: Option<Real> = None;
     let mut threads = 0usize;
+    let mut radius: Option<Real> = None;
     let mut validation: Vec<usize> = Vec::new();
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut i = 0;
@@ -47,6 +61,7 @@ fn main() {
             "--solver" => solver = value,
             "--warm-start" => warm = Some(parse(&value, "--warm-start")),
             "--threads" => threads = parse(&value, "--threads"),
+            "--radius" => radius = Some(parse(&value, "--radius")),
             "--validation" => {
                 validation = value.split(',').map(|v| parse(v, "--validation")).collect()
             }
@@ -61,8 +76,8 @@ fn main() {
                 step = 1;
             }
             other => exit(&format!(
-                "unknown argument {other} (--n, --spacing, --seconds, --solver default|wcsph|dfsph|pbf, \
-                 --warm-start, --[no-]hydrostatic-walls, --threads)"
+                "unknown argument {other} (--n, --spacing, --seconds, --solver default|wcsph|wcsph-walls|dfsph|pbf, \
+                 --warm-start, --[no-]hydrostatic-walls, --threads, --radius (fraction of the spacing))"
             )),
         }
         i += step;
@@ -80,9 +95,14 @@ fn main() {
     match solver.as_str() {
         "default" => {}
         "wcsph" => b = b.solver(Solver::Wcsph).wall_density(false),
+        "wcsph-walls" => b = b.solver(Solver::Wcsph).wall_density(true),
         "dfsph" => b = b.solver(Solver::dfsph()).wall_density(true),
         "pbf" => b = b.solver(Solver::pbf()).wall_density(true),
         other => exit(&format!("unknown solver {other}")),
+    }
+    if let Some(r) = radius {
+        // Contact radius as a fraction of the spacing (the preset's is 0.5).
+        b = b.particle_radius(r * s);
     }
     let mut params = b.build().unwrap_or_else(|e| exit(&e.to_string()));
     if let Solver::Dfsph(d) = &mut params.solver {
@@ -100,6 +120,9 @@ fn main() {
         }
     } else if hydrostatic_walls.is_some() || warm.is_some() || min_iterations.is_some() {
         exit("--warm-start and --[no-]hydrostatic-walls are DFSPH settings");
+    }
+    if !validation.is_empty() && radius.is_some() {
+        exit("--radius is not passed to the validation scene (it builds the preset's fluid)");
     }
     if !validation.is_empty() {
         // The validation scene (`rapier_sph::validation::hydrostatic`), adaptive steps.
@@ -146,12 +169,24 @@ fn main() {
     let mut wall = vec![(0.0f64, 0.0f64); layers];
     let mut inner = vec![(0.0f64, 0.0f64); layers];
     let mut dens = vec![(0.0f64, 0usize); layers];
+    // Sum of the particles' heights per layer (where each layer actually sits).
+    let mut heights = vec![0.0f64; layers];
     let (mut ke_late, mut vmax_late, mut samples) = (0.0f64, Real::default(), 0usize);
     let (mut substeps, mut iterations, mut div_iterations) = (0u64, 0u64, 0u64);
     let mut bottom = 0.0f64;
+    // The scene's pressure-profile RMS, sample by sample (instantaneous profiles).
+    let mut profile_rms = 0.0f64;
     // Kinetic energy over the last quarter: below the top two layers / in them, away from /
     // next to a side wall.
     let mut regions = [0.0f64; 4];
+    // Force balance over the last quarter (fractions of the weight): the walls' SPH terms
+    // recomputed from the particles' reported pressures (see `WallBalance`).
+    let balance = WallBalance::new(tank.world.fluids[tank.fluid].params(), width, g);
+    let mut balance_sum = [0.0f64; 4];
+    // Vertical residual acceleration per layer (wall column, interior), summed.
+    let mut resid = vec![(0.0f64, 0usize, 0.0f64, 0usize); layers];
+    // Bottom layer: the fluid's and the floor's zeroth-order sums (times the spacing), summed.
+    let mut zeroth = (0.0f64, 0.0f64, 0usize);
     let t0 = std::time::Instant::now();
     let mut ke_window = 0.0f64;
     let mut v_window: Real = 0.0;
@@ -188,6 +223,33 @@ fn main() {
             vmax_late = vmax_late.max(vmax);
             bottom +=
                 HydrostaticTank::bottom_pressure_error_of(&tank.world, tank.fluid, height) as f64;
+            profile_rms +=
+                HydrostaticTank::pressure_profile_rms_of(&tank.world, tank.fluid, height) as f64;
+            let b = balance.fractions(fl.positions(), fl.pressures(), fl.densities());
+            for (s, v) in balance_sum.iter_mut().zip(b) {
+                *s += v;
+            }
+            let res = balance.residuals(fl.positions(), fl.pressures(), fl.densities());
+            for (x, (a, z, w)) in fl.positions().iter().zip(res) {
+                if x.y < s {
+                    zeroth.0 += (z * s) as f64;
+                    zeroth.1 += (w * s) as f64;
+                    zeroth.2 += 1;
+                }
+                let k = (x.y / s).floor();
+                if !(k >= 0.0 && (k as usize) < layers) {
+                    continue;
+                }
+                let side = x.x.min(width - x.x).min(x.z).min(width - x.z);
+                let e = &mut resid[k as usize];
+                if side < s {
+                    e.0 += a as f64;
+                    e.1 += 1;
+                } else {
+                    e.2 += a as f64;
+                    e.3 += 1;
+                }
+            }
             for (((x, &p), &rho), v) in fl
                 .positions()
                 .iter()
@@ -214,6 +276,7 @@ fn main() {
                 }
                 dens[k].0 += rho as f64;
                 dens[k].1 += 1;
+                heights[k] += x.y as f64;
             }
         }
     }
@@ -228,16 +291,49 @@ fn main() {
     );
     let ratio = |e: (f64, f64)| if e.1 > 0.0 { e.0 / e.1 } else { f64::NAN };
     println!(
-        "last quarter: layer (from the floor), p / rho0 g depth (wall column, interior), mean density"
+        "last quarter: layer (from the floor), p / rho0 g depth (wall column, interior), mean density, \
+         mean height / spacing, vertical pressure + gravity acceleration / g (wall column, interior)"
     );
     for k in 0..layers {
         println!(
-            "  {k:2}: {:6.3} {:6.3}  {:8.2}",
+            "  {k:2}: {:6.3} {:6.3}  {:8.2}  {:7.4}  {:+7.3} {:+7.3}",
             ratio(wall[k]),
             ratio(inner[k]),
-            dens[k].0 / dens[k].1.max(1) as f64
+            dens[k].0 / dens[k].1.max(1) as f64,
+            heights[k] / dens[k].1.max(1) as f64 / s as f64,
+            resid[k].0 / resid[k].1.max(1) as f64 / g as f64,
+            resid[k].2 / resid[k].3.max(1) as f64 / g as f64
         );
     }
+    println!(
+        "bottom layer's zeroth-order sums x spacing: fluid {:.4}, floor {:.4}",
+        zeroth.0 / zeroth.2.max(1) as f64,
+        zeroth.1 / zeroth.2.max(1) as f64
+    );
+    // The same RMS from the time-averaged layers (interior and wall columns pooled).
+    let averaged: Vec<f64> = (0..layers.saturating_sub(1))
+        .filter_map(|k| {
+            let (p, e) = (wall[k].0 + inner[k].0, wall[k].1 + inner[k].1);
+            (e > 0.0).then(|| p / e - 1.0)
+        })
+        .collect();
+    println!(
+        "pressure-profile RMS (scene measure): {:.4} averaged over the samples' profiles, {:.4} \
+         of the time-averaged profile (wall columns and interior only)",
+        profile_rms / samples as f64,
+        (averaged.iter().map(|e| e * e).sum::<f64>() / averaged.len().max(1) as f64).sqrt()
+    );
+    let bs: Vec<f64> = balance_sum.iter().map(|v| v / samples as f64).collect();
+    println!(
+        "force balance (fractions of the weight, last quarter): floor pressure term {:.4}, floor \
+         hydrostatic term {:.4}, side walls' hydrostatic term {:.4}; SPH walls {:.4}, contact and \
+         inertia the rest {:+.4}",
+        bs[0],
+        bs[1],
+        bs[2],
+        bs[3],
+        1.0 - bs[3]
+    );
     println!(
         "bottom error (scene measure) {:+.4}, mean kinetic energy {:.3e} J, max speed {:.4} m/s; \
          {:.2} substeps/frame, {:.2} density + {:.2} divergence iterations per substep; {:.1} s",
@@ -249,6 +345,153 @@ fn main() {
         div_iterations as f64 / substeps as f64,
         t0.elapsed().as_secs_f64()
     );
+}
+
+/// The vertical force the box's walls exert on the fluid through the SPH wall terms,
+/// recomputed from the particles' positions, reported pressures and densities (the same
+/// half-space tables and union of half-spaces as `boundary::wall`, the box's five faces).
+/// At rest the particle–particle forces cancel in the total, so these terms plus contact
+/// carry the weight; [`WallBalance::fractions`] returns them as fractions of it. With
+/// hydrostatic walls the wall's pressure (its fluid-side neighbours' average carried back to
+/// the particle, see `WallWorkspace::neighbour_pressure`) is taken as the particle's own,
+/// `γ = 2` on `p_i`, and the carrying back is left out: exact in a linear hydrostatic field,
+/// an approximation otherwise.
+struct WallBalance {
+    table: rapier_sph::kernel::HalfSpaceTable,
+    /// `γ` on `p/ρ²` (DFSPH: the mirror weight; WCSPH: ½).
+    gamma: Real,
+    hydrostatic: bool,
+    /// Kernel of the pair pressure force, its support, and whether it is WCSPH's form.
+    kernel: rapier_sph::kernel::KernelKind,
+    h: Real,
+    wcsph: bool,
+    rest: Real,
+    mass: Real,
+    width: Real,
+    g: Real,
+}
+
+impl WallBalance {
+    fn new(p: &rapier_sph::FluidParams, width: Real, g: Real) -> Self {
+        let (kernel, gamma, hydrostatic) = match p.solver {
+            Solver::Dfsph(d) if d.hydrostatic_walls => (
+                p.density_kernel,
+                rapier_sph::solver::HYDROSTATIC_WALL_MIRROR,
+                true,
+            ),
+            Solver::Dfsph(_) => (p.density_kernel, rapier_sph::solver::WALL_MIRROR, false),
+            _ => (p.pressure_kernel, 0.5, false),
+        };
+        let h = p.smoothing_length;
+        let table = rapier_sph::with_kernel!(kernel, K =>
+            rapier_sph::kernel::HalfSpaceTable::new::<K>(h, p.particle_spacing));
+        Self {
+            table,
+            gamma: if p.wall_density { gamma } else { 0.0 },
+            hydrostatic,
+            kernel,
+            h,
+            wcsph: !matches!(p.solver, Solver::Dfsph(_)),
+            rest: p.rest_density,
+            mass: p.particle_mass,
+            width,
+            g,
+        }
+    }
+
+    /// Each particle's vertical acceleration from the pressure forces (pairs and walls, as
+    /// the solver applies them, from the reported pressures) and gravity, viscosity and
+    /// contact left out: what contact (or motion) must make up at this instant (m/s²).
+    /// Also returns, per particle, `(Σ_j V ∂W_ij/∂y, |∇ρ_wall,y|/ρ0)`: the fluid's and the
+    /// floor's zeroth-order sums (1/m), which cancel in the mirrored wall term when consistent.
+    fn residuals(
+        &self,
+        x: &[rapier_sph::math::Vector],
+        p: &[Real],
+        rho: &[Real],
+    ) -> Vec<(Real, Real, Real)> {
+        let h2 = self.h * self.h;
+        let m = self.mass;
+        let v = self.mass / self.rest;
+        (0..x.len())
+            .map(|i| {
+                let mut ay: Real = 0.0;
+                let mut zeroth: Real = 0.0;
+                for j in 0..x.len() {
+                    let r = x[i] - x[j];
+                    let d2 = r.length_squared();
+                    if j == i || d2 >= h2 {
+                        continue;
+                    }
+                    let d = d2.sqrt();
+                    let gy = self.kernel.dw(d, self.h) * r.y / d;
+                    zeroth += v * gy;
+                    let c = if self.wcsph {
+                        (p[i] + p[j]) / (2.0 * rho[i] * rho[j])
+                    } else {
+                        p[i] / (rho[i] * rho[i]) + p[j] / (rho[j] * rho[j])
+                    };
+                    ay -= m * c * gy;
+                }
+                let [f, hf, hs, _] = self.fractions(&x[i..=i], &p[i..=i], &rho[i..=i]);
+                // The floor's own |∇ρ_wall|/ρ0 (the union with the sides left out).
+                let wall = self.table.eval(x[i].y).1;
+                (ay + ((f + hf + hs) as Real - 1.0) * self.g, zeroth, wall)
+            })
+            .collect()
+    }
+
+    /// `[floor pressure term, floor hydrostatic term, side walls' hydrostatic term, sum]`,
+    /// each the total upward force over `M·g`.
+    fn fractions(&self, x: &[rapier_sph::math::Vector], p: &[Real], rho: &[Real]) -> [f64; 4] {
+        let t = &self.table;
+        let full = t.full();
+        let mut out = [0.0f64; 4];
+        for ((x, &p), &rho) in x.iter().zip(p).zip(rho) {
+            // (normal's y, distance, is floor) of the floor and the four sides.
+            let faces = [
+                (1.0, x.y, true),
+                (0.0, x.x, false),
+                (0.0, self.width - x.x, false),
+                (0.0, x.z, false),
+                (0.0, self.width - x.z, false),
+            ];
+            let (mut u, mut gy): (Real, Real) = (0.0, 0.0);
+            let (mut hf, mut hs): (Real, Real) = (0.0, 0.0);
+            for (ny, d, floor) in faces {
+                let (phi, area) = t.eval(d);
+                let a = (phi / full).min(1.0);
+                if a <= 0.0 && area <= 0.0 {
+                    continue;
+                }
+                // ∇ρ_wall's y component (into the wall: −n), union-weighted.
+                gy = gy * (1.0 - a) - ny * area / full * (1.0 - u);
+                hf *= 1.0 - a;
+                hs *= 1.0 - a;
+                if self.hydrostatic {
+                    let (phi_f, mom) = t.eval_moment(d);
+                    // −(M n n + Φ (I − n n))·g, g = −g ŷ: upward M·g (floor) or Φ·g (sides).
+                    if floor {
+                        hf += mom * self.g * (1.0 - u);
+                    } else {
+                        hs += phi_f * self.g * (1.0 - u);
+                    }
+                }
+                u = 1.0 - (1.0 - u) * (1.0 - a);
+            }
+            let grad_y = gy * self.rest * full;
+            out[0] += (-self.gamma * p / (rho * rho) * grad_y) as f64;
+            out[1] += hf as f64;
+            out[2] += hs as f64;
+        }
+        let weight = (x.len() as Real * self.g) as f64;
+        let _ = self.mass; // per-particle mass cancels in the fractions
+        for v in out.iter_mut().take(3) {
+            *v /= weight;
+        }
+        out[3] = out[0] + out[1] + out[2];
+        out
+    }
 }
 
 fn parse<T: std::str::FromStr>(v: &str, flag: &str) -> T {

@@ -590,7 +590,8 @@ fn step_fluid(
     // `g_c` the dynamic bodies' share of the wall density's gradient, the impulse the
     // particle's wall term gave it over the substep, and so minus the body's, is
     // - WCSPH: `−m·g_c·p/(2ρ²)·dt` (the wall pressure force);
-    // - DFSPH: `−m·γ·g_c·Σπ·dt`, `Σπ` all the pressure values the divergence and density
+    // - DFSPH: `−m·g_c·(γ·Σπ + Σπ̂)·dt` (`Σπ̂` the neighbours' average with hydrostatic walls,
+    //   0 otherwise), `Σπ` all the pressure values the divergence and density
     //   solves applied this substep (warm starts included: what `warm_*` hold now), plus
     //   minus the dynamic bodies' share of the hydrostatic wall term (when on), `m·h_c·dt`;
     // - PBF: `m·g_c·Σλ/(ρ0·dt)`, the wall's share of the position corrections over all
@@ -618,9 +619,19 @@ fn step_fluid(
                         0.5 * pressures[i] * inv * inv * m * dt
                     }
                     Solver::Dfsph(_) => {
-                        let pi =
-                            warm_density[i] + if divergence { warm_divergence[i] } else { 0.0 };
-                        w.mirror * pi * m * dt
+                        let total = |j: usize| {
+                            warm_density[j] + if divergence { warm_divergence[j] } else { 0.0 }
+                        };
+                        // With hydrostatic walls the wall's pressure is the neighbours'
+                        // (see `WallWorkspace::neighbour_pressure`).
+                        let wall_pi = crate::solver::dfsph::wall_neighbour_pressure(
+                            &ws.neighbors,
+                            &ws.gradients,
+                            w,
+                            i,
+                            total,
+                        );
+                        (w.mirror * total(i) + wall_pi) * m * dt
                     }
                     Solver::Pbf(_) => -ws.pbf.lambda_sum[i] * m / (p.rest_density * dt),
                     Solver::Clavet(_) => 0.0,

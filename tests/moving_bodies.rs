@@ -369,6 +369,15 @@ fn momentum_is_conserved_for_every_solver() {
     for (name, solver, walls) in [
         ("WCSPH", Solver::Wcsph, true),
         ("DFSPH", Solver::dfsph(), true),
+        // The wall's pressure taken from the neighbours (`WallWorkspace::neighbour_pressure`).
+        (
+            "DFSPH, hydrostatic walls",
+            Solver::Dfsph(rapier_sph::solver::Dfsph {
+                hydrostatic_walls: true,
+                ..Default::default()
+            }),
+            true,
+        ),
         ("PBF", Solver::Pbf(Default::default()), true),
         ("Clavet", Solver::Clavet(Default::default()), false),
     ] {

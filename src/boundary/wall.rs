@@ -82,7 +82,9 @@ pub struct WallWorkspace {
     /// wall's pressure is the particle's plus the hydrostatic difference, `p_b = p_i +
     /// ρ0·g·(x_b − x_i)` (Adami et al. 2012's wall pressure), and the mirrored part `p_i`
     /// acts through `gradient`; this is the rest, `−Σ_b V_b (g·(x_b − x_i)) ∇W_ib =
-    /// −(M·n⊗n + Φ·(I − n⊗n))·g` per wall (see [`HalfSpaceTable::eval_moment`]).
+    /// −(M·n⊗n + Φ·(I − n⊗n))·g` per wall (see [`HalfSpaceTable::eval_moment`]), plus
+    /// `∇ρ_wall·(g·(x̄_i − x_i))/ρ0`: the wall's pressure is taken from the neighbours
+    /// (see `neighbour_pressure`), whose weighted centre `x̄_i` is not at the particle.
     pub hydrostatic: Vec<Vector>,
     /// `true` when the last update computed `hydrostatic` (asked for it, under gravity).
     pub hydrostatic_on: bool,
@@ -92,10 +94,17 @@ pub struct WallWorkspace {
     pub coupled: Vec<Coupled>,
     /// `true` when `coupled` holds data for this update.
     pub coupled_any: bool,
-    /// Weight `γ` of the wall's pressure force for DFSPH: [`crate::solver::WALL_MIRROR`], or
-    /// [`crate::solver::HYDROSTATIC_WALL_MIRROR`] when the update was asked for the
-    /// hydrostatic wall pressure.
+    /// Weight `γ` of the particle's own pressure in the wall's pressure force for DFSPH:
+    /// [`crate::solver::WALL_MIRROR`] (the own pressure counted once).
     pub mirror: Real,
+    /// `true` when the update was asked for the hydrostatic wall pressure: the wall's
+    /// pressure is then the particle's *neighbours'* pressure carried back to it, not the
+    /// particle's own mirrored (see [`crate::solver::HYDROSTATIC_WALL_MIRROR`]). DFSPH adds
+    /// `π̂_i·∇ρ_wall` to the own term, `π̂_i` the average of the pressure values of the
+    /// neighbours on the fluid side of the particle, weighted by `max(0, ∇W_ij·û_i)` with
+    /// `û_i` the unit vector away from the walls (`−∇ρ_wall` normalised); the hydrostatic
+    /// difference from their weighted centre back to the particle is part of `hydrostatic`.
+    pub neighbour_pressure: bool,
     near: usize,
 }
 
@@ -165,11 +174,8 @@ impl WallWorkspace {
         self.gradient.resize(n, Vector::ZERO);
         self.motion.resize(n, 0.0);
         self.coverage.resize(n, 0.0);
-        self.mirror = if hydrostatic.is_some() {
-            crate::solver::HYDROSTATIC_WALL_MIRROR
-        } else {
-            crate::solver::WALL_MIRROR
-        };
+        self.mirror = crate::solver::WALL_MIRROR;
+        self.neighbour_pressure = hydrostatic.is_some();
         let gravity = hydrostatic.unwrap_or(Vector::ZERO);
         let hydro = gravity != Vector::ZERO;
         self.hydrostatic_on = hydro;
@@ -291,6 +297,18 @@ impl WallWorkspace {
                             m += body.velocity_at_point(proj.point).dot(gk);
                         }
                     }
+                    if hydro && g != Vector::ZERO {
+                        // The neighbours' pressure is carried back to the particle by the
+                        // hydrostatic difference from their weighted centre (the same weights
+                        // as DFSPH's average); ∇ρ_wall = g·ρ0·full_f.
+                        let off =
+                            neighbour_centre(grid, positions, i, -g.normalize(), force_kernel, h);
+                        let c = full_f * gravity.dot(off);
+                        hs += g * c;
+                        if any_dynamic {
+                            hc += gc * c;
+                        }
+                    }
                     dens[k] = rest_density * full_d * u;
                     grad[k] = g * (rest_density * full_f);
                     motion[k] = m * rest_density * full_f;
@@ -324,4 +342,41 @@ impl WallWorkspace {
                 * std::mem::size_of::<Vector>()
             + self.coupled.capacity() * std::mem::size_of::<Coupled>()
     }
+}
+
+/// `x̄_i − x_i`, the centre of the neighbours of sorted particle `i` weighted by
+/// `max(0, ∇W_ij·û)` (the weights of the wall's pressure, see
+/// [`WallWorkspace::neighbour_pressure`]); zero when none has weight, or in a
+/// periodic grid (the separations would need the minimum image).
+fn neighbour_centre(
+    grid: &NeighborGrid,
+    positions: &[Vector],
+    i: usize,
+    away: Vector,
+    kernel: KernelKind,
+    h: Real,
+) -> Vector {
+    if grid.is_periodic() {
+        return Vector::ZERO;
+    }
+    crate::with_kernel!(kernel, K => {
+        use crate::kernel::Kernel;
+        let k = K::new(h);
+        let xi = positions[i];
+        let (mut sw, mut sx) = (0.0, Vector::ZERO);
+        for &(a, b) in grid.neighbor_ranges(grid.cell_of(i)).as_slice() {
+            for &xj in &positions[a as usize..b as usize] {
+                let r = xi - xj;
+                let d = r.length();
+                // The particle itself (d = 0) and coincident ones have no direction.
+                if d >= h || d <= 0.0 {
+                    continue;
+                }
+                let w = (r * (k.dw(d) / d)).dot(away).max(0.0);
+                sw += w;
+                sx -= r * w;
+            }
+        }
+        if sw > 0.0 { sx / sw } else { Vector::ZERO }
+    })
 }

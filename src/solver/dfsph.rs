@@ -58,14 +58,21 @@ use rayon::prelude::*;
 /// ([`HYDROSTATIC_WALL_MIRROR`]).
 pub const WALL_MIRROR: Real = 1.0;
 
-/// `γ` with [`Dfsph::hydrostatic_walls`]: the wall's pressure is the particle's (`p_b = p_i`,
-/// the wall "particle" term `π_i + π_b = 2π_i`) plus the hydrostatic difference
-/// `ρ0·g·(x_b − x_i)` of Adami et al. (2012), applied with gravity
-/// ([`crate::boundary::WallWorkspace::hydrostatic`]). The mirrored part cancels the
-/// zeroth-order term `2π_i Σ_j m∇W_ij` the missing neighbours leave next to a wall; the
+/// Total weight of the wall's pressure with [`Dfsph::hydrostatic_walls`]: the wall
+/// "particle" term `π_i + π_b` with the wall's pressure `π_b` equal to the fluid's carried
+/// to the particle, plus the hydrostatic difference `ρ0·g·(x_b − x_i)` of Adami et al. (2012),
+/// applied with gravity ([`crate::boundary::WallWorkspace::hydrostatic`]). The particle's
+/// own value counts once ([`WALL_MIRROR`]); `π_b` is the average of its fluid-side
+/// neighbours' values carried back to it ([`crate::boundary::WallWorkspace::neighbour_pressure`]),
+/// as Adami et al. take the wall's pressure from the fluid around it. In a linear
+/// hydrostatic field the two are equal (total weight 2): the zeroth-order term
+/// `2π_i Σ_j m∇W_ij` the missing neighbours leave next to a wall is cancelled, and the
 /// hydrostatic part supplies the wall's share of the first-order term (the kernel's first
-/// moment), vertical support next to side walls included. Together they make the linear
-/// hydrostatic pressure an equilibrium next to walls.
+/// moment), vertical support next to side walls included. Session 7: mirroring the
+/// particle's own value twice instead left its distance to the wall tied to nothing (a
+/// bottom layer whose pressure fell below the layer above was pressed into the floor and
+/// held by contact, which then carried 10 % of a resting column's weight) and kept a
+/// resting column moving (see the README).
 pub const HYDROSTATIC_WALL_MIRROR: Real = 2.0;
 
 /// Accumulators of the solves' pair sums (pair `t` of a particle goes to `t % ACC`), summed
@@ -104,15 +111,15 @@ pub struct Dfsph {
     /// trade-off (at 1.0 a column at rest in a closed tank kept jittering).
     #[cfg_attr(feature = "snapshot", serde(default = "default_warm_start"))]
     pub warm_start: Real,
-    /// Walls with hydrostatic pressure (default false): the wall's pressure is the
-    /// particle's plus `ρ0·g·(x_b − x_i)` (see [`HYDROSTATIC_WALL_MIRROR`]) instead of the
-    /// particle's weighted by [`WALL_MIRROR`]. The pressure next to walls then comes out
-    /// hydrostatic (a settled column's bottom pressure within a few per cent instead of
-    /// 14–21 % high, no compressed layer above the floor); the README gives the measured
-    /// trade-offs that keep it off by default: with the default warm start a column at rest
-    /// keeps moving (kinetic energy ten times the default's), and the stability suite's
-    /// "body immersed" case (particles pushed out of a ball of radius 1.5 h) gains energy.
-    #[cfg_attr(feature = "snapshot", serde(default))]
+    /// Walls with hydrostatic pressure (default false): the wall's pressure is the fluid's
+    /// around the particle carried to the wall, `ρ0·g·(x_b − x_i)` included (see
+    /// [`HYDROSTATIC_WALL_MIRROR`]), instead of the particle's own weighted by
+    /// [`WALL_MIRROR`]. The pressure next to walls then comes out hydrostatic (a settled
+    /// column's bottom pressure within about 2 % instead of 14–21 % high, no compressed
+    /// layer above the floor); the README gives the measured trade-offs that keep it off by
+    /// default: a column at rest moves more than with the default walls (kinetic energy
+    /// about 3 times the default's), and the wall stage costs a second scan of the
+    /// neighbours of the particles next to walls.
     pub hydrostatic_walls: bool,
 }
 
@@ -469,9 +476,59 @@ fn pressure_push(
     let f = (acc[0] + acc[1]) + (acc[2] + acc[3]);
     let mut dv = Vector::from(f) * (dt * mass);
     if let Some(wall) = wall {
-        dv += wall.gradient[i] * (wall.mirror * pii * dt);
+        let gw = wall.gradient[i];
+        let mut wall_pi = wall.mirror * pii;
+        if wall.neighbour_pressure {
+            wall_pi += neighbour_average(nb, g, gw, |j| pi[j]);
+        }
+        dv += gw * (wall_pi * dt);
     }
     Vec3A::from(dv)
+}
+
+/// The wall's pressure value `π̂_i` with hydrostatic walls: the average of the neighbours'
+/// values `pi(j)` weighted by `max(0, ∇W_ij·û)`, `û = −∇ρ_wall/|∇ρ_wall|` pointing away from
+/// the walls (the neighbours on the fluid side of the particle; on a lattice at `h = 2s`
+/// next to a flat wall, the row one spacing further from it). 0 without wall or weight.
+#[inline(always)]
+fn neighbour_average(nb: &[u32], g: &[Vec3A], gw: Vector, pi: impl Fn(usize) -> Real) -> Real {
+    if gw == Vector::ZERO {
+        return 0.0;
+    }
+    let away = Vec3A::from(-gw.normalize());
+    let (mut sw, mut swp) = (0.0, 0.0);
+    for (&j, &g) in nb.iter().zip(g) {
+        let w = g.dot(away).max(0.0);
+        sw += w;
+        swp += w * pi(j as usize);
+    }
+    if sw > 0.0 { swp / sw } else { 0.0 }
+}
+
+/// With hydrostatic walls ([`WallWorkspace::neighbour_pressure`]), the wall's pressure
+/// value of sorted particle `i` for the pressure values `pi(j)` (see
+/// [`WallWorkspace::neighbour_pressure`]), from the neighbour lists and the pair gradients
+/// of the current substep: the body coupling passes the wall's force on to the bodies with
+/// it. 0 when the walls do not take their pressure from the neighbours.
+pub(crate) fn wall_neighbour_pressure(
+    neighbors: &NeighborLists,
+    grads: &PairGradients,
+    wall: &WallWorkspace,
+    i: usize,
+    pi: impl Fn(usize) -> Real,
+) -> Real {
+    if !wall.neighbour_pressure {
+        return 0.0;
+    }
+    let (c, k) = (i / CHUNK, i % CHUNK);
+    let (offsets, indices) = neighbors.chunk(c);
+    let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
+    neighbour_average(
+        &indices[s..e],
+        &grads.chunk(c).grad[s..e],
+        wall.gradient[i],
+        pi,
+    )
 }
 
 /// Pass B of an iteration: `v_i −= dt·(Σ_j m (π_i + π_j) ∇W_ij + π_i ∇ρ_wall,i)`.
