@@ -6,6 +6,7 @@
 //! cargo run --release --example buoyancy -- --solver dfsph-hw   # DFSPH, hydrostatic walls
 //! cargo run --release --example buoyancy -- --solver dfsph --density 250 --trace 10  # a line every 10 frames
 //! cargo run --release --example buoyancy -- --solver pbf --cubes   # the ignored test's scene: 16 cm cubes, 2.5 cm, 4 s
+//! cargo run --release --example buoyancy -- --cubes --depth 0.3     # the same in deeper water
 //! cargo run --release --example buoyancy --features render -- --render out/  # PNG + GIF per box
 //! ```
 //!
@@ -26,6 +27,7 @@ fn main() {
     let mut render: Option<std::path::PathBuf> = None;
     let mut trace: Option<usize> = None;
     let mut cubes = false;
+    let mut depth: Option<Real> = None;
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut i = 0;
     while i < args.len() {
@@ -56,9 +58,10 @@ fn main() {
             "--seconds" => seconds = parse(&value, "--seconds"),
             "--density" => densities = vec![parse(&value, "--density")],
             "--render" => render = Some(value.into()),
+            "--depth" => depth = Some(parse(&value, "--depth")),
             "--trace" => trace = Some(parse(&value, "--trace").max(1.0) as usize),
             other => exit(&format!(
-                "unknown argument {other} (--solver, --spacing, --seconds, --density, --render, --trace N, --cubes)"
+                "unknown argument {other} (--solver, --spacing, --seconds, --density, --render, --trace N, --cubes, --depth D)"
             )),
         }
         i += 2;
@@ -78,7 +81,16 @@ fn main() {
         let dir = render
             .as_ref()
             .map(|d| d.join(format!("density_{density}")));
-        let f = float(solver, s, density, seconds, dir.as_deref(), trace, cubes);
+        let f = float(
+            solver,
+            s,
+            density,
+            seconds,
+            dir.as_deref(),
+            trace,
+            cubes,
+            depth,
+        );
         println!(
             "density {density}: submerged {:.3} (expected {:.3}), corners: RMS acceleration \
              {:.3} g, RMS speed {:.4} m/s (water next to it {:.4}); lowest corner {:.3} m up; \
@@ -131,11 +143,12 @@ fn float(
     render: Option<&std::path::Path>,
     trace: Option<usize>,
     cubes: bool,
+    depth: Option<Real>,
 ) -> Floating {
     let mut scene = FloatingBox::new(FloatingBoxConfig {
         spacing: s,
         tank: if cubes { 0.5 } else { 0.72 },
-        depth: if cubes { 0.2 } else { 0.3 },
+        depth: depth.unwrap_or(if cubes { 0.2 } else { 0.3 }),
         half_width: if cubes { 0.08 } else { 0.15 },
         half_height: if cubes { 0.08 } else { 0.1 },
         density,
