@@ -22,12 +22,19 @@ const KNOWN_FAILURES: &[(&str, &str, &str)] = &[
         "Clavet",
         "at 100x stiffness the relaxation overshoots even at the acoustic step (in SLOW)",
     ),
+    (
+        "11 heavy body at rest",
+        "PBF",
+        "the box resting on the last particle layer starts rocking, presses a corner into the \
+         layer and explodes (~1.9 s; in SLOW: the explosion runs the substep cap, 80 s)",
+    ),
 ];
 
 /// Runs that take 10–30 s each: left to the example (their verdicts are in the README).
 const SLOW: &[(&str, &str)] = &[
     ("4 frame 1/30 stiffest", "WCSPH"),
     ("4 frame 1/30 stiffest", "Clavet"),
+    ("11 heavy body at rest", "PBF"),
 ];
 
 #[test]
