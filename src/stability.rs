@@ -9,8 +9,9 @@
 //! - no particle was lost (the count is conserved: nothing here creates or drains particles),
 //! - the kinetic energy never exceeds the initial energy by more than 5 %: at every frame
 //!   `KE(t) ≤ 1.05·(PE0 + KE0)`, with the gravitational potential energy measured from the
-//!   container's floor. The containers are closed and nothing moves in them, so nothing works
-//!   on the fluid: motion can only come from falling. (A case that starts compressed —
+//!   container's floor. The containers are closed and nothing is driven in them, so nothing
+//!   works on the fluid: motion can only come from falling (a dynamic body falls too: its
+//!   kinetic and potential energy are counted with the fluid's, case 11). (A case that starts compressed —
 //!   overlapping spawn, particles inside a solid — holds energy this does not count; a method
 //!   that turns the overlap into violent motion fails, as it should for a game.)
 //! - and a solver with an error target met it: DFSPH ended no solve at its iteration cap.
