@@ -22,34 +22,14 @@
 use rapier_sph::math::Real;
 use rapier_sph::scenes::{Floating, FloatingBox, FloatingBoxConfig};
 
-/// A tank `tank` wide holding `depth` of water at spacing `s` (WCSPH, walls counting in the
-/// density; [`float_with`] for another solver), and a box of half extents (`hw`, `hh`, `hw`) and `density` placed at its expected
+const WCSPH: rapier_sph::Solver = rapier_sph::Solver::Wcsph;
+
+/// A tank `tank` wide holding `depth` of water at spacing `s` with `solver` (walls counting in the
+/// density), and a box of half extents (`hw`, `hh`, `hw`) and `density` placed at its expected
 /// floating depth ([`FloatingBox`]); runs `seconds` at 60 Hz, checking after every frame that
 /// no particle was lost, and measures the last second.
-fn float(
-    s: Real,
-    tank: Real,
-    depth: Real,
-    hw: Real,
-    hh: Real,
-    density: Real,
-    seconds: Real,
-) -> Floating {
-    float_with(
-        rapier_sph::Solver::Wcsph,
-        s,
-        tank,
-        depth,
-        hw,
-        hh,
-        density,
-        seconds,
-    )
-}
-
-/// [`float`] with `solver`.
 #[allow(clippy::too_many_arguments)]
-fn float_with(
+fn float(
     solver: rapier_sph::Solver,
     s: Real,
     tank: Real,
@@ -84,7 +64,7 @@ fn boxes_float_at_the_right_depth_without_jitter() {
     let s = 0.04;
     let mut failures = Vec::new();
     for density in [250.0, 500.0, 750.0] {
-        let f = float(s, 0.72, 0.3, 0.15, 0.1, density, 3.0);
+        let f = float(WCSPH, s, 0.72, 0.3, 0.15, 0.1, density, 3.0);
         let expected = density / 1000.0;
         eprintln!(
             "density {density}: submerged {:.3} (expected {expected:.2}; {:.3} to {:.3}), \
@@ -131,7 +111,7 @@ fn boxes_float_at_the_right_depth_without_jitter() {
     // cannot thin below one particle), so the box rests on that layer, its lowest corner one
     // spacing up (measured 0.0397 m). Bound: one spacing and a quarter (a box still sinking
     // or held up by two layers would be higher).
-    let f = float(s, 0.72, 0.3, 0.15, 0.1, 2000.0, 2.5);
+    let f = float(WCSPH, s, 0.72, 0.3, 0.15, 0.1, 2000.0, 2.5);
     eprintln!(
         "density 2000: submerged {:.3}, lowest corner at {:.4} m, corners' RMS speed {:.4} m/s \
          (water next to it {:.4})",
@@ -157,7 +137,7 @@ fn pbf_boxes_float_within_5_percent_of_archimedes() {
     let s = 0.025;
     let mut failures = Vec::new();
     for density in [250.0, 500.0, 750.0] {
-        let f = float_with(
+        let f = float(
             rapier_sph::Solver::pbf(),
             s,
             0.72,
@@ -200,7 +180,7 @@ fn cubes_float_at_the_right_depth() {
     let s = 0.025;
     let mut failures = Vec::new();
     for density in [250.0, 500.0, 750.0] {
-        let f = float(s, 0.5, 0.2, 0.08, 0.08, density, 4.0);
+        let f = float(WCSPH, s, 0.5, 0.2, 0.08, 0.08, density, 4.0);
         let expected = density / 1000.0;
         eprintln!(
             "density {density}: submerged {:.3} (expected {expected:.2}; {:.3} to {:.3} over \
@@ -218,7 +198,7 @@ fn cubes_float_at_the_right_depth() {
             ));
         }
     }
-    let f = float(s, 0.5, 0.2, 0.08, 0.08, 2000.0, 4.0);
+    let f = float(WCSPH, s, 0.5, 0.2, 0.08, 0.08, 2000.0, 4.0);
     eprintln!(
         "density 2000: submerged {:.3}, corners: RMS speed {:.4} m/s",
         f.submerged, f.speed
