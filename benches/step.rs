@@ -19,7 +19,7 @@
 //! reported, because timing on a shared VM varies by ±25 % from run to run.
 
 use rapier_sph::scenes::{DamBreakConfig, dam_break};
-use rapier_sph::{FluidParamsBuilder, Stage, StageTimings};
+use rapier_sph::{FluidParamsBuilder, Solver, Stage, StageTimings};
 use std::time::Instant;
 
 struct Case {
@@ -102,7 +102,7 @@ fn main() {
 
 /// The peer-comparison scene (see the module docs), on 2 threads, fastest of 2 runs.
 fn salva_scene(quick: bool) {
-    use rapier_sph::{Solver, TimeStepping};
+    use rapier_sph::TimeStepping;
     let counts: &[usize] = if quick {
         &[2_500, 20_000]
     } else {
@@ -209,7 +209,11 @@ fn run(case: &Case, paper: bool) -> Measurement {
     let params = if paper {
         FluidParamsBuilder::paper().build().unwrap()
     } else {
-        FluidParamsBuilder::water(0.02).build().unwrap()
+        FluidParamsBuilder::water(0.02)
+            .solver(Solver::Wcsph)
+            .wall_density(false)
+            .build()
+            .unwrap()
     };
     let config = DamBreakConfig::tower(params.clone(), DamBreakConfig::scale_for(case.particles));
     let mut scene = dam_break(&config).unwrap();

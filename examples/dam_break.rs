@@ -64,12 +64,14 @@ struct Args {
     /// Override the preset's viscosity ε (0 switches the viscosity stage off).
     #[arg(long)]
     viscosity: Option<f32>,
-    /// Pressure solver (default: the preset's, WCSPH).
+    /// Pressure solver (default: the preset's: DFSPH for water, WCSPH for paper).
     #[arg(long, value_enum)]
     solver: Option<SolverArg>,
-    /// Walls count in the density (`FluidParams::wall_density`).
-    #[arg(long)]
-    walls: bool,
+    /// Walls count in the density (`FluidParams::wall_density`): `--walls` or `--walls true`
+    /// turns them on, `--walls false` off (default: the preset's: on for water except with
+    /// Clavet, off for paper).
+    #[arg(long, num_args = 0..=1, default_missing_value = "true")]
+    walls: Option<bool>,
     /// DFSPH only: walls with hydrostatic pressure (`Dfsph::hydrostatic_walls`).
     #[arg(long)]
     hydrostatic_walls: bool,
@@ -166,17 +168,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Preset::Paper => FluidParamsBuilder::paper(),
         Preset::Water => FluidParamsBuilder::water(args.spacing),
     };
-    if args.hydrostatic_walls && !matches!(args.solver, Some(SolverArg::Dfsph)) {
+    let dfsph = match args.solver {
+        Some(s) => matches!(s, SolverArg::Dfsph),
+        None => matches!(args.preset, Preset::Water),
+    };
+    if args.hydrostatic_walls && !dfsph {
         return Err("--hydrostatic-walls is a DFSPH setting: add --solver dfsph".into());
     }
     match args.solver {
         Some(SolverArg::Wcsph) => builder = builder.solver(Solver::Wcsph),
-        Some(SolverArg::Dfsph) => {
-            builder = builder.solver(Solver::Dfsph(rapier_sph::solver::Dfsph {
-                hydrostatic_walls: args.hydrostatic_walls,
-                ..Default::default()
-            }))
-        }
+        Some(SolverArg::Dfsph) => {}
         Some(SolverArg::Pbf) => builder = builder.solver(Solver::pbf()),
         Some(SolverArg::Clavet) => builder = builder.solver(Solver::clavet()),
         Some(SolverArg::ClavetSprings) => {
@@ -187,8 +188,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         None => {}
     }
-    if args.walls {
-        builder = builder.wall_density(true);
+    if dfsph {
+        builder = builder.solver(Solver::Dfsph(rapier_sph::solver::Dfsph {
+            hydrostatic_walls: args.hydrostatic_walls,
+            ..Default::default()
+        }));
+    }
+    if let Some(on) = args.walls {
+        builder = builder.wall_density(on);
     }
     if let Some(eps) = args.viscosity {
         builder = builder.viscosity(eps);

@@ -6,7 +6,7 @@
 //! ```
 
 use rapier_sph::scenes::{DamBreakConfig, dam_break};
-use rapier_sph::{FluidParamsBuilder, Stage};
+use rapier_sph::{FluidParamsBuilder, Solver, Stage};
 use std::time::Instant;
 
 fn median(v: &mut [f64]) -> f64 {
@@ -24,7 +24,11 @@ fn main() {
         .build()
         .unwrap();
     pool.install(|| {
-        let params = FluidParamsBuilder::water(0.02).build().unwrap();
+        let params = FluidParamsBuilder::water(0.02)
+            .solver(Solver::Wcsph)
+            .wall_density(false)
+            .build()
+            .unwrap();
         let config = DamBreakConfig::tower(params.clone(), DamBreakConfig::scale_for(particles));
         let mut scene = dam_break(&config).unwrap();
         scene.world.physics.integration_parameters.dt = params.acoustic_time_step();

@@ -91,13 +91,14 @@ pub struct FluidParams {
     /// Which colliders the particles touch (rapier's collision groups; sensors are always
     /// ignored). Default: all.
     pub collision_groups: InteractionGroups,
-    /// The pressure solver. Both presets: WCSPH. DFSPH ([`Solver::dfsph`]) is available but
-    /// not yet the default: see the README's status table.
+    /// The pressure solver. Water preset: DFSPH ([`Solver::dfsph`], the accurate default);
+    /// paper preset: WCSPH (the paper's method).
     pub solver: Solver,
     /// Colliders near a particle add their volume's density to it and push with the
     /// particle's pressure (see [`crate::boundary::wall`]), so particles do not cling to or
-    /// clump along walls. Both presets: off (the paper's walls only reflect); not yet the
-    /// default, see the README's status table.
+    /// clump along walls. Water preset: on, except with the Clavet solver (which meets walls
+    /// through contact only) unless asked for explicitly; paper preset: off (the paper's
+    /// walls only reflect).
     pub wall_density: bool,
     /// Where the particles live: open space (default) or a periodic box (see
     /// [`crate::domain`]). Both presets: open.
@@ -282,12 +283,17 @@ impl FluidParams {
 pub struct FluidParamsBuilder {
     params: FluidParams,
     mass_given: bool,
+    /// Whether [`Self::wall_density`] was called: otherwise the preset's choice holds, and a
+    /// Clavet solver (which refuses wall density) turns it off.
+    walls_given: bool,
 }
 
 impl FluidParamsBuilder {
     /// SI water at the given particle spacing (m): ρ0 = 1000 kg/m³, mass ρ0·s³, h = 2s,
-    /// radius s/2, Tait equation of state with c = 30 m/s, cubic-spline kernels, clamped
-    /// negative pressure, numerical viscosity 0.5 Pa·s, free-slip walls with no bounce.
+    /// radius s/2, the DFSPH solver with its default error targets and walls that count in
+    /// the density, cubic-spline kernels, numerical viscosity 0.5 Pa·s, free-slip walls with
+    /// no bounce. The Tait equation of state (c = 30 m/s, clamped negative pressure) is
+    /// what WCSPH uses when asked for with [`Self::solver`]`(Solver::Wcsph)`.
     pub fn water(spacing: Real) -> Self {
         Self {
             params: FluidParams {
@@ -307,11 +313,12 @@ impl FluidParamsBuilder {
                 restitution: 0.0,
                 friction: 0.0,
                 collision_groups: InteractionGroups::all(),
-                solver: Solver::Wcsph,
-                wall_density: false,
+                solver: Solver::dfsph(),
+                wall_density: true,
                 domain: crate::domain::Domain::Open,
             },
             mass_given: false,
+            walls_given: false,
         }
     }
 
@@ -341,6 +348,7 @@ impl FluidParamsBuilder {
                 domain: crate::domain::Domain::Open,
             },
             mass_given: true,
+            walls_given: false,
         }
     }
 
@@ -363,9 +371,12 @@ impl FluidParamsBuilder {
         self.params.solver = solver;
         self
     }
-    /// Whether walls add density (see [`FluidParams::wall_density`]).
+    /// Whether walls add density (see [`FluidParams::wall_density`]). Unless this is
+    /// called, the preset's choice holds (water: on; paper: off), except that the Clavet
+    /// solver, which meets walls through contact only, turns it off.
     pub fn wall_density(mut self, on: bool) -> Self {
         self.params.wall_density = on;
+        self.walls_given = true;
         self
     }
     /// Rest density (kg/m³). Unless a mass was set explicitly, the mass follows.
@@ -450,6 +461,9 @@ impl FluidParamsBuilder {
             let s = self.params.particle_spacing;
             self.params.particle_mass = self.params.rest_density * s * s * s;
         }
+        if !self.walls_given && matches!(self.params.solver, Solver::Clavet(_)) {
+            self.params.wall_density = false;
+        }
         self.params.validate()?;
         Ok(self.params)
     }
@@ -464,6 +478,25 @@ mod tests {
             Err(SphError::InvalidParameter { field, .. }) => field,
             other => panic!("expected an invalid parameter, got {other:?}"),
         }
+    }
+
+    /// The water preset is DFSPH with wall density; choosing Clavet without saying anything
+    /// about walls turns them off (Clavet refuses them), asking for both is refused, and an
+    /// explicit choice always holds. The paper preset stays WCSPH without wall density.
+    #[test]
+    fn wall_density_follows_the_preset_and_the_solver_unless_set() {
+        let w = FluidParamsBuilder::water(0.05).build().unwrap();
+        assert!(matches!(w.solver, Solver::Dfsph(_)) && w.wall_density);
+        let c = FluidParamsBuilder::water(0.05).solver(Solver::clavet());
+        assert!(!c.clone().build().unwrap().wall_density);
+        assert_eq!(field_of(c.wall_density(true).build()), "wall_density");
+        let p = FluidParamsBuilder::water(0.05).solver(Solver::pbf());
+        assert!(p.clone().build().unwrap().wall_density);
+        assert!(!p.wall_density(false).build().unwrap().wall_density);
+        let paper = FluidParamsBuilder::paper().build().unwrap();
+        assert!(paper.solver == Solver::Wcsph && !paper.wall_density);
+        let paper_df = FluidParamsBuilder::paper().solver(Solver::dfsph()).build();
+        assert!(!paper_df.unwrap().wall_density);
     }
 
     #[test]

@@ -509,12 +509,10 @@ fn stiffest_frames(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>>
     Some((|| {
         let b = match solver {
             // 10x the preset's speed of sound: 100x its stiffness.
-            Solver::Wcsph => {
-                FluidParamsBuilder::water(0.05).equation_of_state(crate::EquationOfState::Tait {
-                    speed_of_sound: 300.0,
-                    exponent: 7.0,
-                })
-            }
+            Solver::Wcsph => water(solver, 0.05).equation_of_state(crate::EquationOfState::Tait {
+                speed_of_sound: 300.0,
+                exponent: 7.0,
+            }),
             Solver::Dfsph(_) => water(solver, 0.05).solver(Solver::Dfsph(Dfsph {
                 max_density_error: 1e-4,
                 max_divergence_error: 1e-3,

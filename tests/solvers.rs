@@ -104,6 +104,7 @@ fn dfsph_conserves_momentum_of_an_isolated_blob() {
 fn wall_density_gradient_matches_its_density() {
     let s = 0.02;
     let params = FluidParamsBuilder::water(s)
+        .solver(Solver::Wcsph)
         .wall_density(true)
         .particle_radius(1e-4)
         .clamp_negative_pressure(false)
@@ -196,7 +197,11 @@ fn dfsph_dam_break_in_game_frames_keeps_every_particle() {
 /// WCSPH; the cap binds visibly; fixed stepping takes the frame whole.
 #[test]
 fn adaptive_substeps_meet_the_limits_and_report_the_cap() {
-    let params = FluidParamsBuilder::water(0.05).build().unwrap();
+    let params = FluidParamsBuilder::water(0.05)
+        .solver(Solver::Wcsph)
+        .wall_density(false)
+        .build()
+        .unwrap();
     let acoustic = params.acoustic_time_step();
     let frame = 1.0 / 30.0;
     let run = |ts: TimeStepping| {

@@ -382,11 +382,11 @@ pub struct FluidDesc {
     /// Contact friction μ.
     #[serde(default)]
     pub friction: Option<NonNegative>,
-    /// Pressure solver ([`crate::Solver`]). Default: the preset's (WCSPH).
+    /// Pressure solver ([`crate::Solver`]). Default: the preset's (water: DFSPH; paper: WCSPH).
     #[serde(default)]
     pub solver: Option<SolverDesc>,
     /// Walls count in the density ([`FluidParamsBuilder::wall_density`]). Default: the
-    /// preset's (off).
+    /// preset's (water: on, except with the Clavet solver; paper: off).
     #[serde(default)]
     pub wall_density: Option<bool>,
     /// Boxes filled with particles at the fluid's spacing ([`Fluid::add_block`]).

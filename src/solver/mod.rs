@@ -4,8 +4,8 @@
 //!
 //! | solver | idea | cost per step | use it for |
 //! |---|---|---|---|
-//! | [`Solver::Wcsph`] | pressure from an equation of state (Müller et al. 2003; the Unity paper) | 3 neighbour passes, small time steps (`dt ≤ 0.4·h/c`) | reproducing the paper |
-//! | [`Solver::Dfsph`] | pressure solved for: divergence-free and constant-density (Bender & Koschier 2017) | 1 + 2 per iteration, large time steps | accuracy |
+//! | [`Solver::Wcsph`] | pressure from an equation of state (Müller et al. 2003; the Unity paper) | 3 neighbour passes, small time steps (`dt ≤ 0.4·h/c`) | reproducing the paper (the paper preset's default) |
+//! | [`Solver::Dfsph`] | pressure solved for: divergence-free and constant-density (Bender & Koschier 2017) | 1 + 2 per iteration, large time steps | accuracy: the water preset's default |
 //! | [`Solver::Clavet`] | double-density relaxation of predicted positions (Clavet et al. 2005) | 2 + viscosity, acoustic time steps | games wanting cohesive, splashy liquid; the paper's future work |
 //! | [`Solver::Pbf`] | incompressibility as a position constraint, a fixed number of Jacobi iterations (Macklin & Müller 2013) | 2 per iteration (default 4 iterations) + viscosity, any time step | games: fixed cost, never diverges |
 
