@@ -77,6 +77,14 @@ pub struct FluidParams {
     /// weakly-compressible SPH calm at game resolutions, far above water's 0.001).
     /// Paper preset: 0.02.
     pub viscosity: Real,
+    /// Viscosity constant `ε_w` (Pa·s) between the particles and the walls: the walls'
+    /// solid volume acts as fluid moving with the wall in the viscosity term, so a particle
+    /// next to a wall is dragged towards the wall's velocity (no-slip in the limit) and a
+    /// moving body feels the fluid's shear stress (see [`crate::boundary::wall`]). Needs
+    /// [`Self::wall_density`] (the same half-space integrals). Both presets: 0 (free-slip
+    /// walls; the stage is skipped).
+    #[cfg_attr(feature = "snapshot", serde(default))]
+    pub wall_viscosity: Real,
     /// Kernel for density. Water preset: cubic spline. Paper preset: the paper's tuned poly6.
     pub density_kernel: KernelKind,
     /// Kernel whose gradient drives the pressure force. Water preset: cubic spline.
@@ -173,6 +181,14 @@ impl FluidParams {
             }
         }
         non_negative("viscosity", self.viscosity)?;
+        non_negative("wall_viscosity", self.wall_viscosity)?;
+        if self.wall_viscosity > 0.0 && !self.wall_density {
+            return Err(SphError::InvalidParameter {
+                field: "wall_viscosity",
+                value: self.wall_viscosity as f64,
+                reason: "needs wall_density (the walls' viscous term uses its half-space integrals)",
+            });
+        }
         non_negative("restitution", self.restitution)?;
         if self.restitution > 1.0 {
             return Err(SphError::InvalidParameter {
@@ -308,6 +324,7 @@ impl FluidParamsBuilder {
                 },
                 clamp_negative_pressure: true,
                 viscosity: 0.5,
+                wall_viscosity: 0.0,
                 density_kernel: KernelKind::CubicSpline,
                 pressure_kernel: KernelKind::CubicSpline,
                 restitution: 0.0,
@@ -338,6 +355,7 @@ impl FluidParamsBuilder {
                 equation_of_state: EquationOfState::Linear { stiffness: 3.0 },
                 clamp_negative_pressure: false,
                 viscosity: 0.02,
+                wall_viscosity: 0.0,
                 density_kernel: KernelKind::PaperPoly6,
                 pressure_kernel: KernelKind::Spiky,
                 restitution: 0.5,
@@ -429,6 +447,12 @@ impl FluidParamsBuilder {
         self.params.viscosity = v;
         self
     }
+    /// Viscosity `ε_w` (Pa·s) between particles and walls (see
+    /// [`FluidParams::wall_viscosity`]); 0 (the default) keeps walls free-slip.
+    pub fn wall_viscosity(mut self, v: Real) -> Self {
+        self.params.wall_viscosity = v;
+        self
+    }
     /// Density kernel.
     pub fn density_kernel(mut self, k: KernelKind) -> Self {
         self.params.density_kernel = k;
@@ -497,6 +521,19 @@ mod tests {
         assert!(paper.solver == Solver::Wcsph && !paper.wall_density);
         let paper_df = FluidParamsBuilder::paper().solver(Solver::dfsph()).build();
         assert!(!paper_df.unwrap().wall_density);
+    }
+
+    #[test]
+    fn wall_viscosity_is_checked_and_needs_wall_density() {
+        let b = || FluidParamsBuilder::water(0.05);
+        assert!(b().wall_viscosity(0.5).build().is_ok());
+        assert_eq!(field_of(b().wall_viscosity(-1.0).build()), "wall_viscosity");
+        assert_eq!(
+            field_of(b().wall_viscosity(Real::NAN).build()),
+            "wall_viscosity"
+        );
+        let no_walls = b().wall_density(false).wall_viscosity(0.5).build();
+        assert_eq!(field_of(no_walls), "wall_viscosity");
     }
 
     #[test]

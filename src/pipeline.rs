@@ -28,6 +28,8 @@ use parry3d::query::DefaultQueryDispatcher;
 use rapier3d::dynamics::RigidBodySet;
 use rapier3d::geometry::{BroadPhaseBvh, ColliderSet};
 use rapier3d::pipeline::QueryFilter;
+#[cfg(feature = "parallel")]
+use rayon::prelude::*;
 use std::time::Instant;
 
 /// How [`FluidPipeline::step`] divides the caller's frame into substeps.
@@ -310,6 +312,60 @@ impl FluidPipeline {
     }
 }
 
+/// The walls' viscosity (see [`crate::boundary::wall`]): `dv_i/dt = ε_w/ρ_i·Σ_k L_k (v_k −
+/// v_i)`, integrated implicitly over the substep against the walls' velocities at its start,
+/// `v_i' = (v_i + α_i v̄_i)/(1 + α_i)` with `α_i = dt·ε_w·L_i/ρ_i` and `v̄_i` the walls'
+/// `L`-weighted velocity: the particle tends to the wall's velocity and never overshoots it,
+/// at any substep. Each dynamic body's share of a particle's velocity change goes back to the
+/// body as the opposite impulse (`records`, in particle order; explicit: the body's velocity
+/// is the substep start's, as for contact without the added-mass solve), applied at the
+/// particle's position: the force is tangential, so only there does the torque the body
+/// takes equal the angular momentum the particle gains.
+#[allow(clippy::too_many_arguments)]
+fn wall_viscosity(
+    epsilon: Real,
+    mass: Real,
+    dt: Real,
+    wall: &crate::boundary::WallWorkspace,
+    positions: &[Vector],
+    inv_densities: &[Real],
+    velocities: &mut [Vector],
+    records: &mut Vec<crate::boundary::bodies::ImpulseRecord>,
+) {
+    let factor = |i: usize| dt * epsilon * inv_densities[i];
+    if wall.coupled_any {
+        for (i, cw) in wall.coupled.iter().enumerate() {
+            if cw.entry == u32::MAX || cw.viscous <= 0.0 {
+                continue;
+            }
+            let f = factor(i);
+            let alpha = f * wall.viscous[i];
+            // The body's share of `v_i' − v_i = f·(Σ L_k v_k − L v_i)/(1 + α)`.
+            let dv = (cw.viscous_velocity - velocities[i] * cw.viscous) * (f / (1.0 + alpha));
+            records.push(crate::boundary::bodies::ImpulseRecord {
+                entry: cw.entry,
+                particle: i as u32,
+                normal: Vector::ZERO,
+                impulse: -dv * mass,
+                point: positions[i],
+            });
+        }
+    }
+    crate::par_chunks_mut!(velocities, par::CHUNK)
+        .enumerate()
+        .for_each(|(c, out)| {
+            let base = c * par::CHUNK;
+            for (k, v) in out.iter_mut().enumerate() {
+                let i = base + k;
+                let l = wall.viscous[i];
+                if l > 0.0 {
+                    let f = factor(i);
+                    *v = (*v + wall.viscous_velocity[i] * f) / (1.0 + f * l);
+                }
+            }
+        });
+}
+
 /// The longest stable substep for `fluid` (see [`TimeStepping::Adaptive`]), at most `remaining`.
 fn stable_time_step(fluid: &Fluid, gravity: Vector, courant: Real, remaining: Real) -> Real {
     if fluid.is_empty() {
@@ -509,6 +565,7 @@ fn step_fluid(
                         Solver::Dfsph(d) if d.hydrostatic_walls => Some(gravity),
                         _ => None,
                     },
+                    p.wall_viscosity > 0.0,
                 )
             });
             report.particles_near_walls += near;
@@ -585,6 +642,26 @@ fn step_fluid(
             sep,
         ),
     });
+    // The walls' viscosity (ε_w > 0), after the solver, on the velocities it left.
+    let mut viscous_records = std::mem::take(&mut ws.wall_viscous_impulses);
+    viscous_records.clear();
+    if p.wall_viscosity > 0.0
+        && let Some(w) = wall
+        && w.viscous.len() == velocities.len()
+    {
+        timed(report, Stage::ViscosityForce, || {
+            wall_viscosity(
+                p.wall_viscosity,
+                p.particle_mass,
+                dt,
+                w,
+                positions,
+                &ws.inv_densities,
+                velocities,
+                &mut viscous_records,
+            )
+        });
+    }
     // Fluid → body through the walls' pressure: each particle's wall force from dynamic
     // bodies pushes those bodies back (Newton's third law; see `boundary::bodies`). With
     // `g_c` the dynamic bodies' share of the wall density's gradient, the impulse the
@@ -658,9 +735,11 @@ fn step_fluid(
                     });
                 }
             }
+            records[0].append(&mut viscous_records);
             c.exchange(records, velocities, p.particle_mass);
         });
     }
+    ws.wall_viscous_impulses = viscous_records;
     ws.wall = wall_ws;
     report.non_finite += non_finite;
     report.max_speed = report.max_speed.max(max_speed);
@@ -948,6 +1027,7 @@ fn relax_overlaps(
                         p.collision_groups,
                         None,
                         None,
+                        false,
                     )
                 });
                 ws.wall.any().then_some(&ws.wall)

@@ -19,6 +19,14 @@
 //!
 //! The wall's velocity at the closest point enters the density's rate of change, so moving
 //! bodies compress the fluid they push.
+//!
+//! With [`crate::FluidParams::wall_viscosity`] `ε_w > 0` the solid volume also stands in for
+//! fluid moving with the wall in Müller's viscosity term: `Σ_j m/ρ_j ∇²W_ij (v_j − v_i)`
+//! gains `Σ_k L_k (v_k − v_i)`, `L_k` the viscosity Laplacian integrated over wall `k`'s
+//! half-space ([`crate::kernel::ViscosityLaplacian::half_space_integral`], combined over
+//! several walls like the density) and `v_k` the wall's velocity at the closest point. The
+//! pipeline applies it implicitly per particle after the solver (see
+//! `pipeline::wall_viscosity`), and a dynamic body takes the opposite impulse.
 
 use super::ContactWorkspace;
 use crate::kernel::{HalfSpaceTable, KernelKind};
@@ -42,6 +50,10 @@ pub struct Coupled {
     pub entry: u32,
     /// Closest point on that body's surface.
     pub point: Vector,
+    /// Dynamic bodies' share of [`WallWorkspace::viscous`] (1/m²).
+    pub viscous: Real,
+    /// Dynamic bodies' share of [`WallWorkspace::viscous_velocity`] (m/s/m²).
+    pub viscous_velocity: Vector,
 }
 
 impl Default for Coupled {
@@ -51,6 +63,8 @@ impl Default for Coupled {
             hydrostatic: Vector::ZERO,
             entry: u32::MAX,
             point: Vector::ZERO,
+            viscous: 0.0,
+            viscous_velocity: Vector::ZERO,
         }
     }
 }
@@ -94,6 +108,11 @@ pub struct WallWorkspace {
     pub coupled: Vec<Coupled>,
     /// `true` when `coupled` holds data for this update.
     pub coupled_any: bool,
+    /// `L_i = Σ_k L_k`, the viscosity Laplacian integrated over the walls near each particle
+    /// (1/m²; see the module docs). Empty unless the update was asked for it.
+    pub viscous: Vec<Real>,
+    /// `Σ_k L_k·v_k`, the walls' velocities weighted like `viscous` (zero for static walls).
+    pub viscous_velocity: Vec<Vector>,
     /// Weight `γ` of the particle's own pressure in the wall's pressure force for DFSPH:
     /// [`crate::solver::WALL_MIRROR`] (the own pressure counted once).
     pub mirror: Real,
@@ -131,6 +150,8 @@ impl WallWorkspace {
         self.hydrostatic_on = false;
         self.coupled.clear();
         self.coupled_any = false;
+        self.viscous.clear();
+        self.viscous_velocity.clear();
     }
 
     fn tables(&mut self, density: KernelKind, force: KernelKind, h: Real, spacing: Real) {
@@ -163,6 +184,7 @@ impl WallWorkspace {
         groups: InteractionGroups,
         coupling: Option<&super::Coupling>,
         hydrostatic: Option<Vector>,
+        viscous: bool,
     ) -> usize {
         let n = positions.len();
         self.tables(density_kernel, force_kernel, h, spacing);
@@ -185,12 +207,18 @@ impl WallWorkspace {
         self.coupled_any = any_dynamic;
         // Read only when `coupled_any`; sized always so the chunks line up.
         self.coupled.resize(n, Coupled::default());
+        // Read only when asked for; sized always so the chunks line up.
+        self.viscous.resize(n, 0.0);
+        self.viscous_velocity.resize(n, Vector::ZERO);
+        let lap = crate::kernel::ViscosityLaplacian::new(h);
         if !self.candidates.any() {
             self.density.fill(0.0);
             self.gradient.fill(Vector::ZERO);
             self.motion.fill(0.0);
             self.coverage.fill(0.0);
             self.hydrostatic.fill(Vector::ZERO);
+            self.viscous.fill(0.0);
+            self.viscous_velocity.fill(Vector::ZERO);
             self.near = 0;
             return 0;
         }
@@ -205,127 +233,163 @@ impl WallWorkspace {
             .zip(crate::par_chunks_mut!(self.coverage, CHUNK))
             .zip(crate::par_chunks_mut!(self.coupled, CHUNK))
             .zip(crate::par_chunks_mut!(self.hydrostatic, CHUNK))
+            .zip(crate::par_chunks_mut!(self.viscous, CHUNK))
+            .zip(crate::par_chunks_mut!(self.viscous_velocity, CHUNK))
             .enumerate()
-            .map(|(c, (((((dens, grad), motion), cover), coupled), hyd))| {
-                let base = c * CHUNK;
-                let mut near = 0usize;
-                for k in 0..dens.len() {
-                    let i = base + k;
-                    let x = positions[i];
-                    // Union of half-spaces: U' = 1 − (1 − U)(1 − a), ∇U' = ∇U·(1 − a) + ∇a·(1 − U).
-                    let mut u: Real = 0.0;
-                    let mut g = Vector::ZERO;
-                    let mut m: Real = 0.0;
-                    let mut hs = Vector::ZERO;
-                    // Share of the gradient from dynamic bodies, and the largest one's entry.
-                    let mut gc = Vector::ZERO;
-                    let mut hc = Vector::ZERO;
-                    let mut main: (Real, u32, Vector) = (0.0, u32::MAX, Vector::ZERO);
-                    for &handle in candidates.of_cell(grid.cell_of(i)) {
-                        let Some(co) = colliders.get(handle) else {
-                            continue;
-                        };
-                        // A moving body stands at its pose of the substep's start.
-                        let found = super::bodies::entry_of(table, handle);
-                        let entry = found.map(|(_, m)| m);
-                        let pose = match entry {
-                            Some(m) if m.moving => &m.start,
-                            _ => co.position(),
-                        };
-                        let Some(proj) = co.shape().project_point_with_max_dist(pose, x, false, h)
-                        else {
-                            continue;
-                        };
-                        let offset = x - proj.point;
-                        let dist = offset.length();
-                        let normal = if dist > 1e-6 * h {
-                            if proj.is_inside {
-                                -offset / dist
+            .map(
+                |(c, (((((((dens, grad), motion), cover), coupled), hyd), visc), visc_v))| {
+                    let base = c * CHUNK;
+                    let mut near = 0usize;
+                    for k in 0..dens.len() {
+                        let i = base + k;
+                        let x = positions[i];
+                        // Union of half-spaces: U' = 1 − (1 − U)(1 − a), ∇U' = ∇U·(1 − a) + ∇a·(1 − U).
+                        let mut u: Real = 0.0;
+                        let mut g = Vector::ZERO;
+                        let mut m: Real = 0.0;
+                        let mut hs = Vector::ZERO;
+                        // Share of the gradient from dynamic bodies, and the largest one's entry.
+                        let mut gc = Vector::ZERO;
+                        let mut hc = Vector::ZERO;
+                        let mut main: (Real, u32, Vector) = (0.0, u32::MAX, Vector::ZERO);
+                        // Viscous sums: all walls, and the dynamic bodies' share.
+                        let (mut ls, mut lv, mut lc, mut lvc) =
+                            (0.0, Vector::ZERO, 0.0, Vector::ZERO);
+                        for &handle in candidates.of_cell(grid.cell_of(i)) {
+                            let Some(co) = colliders.get(handle) else {
+                                continue;
+                            };
+                            // A moving body stands at its pose of the substep's start.
+                            let found = super::bodies::entry_of(table, handle);
+                            let entry = found.map(|(_, m)| m);
+                            let pose = match entry {
+                                Some(m) if m.moving => &m.start,
+                                _ => co.position(),
+                            };
+                            let Some(proj) =
+                                co.shape().project_point_with_max_dist(pose, x, false, h)
+                            else {
+                                continue;
+                            };
+                            let offset = x - proj.point;
+                            let dist = offset.length();
+                            let normal = if dist > 1e-6 * h {
+                                if proj.is_inside {
+                                    -offset / dist
+                                } else {
+                                    offset / dist
+                                }
                             } else {
-                                offset / dist
+                                // On the surface: the feature's normal, if the shape has one.
+                                let local = pose.inverse_transform_point(x);
+                                let (_, feature) =
+                                    co.shape().project_local_point_and_get_feature(local);
+                                match co.shape().feature_normal_at_point(0, feature, local) {
+                                    Some(nl) => pose.rotation * nl,
+                                    None => continue,
+                                }
+                            };
+                            let d = if proj.is_inside { -dist } else { dist };
+                            let (phi, _) = td.eval(d);
+                            let (_, area) = tf.eval(d);
+                            let a = (phi / full_d).min(1.0);
+                            let lk = if viscous {
+                                lap.half_space_integral(d) * (1.0 - u)
+                            } else {
+                                0.0
+                            };
+                            if a <= 0.0 && area <= 0.0 && lk <= 0.0 {
+                                continue;
                             }
-                        } else {
-                            // On the surface: the feature's normal, if the shape has one.
-                            let local = pose.inverse_transform_point(x);
-                            let (_, feature) =
-                                co.shape().project_local_point_and_get_feature(local);
-                            match co.shape().feature_normal_at_point(0, feature, local) {
-                                Some(nl) => pose.rotation * nl,
-                                None => continue,
+                            // The wall's velocity at the closest point (static: none).
+                            let wall_velocity = match entry {
+                                Some(mc) if mc.moving => Some(mc.velocity_at_start(proj.point)),
+                                Some(_) => None,
+                                None => co
+                                    .parent()
+                                    .and_then(|b| bodies.get(b))
+                                    .filter(|b| !b.is_fixed())
+                                    .map(|b| b.velocity_at_point(proj.point)),
+                            };
+                            // ∇Φ = −A(d)·n (into the wall), in units of the whole kernel.
+                            let ga = -normal * (area / full_f);
+                            let gk = ga * (1.0 - u);
+                            let mut hk = Vector::ZERO;
+                            if hydro {
+                                let (phi_f, mom) = tf.eval_moment(d);
+                                let gn = normal * normal.dot(gravity);
+                                hk = -(gn * mom + (gravity - gn) * phi_f) * (1.0 - u);
+                                hs = hs * (1.0 - a) + hk;
                             }
-                        };
-                        let d = if proj.is_inside { -dist } else { dist };
-                        let (phi, _) = td.eval(d);
-                        let (_, area) = tf.eval(d);
-                        let a = (phi / full_d).min(1.0);
-                        if a <= 0.0 && area <= 0.0 {
-                            continue;
-                        }
-                        // ∇Φ = −A(d)·n (into the wall), in units of the whole kernel.
-                        let ga = -normal * (area / full_f);
-                        let gk = ga * (1.0 - u);
-                        let mut hk = Vector::ZERO;
-                        if hydro {
-                            let (phi_f, mom) = tf.eval_moment(d);
-                            let gn = normal * normal.dot(gravity);
-                            hk = -(gn * mom + (gravity - gn) * phi_f) * (1.0 - u);
-                            hs = hs * (1.0 - a) + hk;
-                        }
-                        g = g * (1.0 - a) + gk;
-                        u = 1.0 - (1.0 - u) * (1.0 - a);
-                        if any_dynamic {
-                            gc *= 1.0 - a;
-                            hc *= 1.0 - a;
-                            if let Some((e, mc)) = found
-                                && mc.dynamic
-                            {
-                                gc += gk;
-                                hc += hk;
-                                let l = gk.length_squared();
-                                if l > main.0 {
-                                    main = (l, e, proj.point);
+                            g = g * (1.0 - a) + gk;
+                            u = 1.0 - (1.0 - u) * (1.0 - a);
+                            ls += lk;
+                            if let Some(v) = wall_velocity {
+                                lv += v * lk;
+                            }
+                            if any_dynamic {
+                                gc *= 1.0 - a;
+                                hc *= 1.0 - a;
+                                if let Some((e, mc)) = found
+                                    && mc.dynamic
+                                {
+                                    gc += gk;
+                                    hc += hk;
+                                    lc += lk;
+                                    lvc += wall_velocity.unwrap_or(Vector::ZERO) * lk;
+                                    let l = gk.length_squared();
+                                    // The first dynamic body always (its viscous share may come
+                                    // without a gradient at the support's edge), then the one
+                                    // with the largest gradient.
+                                    if l > main.0 || main.1 == u32::MAX {
+                                        main = (l, e, proj.point);
+                                    }
                                 }
                             }
-                        }
-                        if let Some(mc) = entry {
-                            if mc.moving {
-                                m += mc.velocity_at_start(proj.point).dot(gk);
+                            if let Some(v) = wall_velocity {
+                                m += v.dot(gk);
                             }
-                        } else if let Some(body) = co.parent().and_then(|b| bodies.get(b))
-                            && !body.is_fixed()
-                        {
-                            m += body.velocity_at_point(proj.point).dot(gk);
                         }
-                    }
-                    if hydro && g != Vector::ZERO {
-                        // The neighbours' pressure is carried back to the particle by the
-                        // hydrostatic difference from their weighted centre (the same weights
-                        // as DFSPH's average); ∇ρ_wall = g·ρ0·full_f.
-                        let off =
-                            neighbour_centre(grid, positions, i, -g.normalize(), force_kernel, h);
-                        let c = full_f * gravity.dot(off);
-                        hs += g * c;
+                        if hydro && g != Vector::ZERO {
+                            // The neighbours' pressure is carried back to the particle by the
+                            // hydrostatic difference from their weighted centre (the same weights
+                            // as DFSPH's average); ∇ρ_wall = g·ρ0·full_f.
+                            let off = neighbour_centre(
+                                grid,
+                                positions,
+                                i,
+                                -g.normalize(),
+                                force_kernel,
+                                h,
+                            );
+                            let c = full_f * gravity.dot(off);
+                            hs += g * c;
+                            if any_dynamic {
+                                hc += gc * c;
+                            }
+                        }
+                        dens[k] = rest_density * full_d * u;
+                        grad[k] = g * (rest_density * full_f);
+                        motion[k] = m * rest_density * full_f;
+                        cover[k] = u;
+                        hyd[k] = hs;
+                        visc[k] = ls;
+                        visc_v[k] = lv;
                         if any_dynamic {
-                            hc += gc * c;
+                            coupled[k] = Coupled {
+                                gradient: gc * (rest_density * full_f),
+                                hydrostatic: hc,
+                                entry: main.1,
+                                point: main.2,
+                                viscous: lc,
+                                viscous_velocity: lvc,
+                            };
                         }
+                        near += (u > 0.0 || g != Vector::ZERO || ls > 0.0) as usize;
                     }
-                    dens[k] = rest_density * full_d * u;
-                    grad[k] = g * (rest_density * full_f);
-                    motion[k] = m * rest_density * full_f;
-                    cover[k] = u;
-                    hyd[k] = hs;
-                    if any_dynamic {
-                        coupled[k] = Coupled {
-                            gradient: gc * (rest_density * full_f),
-                            hydrostatic: hc,
-                            entry: main.1,
-                            point: main.2,
-                        };
-                    }
-                    near += (u > 0.0 || g != Vector::ZERO) as usize;
-                }
-                near
-            });
+                    near
+                },
+            );
         #[cfg(feature = "parallel")]
         let near: usize = counts.sum();
         #[cfg(not(feature = "parallel"))]
@@ -337,8 +401,14 @@ impl WallWorkspace {
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
         self.candidates.heap_bytes()
-            + (self.density.capacity() + self.motion.capacity() + self.coverage.capacity()) * 4
-            + (self.gradient.capacity() + self.hydrostatic.capacity())
+            + (self.density.capacity()
+                + self.motion.capacity()
+                + self.coverage.capacity()
+                + self.viscous.capacity())
+                * 4
+            + (self.gradient.capacity()
+                + self.hydrostatic.capacity()
+                + self.viscous_velocity.capacity())
                 * std::mem::size_of::<Vector>()
             + self.coupled.capacity() * std::mem::size_of::<Coupled>()
     }

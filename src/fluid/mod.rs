@@ -23,6 +23,8 @@ pub(crate) struct Workspace {
     pub impulses: Vec<Vec<crate::boundary::bodies::ImpulseRecord>>,
     /// Impulses on dynamic bodies from the walls' pressure force (WCSPH with wall density).
     pub wall_impulses: Vec<Vec<crate::boundary::bodies::ImpulseRecord>>,
+    /// Impulses on dynamic bodies from the walls' viscosity (`wall_viscosity > 0`).
+    pub wall_viscous_impulses: Vec<crate::boundary::bodies::ImpulseRecord>,
     /// Wall contributions to density (see [`crate::boundary::wall`]).
     pub wall: WallWorkspace,
     /// DFSPH factors and iteration buffers.

@@ -162,3 +162,39 @@ fn viscosity_laplacian_matches_numerical_laplacian_of_its_kernel() {
     // Positive on the whole support: viscosity only damps.
     assert!((0..100).all(|k| lap.laplacian(k as Real / 100.0) > 0.0));
 }
+
+/// The walls' viscosity integral: `∫ ∇²W dV` over the half-space `z ≥ d` matches a direct
+/// quadrature over the support (cylindrical shells, f64), is half the whole at `d = 0`, the
+/// whole (`15/h²`) for `d ≤ −h` and zero for `d ≥ h`.
+#[test]
+fn viscosity_half_space_integral_matches_quadrature() {
+    let h = 0.04;
+    let lap = ViscosityLaplacian::new(h);
+    let full = 15.0 / (h * h);
+    assert!((lap.half_space_integral(0.0) - 0.5 * full).abs() < 1e-4 * full);
+    assert_eq!(lap.half_space_integral(h), 0.0);
+    assert_eq!(lap.half_space_integral(-h), full);
+    let n = 400;
+    for k in -9..=9 {
+        let d = k as f64 / 10.0 * h as f64;
+        // ∫_{z=d}^{h} ∫_0^{√(h²−z²)} ∇²W(√(ρ²+z²)) 2πρ dρ dz, midpoint rule.
+        let (hz, mut sum) = (h as f64, 0.0f64);
+        let dz = (hz - d) / n as f64;
+        for iz in 0..n {
+            let z = d + (iz as f64 + 0.5) * dz;
+            let rmax = (hz * hz - z * z).max(0.0).sqrt();
+            let dr = rmax / n as f64;
+            for ir in 0..n {
+                let r = (ir as f64 + 0.5) * dr;
+                let dist = (r * r + z * z).sqrt();
+                sum +=
+                    lap.laplacian(dist as Real) as f64 * 2.0 * std::f64::consts::PI * r * dr * dz;
+            }
+        }
+        let exact = lap.half_space_integral(d as Real) as f64;
+        assert!(
+            (sum - exact).abs() < 2e-3 * full as f64,
+            "d = {d}: quadrature {sum} vs {exact}"
+        );
+    }
+}

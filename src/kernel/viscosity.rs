@@ -34,6 +34,31 @@ impl ViscosityLaplacian {
         }
     }
 
+    /// `∫ ∇²W dV` over the half-space lying `d` beyond the particle (`d < 0`: the particle is
+    /// inside it): what a wall contributes to the viscosity sum in place of
+    /// `Σ_j m_j/ρ_j ∇²W_ij` (see [`crate::boundary::wall`]). A sphere of radius `r` around
+    /// the particle has the cap area `2πr(r − d)` beyond the plane, so for `0 ≤ d < h`
+    /// `∫ = 90/h⁶ ∫_d^h (h − r)·r·(r − d) dr`; the whole support integrates to `15/h²`, and
+    /// `d < 0` is the whole minus the mirror half-space.
+    pub fn half_space_integral(&self, d: Real) -> Real {
+        let h = self.h;
+        let full = 15.0 / (h * h);
+        if d >= h {
+            return 0.0;
+        }
+        if d <= -h {
+            return full;
+        }
+        let e = d.abs();
+        // ∫_e^h (h − r)(r² − e·r) dr, expanded.
+        let (h2, h3, h4) = (h * h, h * h * h, h * h * h * h);
+        let (e2, e3, e4) = (e * e, e * e * e, e * e * e * e);
+        let cap =
+            h * (h3 - e3) / 3.0 - h * e * (h2 - e2) / 2.0 - (h4 - e4) / 4.0 + e * (h3 - e3) / 3.0;
+        let part = 90.0 / (h4 * h2) * cap;
+        if d >= 0.0 { part } else { full - part }
+    }
+
     /// The viscosity kernel `W(d)` itself (singular at 0), for tests and documentation.
     pub fn w(&self, d: Real) -> Real {
         if d >= self.h || d <= 0.0 {

@@ -370,6 +370,9 @@ pub struct FluidDesc {
     /// Viscosity ε (Pa·s).
     #[serde(default)]
     pub viscosity: Option<NonNegative>,
+    /// Viscosity ε_w between particles and walls (Pa·s; needs `wall_density`).
+    #[serde(default)]
+    pub wall_viscosity: Option<NonNegative>,
     /// Density kernel.
     #[serde(default)]
     pub density_kernel: Option<KernelDesc>,
@@ -448,6 +451,9 @@ impl FluidDesc {
         }
         if let Some(v) = self.viscosity {
             b = b.viscosity(v.0);
+        }
+        if let Some(v) = self.wall_viscosity {
+            b = b.wall_viscosity(v.0);
         }
         if let Some(k) = self.density_kernel {
             b = b.density_kernel(k.into());
