@@ -9,7 +9,13 @@
 //!
 //! ```text
 //! cargo run --release --example stiffness_energy -- 3000 240   # k, frames of 1/60 s
+//! cargo run --release --example stiffness_energy -- 3000 240 cubic   # both kernels cubic spline
 //! ```
+//!
+//! The third argument, `cubic`, gives density and pressure force the same kernel (the cubic
+//! spline) instead of the paper's pair (tuned poly6 for density, spiky for the force): only
+//! with one kernel is the pressure force the gradient of the internal energy above, so only
+//! then can the integrator conserve the total.
 
 use rapier_sph::FluidParamsBuilder;
 use rapier_sph::query::FluidSampler;
@@ -19,7 +25,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let k: f32 = args.next().map_or(Ok(3000.0), |s| s.parse())?;
     let frames: usize = args.next().map_or(Ok(240), |s| s.parse())?;
-    let params = FluidParamsBuilder::paper().stiffness(k).build()?;
+    let mut builder = FluidParamsBuilder::paper().stiffness(k);
+    match args.next().as_deref() {
+        None | Some("paper") => {}
+        Some("cubic") => {
+            builder = builder
+                .density_kernel(rapier_sph::KernelKind::CubicSpline)
+                .pressure_kernel(rapier_sph::KernelKind::CubicSpline)
+        }
+        Some(other) => return Err(format!("unknown kernels {other} (paper, cubic)").into()),
+    }
+    let params = builder.build()?;
     let (rho0, m) = (params.rest_density as f64, params.particle_mass as f64);
     let mut d = dam_break(&DamBreakConfig::tower(params, 1.0))?;
     d.world.physics.integration_parameters.dt = 1.0 / 60.0;

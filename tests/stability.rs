@@ -15,7 +15,8 @@ const KNOWN_FAILURES: &[(&str, &str, &str)] = &[
         "1 stiffness k=3000",
         "WCSPH",
         "the paper's tower starts at 5.5 ρ0 on its own lattice: at 1000x its stiffness that \
-         compression is released as motion",
+         compression is released as motion, and the paper's kernel pair (poly6 density, spiky \
+         force: no energy they are the gradient of) adds energy (see examples/stiffness_energy.rs)",
     ),
     (
         "4 frame 1/30 stiffest",
