@@ -162,18 +162,27 @@ fn float(
     let _ = render;
     let f = scene
         .run(seconds, |_frame, _world| {
-            // `--trace N`: the box's height and angular speed and the water's kinetic energy
-            // every N frames (a body at rest should settle, and the water's energy decay).
+            // `--trace N`: the box's height and angular speed, the water's kinetic energy and
+            // the total mechanical energy every N frames (a body at rest should settle, the
+            // water's energy decay, and the total never grow).
             if let Some(every) = trace
                 && _frame % every == 0
             {
                 let b = &_world.physics.bodies[body];
+                let w = &_world.fluids[fluid];
+                let g = _world.physics.gravity.length() as f64;
+                let m = w.params().particle_mass as f64;
+                // Mechanical energy of water and box (potential from y = 0, the floor).
+                let water_pe: f64 = w.positions().iter().map(|x| m * g * x.y as f64).sum();
+                let box_e =
+                    b.kinetic_energy() as f64 + b.mass() as f64 * g * b.center_of_mass().y as f64;
                 println!(
                     "  frame {_frame:4}: box centre y {:.4} m, angular speed {:.3} rad/s, water \
-                     kinetic energy {:.4} J",
+                     kinetic energy {:.4} J, total (water + box, kinetic + potential) {:.4} J",
                     b.translation().y,
                     b.angvel().length(),
-                    _world.fluids[fluid].kinetic_energy()
+                    w.kinetic_energy(),
+                    w.kinetic_energy() + water_pe + box_e
                 );
             }
             #[cfg(feature = "render")]
