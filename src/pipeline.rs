@@ -549,6 +549,7 @@ fn step_fluid(
             let near = timed(report, Stage::WallDensity, || {
                 ws.wall.update(
                     &ws.grid,
+                    &ws.neighbors,
                     positions,
                     p.density_kernel,
                     force_kernel,
@@ -1015,6 +1016,7 @@ fn relax_overlaps(
                 timed(report, Stage::WallDensity, || {
                     ws.wall.update(
                         &ws.grid,
+                        &ws.neighbors,
                         positions,
                         p.density_kernel,
                         p.density_kernel,

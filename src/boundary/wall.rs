@@ -31,7 +31,7 @@
 use super::ContactWorkspace;
 use crate::kernel::{HalfSpaceTable, KernelKind};
 use crate::math::{Real, Vector};
-use crate::neighbors::NeighborGrid;
+use crate::neighbors::{NeighborGrid, NeighborLists};
 use crate::par::CHUNK;
 use parry3d::partitioning::Bvh;
 use rapier3d::dynamics::RigidBodySet;
@@ -167,11 +167,13 @@ impl WallWorkspace {
     }
 
     /// Computes the wall contributions of every particle of `grid`, whose sorted positions
-    /// are `positions`. Returns the number of particles with a wall within `h`.
+    /// are `positions`. Returns the number of particles with a wall within `h`. `neighbors`
+    /// must be the lists over `grid` when `hydrostatic` is given (they are read only then).
     #[allow(clippy::too_many_arguments)]
     pub fn update(
         &mut self,
         grid: &NeighborGrid,
+        neighbors: &NeighborLists,
         positions: &[Vector],
         density_kernel: KernelKind,
         force_kernel: KernelKind,
@@ -356,6 +358,7 @@ impl WallWorkspace {
                             // as DFSPH's average); ∇ρ_wall = g·ρ0·full_f.
                             let off = neighbour_centre(
                                 grid,
+                                neighbors,
                                 positions,
                                 i,
                                 -g.normalize(),
@@ -420,6 +423,7 @@ impl WallWorkspace {
 /// periodic grid (the separations would need the minimum image).
 fn neighbour_centre(
     grid: &NeighborGrid,
+    neighbors: &NeighborLists,
     positions: &[Vector],
     i: usize,
     away: Vector,
@@ -434,18 +438,16 @@ fn neighbour_centre(
         let k = K::new(h);
         let xi = positions[i];
         let (mut sw, mut sx) = (0.0, Vector::ZERO);
-        for &(a, b) in grid.neighbor_ranges(grid.cell_of(i)).as_slice() {
-            for &xj in &positions[a as usize..b as usize] {
-                let r = xi - xj;
-                let d = r.length();
-                // The particle itself (d = 0) and coincident ones have no direction.
-                if d >= h || d <= 0.0 {
-                    continue;
-                }
-                let w = (r * (k.dw(d) / d)).dot(away).max(0.0);
-                sw += w;
-                sx -= r * w;
+        for &j in neighbors.of(i) {
+            let r = xi - positions[j as usize];
+            let d = r.length();
+            // Coincident particles have no direction.
+            if d >= h || d <= 0.0 {
+                continue;
             }
+            let w = (r * (k.dw(d) / d)).dot(away).max(0.0);
+            sw += w;
+            sx -= r * w;
         }
         if sw > 0.0 { sx / sw } else { Vector::ZERO }
     })
