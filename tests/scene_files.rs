@@ -51,6 +51,7 @@ fn the_reference_scene_has_every_shape() {
     let f = &built.world.fluids[built.fluids[0]];
     assert_eq!(f.len(), 7 * 7 * 10 + 2);
     assert_eq!(f.params().viscosity, 0.5);
+    assert_eq!(f.params().wall_viscosity, 0.1);
     assert_eq!(
         f.params().solver,
         rapier_sph::Solver::Dfsph(rapier_sph::Dfsph {
