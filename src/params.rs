@@ -233,6 +233,7 @@ impl FluidParams {
         }
         if let Solver::Clavet(c) = &self.solver {
             non_negative("stiffness", c.stiffness)?;
+            non_negative("cohesion", c.cohesion)?;
             if let Some(k) = c.near_stiffness {
                 non_negative("near_stiffness", k)?;
             }

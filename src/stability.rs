@@ -523,7 +523,8 @@ fn stiffest_frames(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>>
                 relaxation: 1e-3,
                 ..Pbf::default()
             })),
-            // 100x the default stiffnesses: 10x the speed of sound.
+            // 100x the default stiffness: 10x the speed of sound (the cohesion, the stiffness
+            // below rest density, stays at its default: see `solver::clavet`, "Cohesion").
             Solver::Clavet(_) => water(solver, 0.05).solver(Solver::Clavet(Clavet {
                 stiffness: 100.0,
                 ..Clavet::default()

@@ -651,9 +651,10 @@ fn solvers_come_from_the_file() {
             }),
         ),
         (
-            "solver: Clavet(stiffness: 2.0, springs: Some(Springs(plasticity: 2.0))),",
+            "solver: Clavet(stiffness: 2.0, cohesion: 0.5, springs: Some(Springs(plasticity: 2.0))),",
             Solver::Clavet(Clavet {
                 stiffness: 2.0,
+                cohesion: 0.5,
                 springs: Some(Springs {
                     plasticity: 2.0,
                     ..Springs::default()

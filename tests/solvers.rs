@@ -297,7 +297,7 @@ fn clavet_conserves_momentum_of_an_isolated_blob() {
 
 /// Viscoelastic springs displace the two particles of a spring by exact opposites (both keep
 /// a bitwise-equal copy of the spring): momentum is conserved to round-off as above. The
-/// relaxation is switched off (both stiffnesses 0) so the springs make all the exchange, and
+/// relaxation is switched off (its three stiffnesses 0) so the springs make all the exchange, and
 /// the plasticity is high (50/s) so the rest lengths move away from h within a few steps and
 /// the springs actually push and pull. Bound: one Jacobi pass of at most ~40 spring terms per
 /// particle, each rounded about 5 times, errs by at most `40·5·u ≈ 1.2e-5` of the impulse
@@ -307,6 +307,7 @@ fn clavet_conserves_momentum_of_an_isolated_blob() {
 fn clavet_springs_conserve_momentum_of_an_isolated_blob() {
     let springs_only = Solver::Clavet(Clavet {
         stiffness: 0.0,
+        cohesion: 0.0,
         near_stiffness: Some(0.0),
         springs: Some(Springs {
             plasticity: 50.0,

@@ -19,11 +19,6 @@ const KNOWN_FAILURES: &[(&str, &str, &str)] = &[
          force: no energy they are the gradient of) adds energy (see examples/stiffness_energy.rs)",
     ),
     (
-        "4 frame 1/30 stiffest",
-        "Clavet",
-        "at 100x stiffness the relaxation overshoots even at the acoustic step (in SLOW)",
-    ),
-    (
         "11 heavy body at rest",
         "PBF",
         "the box resting on the last particle layer starts rocking, presses a corner into the \
@@ -34,7 +29,6 @@ const KNOWN_FAILURES: &[(&str, &str, &str)] = &[
 /// Runs that take 10–30 s each: left to the example (their verdicts are in the README).
 const SLOW: &[(&str, &str)] = &[
     ("4 frame 1/30 stiffest", "WCSPH"),
-    ("4 frame 1/30 stiffest", "Clavet"),
     ("11 heavy body at rest", "PBF"),
 ];
 

@@ -199,6 +199,9 @@ pub enum SolverDesc {
         /// Stiffness, in units of `c²/(h·ρ0)`.
         #[serde(default)]
         stiffness: Option<NonNegative>,
+        /// Cohesion (the stiffness below rest density), same units. Default 1.
+        #[serde(default)]
+        cohesion: Option<NonNegative>,
         /// Near stiffness, same units. Default: the flat-surface equilibrium value.
         #[serde(default)]
         near_stiffness: Option<NonNegative>,
@@ -275,12 +278,14 @@ impl SolverDesc {
             }
             SolverDesc::Clavet {
                 stiffness,
+                cohesion,
                 near_stiffness,
                 springs,
             } => {
                 let d = Clavet::default();
                 Solver::Clavet(Clavet {
                     stiffness: stiffness.map_or(d.stiffness, |v| v.0),
+                    cohesion: cohesion.map_or(d.cohesion, |v| v.0),
                     near_stiffness: near_stiffness.map(|v| v.0),
                     springs: springs.as_ref().map(|s| {
                         let d = Springs::default();

@@ -7,6 +7,7 @@
 //! ```text
 //! ρ_i = Σ_j (1 − q_ij)²      ρ_i^near = Σ_j (1 − q_ij)³               (eqs. 1, 4)
 //! P_i = k (ρ_i − ρ0)          P_i^near = k_near ρ_i^near               (eqs. 2, 5)
+//!       (k_c instead of k where ρ_i < ρ0: see "Cohesion" below)
 //! Δx_i = −½ dt² Σ_j [ (P_i + P_j)(1 − q_ij) + (P_i^near + P_j^near)(1 − q_ij)² ] r̂_ij
 //! ```
 //!
@@ -21,7 +22,29 @@
 //! in the fluid's rest lattice (spacing `s`, support `h`), and the stiffnesses are multiples of
 //! `c²/(h·ρ0)`, `c` the fluid's speed of sound, so that a relative compression `δ` pushes with
 //! an acceleration of about `c²·δ/h`, like an equation of state with that speed of sound; the
-//! time step obeys the same acoustic limit as WCSPH. Viscosity is the fluid's own viscosity
+//! time step obeys the same acoustic limit as WCSPH.
+//!
+//! **Cohesion.** The paper's one `k` sets both how hard the fluid resists compression and
+//! how hard it holds together: where `ρ < ρ0` (a free surface, a splash) the pressure is
+//! negative and pulls particles in, which is the method's surface tension. Here the tension
+//! side has its own stiffness `k_c` ([`Clavet::cohesion`], default 1, the default `k`), so a
+//! stiffer (less compressible) fluid is not also a more cohesive one (a real liquid's bulk
+//! modulus and surface tension are independent properties). This matters because no block of
+//! particles on a lattice is at rest under the relaxation: its flat faces, edges and corners
+//! are pulled in and the layer under each face is pushed out (with `h = 2s`, the layer under a
+//! face balanced by the default near stiffness feels `0.61·k·c²/(h·ρ0)`, the edges and corners
+//! up to `1.8·k·c²/(h·ρ0)`: direct sums on an 8³ block, `k_c = k`), and the energy the block lets go of on its way to the nearest
+//! equilibrium grows with the stiffnesses that make those forces: with the one `k`, a dam
+//! break spawned at 100 times the default stiffness threw itself apart at once (kinetic energy
+//! 7.7 times the column's potential energy after the first 1/30 s, particles at 80 m/s, with
+//! shorter substeps as much or more: the energy comes from the spawn lattice, not from the
+//! time step; `stability` case 4). With `k_c` at its default the same run peaks at 0.595
+//! times it.
+//! The near stiffness defaults to the value that balances a flat free surface against the
+//! cohesion ([`surface_equilibrium_near_ratio`] times `k_c`). At `k = k_c` (the default) the
+//! relaxation is the paper's.
+//!
+//! Viscosity is the fluid's own viscosity
 //! stage (the paper's pairwise viscosity impulses are not implemented); its viscoelastic
 //! springs are an option ([`Clavet::springs`], [`super::springs`]). Walls take part through
 //! contact only.
@@ -39,9 +62,15 @@ use rayon::prelude::*;
 pub struct Clavet {
     /// Stiffness `k`, as a multiple of `c²/(h·ρ0)` (default 1).
     pub stiffness: Real,
+    /// Cohesion `k_c`: the stiffness of the pressure where the fluid is below its rest density
+    /// (negative: it pulls particles together; the method's surface tension), same units
+    /// (default 1, the default stiffness; the module's "Cohesion" says why it is not
+    /// `stiffness`). Setting it equal to `stiffness` gives the paper's relaxation.
+    #[cfg_attr(feature = "snapshot", serde(default = "default_cohesion"))]
+    pub cohesion: Real,
     /// Near stiffness `k_near`, same units. `None` (default): the value that makes a flat
-    /// free surface of the rest lattice an equilibrium (see
-    /// [`surface_equilibrium_near_ratio`]; about 1.07·k at `h = 2s`), so a resting pool
+    /// free surface of the rest lattice an equilibrium against the cohesion (see
+    /// [`surface_equilibrium_near_ratio`]; about 1.07·k_c at `h = 2s`), so a resting pool
     /// neither boils off its top layer (near pressure too strong: the paper's ratio 2.5 did,
     /// the fluid expanded at once) nor pulls it in.
     pub near_stiffness: Option<Real>,
@@ -51,10 +80,16 @@ pub struct Clavet {
     pub springs: Option<super::Springs>,
 }
 
+#[cfg(feature = "snapshot")]
+fn default_cohesion() -> Real {
+    1.0
+}
+
 impl Default for Clavet {
     fn default() -> Self {
         Self {
             stiffness: 1.0,
+            cohesion: 1.0,
             near_stiffness: None,
             springs: None,
         }
@@ -84,9 +119,10 @@ fn layer_densities(h: Real, s: Real, depth: i32) -> (Real, Real) {
     (rho, near)
 }
 
-/// `k_near/k` for which a particle in the top layer of the rest lattice (spacing `s`, support
+/// `k_near/k_c` for which a particle in the top layer of the rest lattice (spacing `s`, support
 /// `h`) under a flat free surface feels no net push: the surface layer's negative pressure
-/// (it has fewer neighbours) pulls it in exactly as much as the near pressure pushes it out.
+/// (it has fewer neighbours; stiffness `k_c`, the cohesion) pulls it in exactly as much as the
+/// near pressure pushes it out.
 pub fn surface_equilibrium_near_ratio(h: Real, s: Real) -> Real {
     let r = (h / s).ceil() as i32;
     let deep = layer_densities(h, s, r + 1);
@@ -194,8 +230,12 @@ pub fn relax_in<S: Separation>(
     let unit = ctx.speed_of_sound * ctx.speed_of_sound / (h * rho0);
     let near = settings
         .near_stiffness
-        .unwrap_or_else(|| settings.stiffness * surface_equilibrium_near_ratio(h, ctx.spacing));
-    let (k, k_near) = (settings.stiffness * unit, near * unit);
+        .unwrap_or_else(|| settings.cohesion * surface_equilibrium_near_ratio(h, ctx.spacing));
+    let (k, k_c, k_near) = (
+        settings.stiffness * unit,
+        settings.cohesion * unit,
+        near * unit,
+    );
     let ClavetBuffers {
         pressure,
         displacement,
@@ -223,7 +263,8 @@ pub fn relax_in<S: Separation>(
                         rho += a * a;
                         near += a * a * a;
                     }
-                    pr[k_] = (k * (rho - rho0), k_near * near);
+                    let stiffness = if rho < rho0 { k_c } else { k };
+                    pr[k_] = (stiffness * (rho - rho0), k_near * near);
                     rel[k_] = rho / rho0;
                     s += (rho / rho0 - 1.0).max(0.0) as f64;
                 }
@@ -270,4 +311,92 @@ pub fn relax_in<S: Separation>(
             }
         });
     error
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::domain::MinimumImage;
+    use crate::neighbors::NeighborGrid;
+
+    /// The stability limit quoted in `pipeline::stable_time_step`. With the forces taken at
+    /// the predicted positions a mode of stiffness λ evolves as `x' = (1 − θ)(x + dt·v)`,
+    /// `θ = λ·dt²`, bounded iff `θ ≤ 4/3`. Power iteration on the linearised relaxation (finite
+    /// differences of `relax_in` with `dt = 1`, which returns the displacement `a·dt²`) of a
+    /// periodic rest lattice of 8³ particles finds its stiffest mode; at the acoustic substep
+    /// `0.4·h/(c·√k)` (k = k_c = 1 here; the bound scales with √k) θ must be inside 4/3, and
+    /// the documented 1.06 (Courant 0.5 would give 1.65, outside: the margin is real, not
+    /// loose).
+    #[test]
+    fn the_acoustic_substep_is_inside_the_relaxations_linear_stability_limit() {
+        let (s, n) = (0.05, 8);
+        let h = 2.0 * s;
+        let c = 30.0;
+        let box_len = n as Real * s;
+        let domain = MinimumImage::new(Vector::ZERO, Vector::splat(box_len));
+        let mut x0 = crate::fluid::lattice(Vector::splat(0.5 * s), n, n, n, s);
+        let mut grid = NeighborGrid::default();
+        if grid.sort_periodic(&x0, h, &domain) {
+            let mut scratch = Vec::new();
+            crate::par::permute(&mut x0, &mut scratch, grid.permutation());
+        }
+        grid.build_cells();
+        let mut neighbors = NeighborLists::default();
+        neighbors.build_periodic(&grid, &x0, h, domain);
+        let ctx = ClavetContext {
+            neighbors: &neighbors,
+            h,
+            spacing: s,
+            speed_of_sound: c,
+            dt: 1.0,
+        };
+        let settings = Clavet::default();
+        let mut buffers = ClavetBuffers::default();
+        let mut rel = vec![0.0; x0.len()];
+        let mut displacement = |x: &[Vector]| -> Vec<Vector> {
+            let mut y = x.to_vec();
+            relax_in(&ctx, &settings, &mut buffers, &mut y, &mut rel, domain);
+            y.iter().zip(x).map(|(a, b)| *a - *b).collect()
+        };
+        let d0 = displacement(&x0);
+        // A fixed, mixed start vector (every wavelength present).
+        let mut v: Vec<Vector> = (0..x0.len())
+            .map(|i| {
+                let f = |m: usize| ((i * m) % 17) as Real - 8.0;
+                Vector::new(f(37), f(11), f(5))
+            })
+            .collect();
+        let eps = 1e-4 * s;
+        let mut lambda = 0.0f64;
+        for _ in 0..200 {
+            let norm = v
+                .iter()
+                .map(|a| a.length_squared() as f64)
+                .sum::<f64>()
+                .sqrt();
+            for a in &mut v {
+                *a /= norm as Real;
+            }
+            let xp: Vec<Vector> = x0.iter().zip(&v).map(|(x, a)| *x + *a * eps).collect();
+            let kv: Vec<Vector> = displacement(&xp)
+                .iter()
+                .zip(&d0)
+                .map(|(a, b)| -(*a - *b) / eps)
+                .collect();
+            lambda = kv.iter().zip(&v).map(|(a, b)| a.dot(*b) as f64).sum();
+            v = kv;
+        }
+        let theta = |courant: f64| lambda * (courant * h as f64 / c as f64).powi(2);
+        eprintln!(
+            "λ = {lambda:.1} /s², θ(0.4) = {:.3}, θ(0.5) = {:.3}",
+            theta(0.4),
+            theta(0.5)
+        );
+        assert!(
+            theta(0.4) > 0.95 && theta(0.4) < 1.2 && theta(0.4) < 4.0 / 3.0,
+            "θ at Courant 0.4 = {} (λ = {lambda})",
+            theta(0.4)
+        );
+        assert!(theta(0.5) > 4.0 / 3.0, "θ at Courant 0.5 = {}", theta(0.5));
+    }
 }

@@ -331,6 +331,7 @@ pub fn reference_step(params: &crate::FluidParams, v: Real, g: Real) -> Real {
         Solver::Clavet(cl) => {
             let c = params.equation_of_state.speed_of_sound()
                 * cl.stiffness
+                    .max(cl.cohesion)
                     .max(cl.near_stiffness.unwrap_or(cl.stiffness))
                     .max(cl.springs.map_or(0.0, |s| s.stiffness))
                     .max(1e-6)
