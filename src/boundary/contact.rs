@@ -676,7 +676,8 @@ fn resolve_moving(
                 }
 
                 // 3. Verify in the moving frames; on failure ride with the body that failed
-                // it (or stay put against a static one).
+                // it, unless riding crosses another solid (a particle caught between a
+                // moving body and a wall), or stay put against a static one.
                 if touched {
                     counts.contacts += 1;
                     let finite = crate::math::is_finite(target) && crate::math::is_finite(v);
@@ -687,11 +688,22 @@ fn resolve_moving(
                     };
                     if let Err(failed) = check {
                         recs.truncate(first_record);
+                        let ride = |m: &MovingCollider| {
+                            m.stop.transform_point(m.start.inverse_transform_point(start))
+                        };
                         match failed.map(|e| (e, &table[e as usize])) {
-                            Some((e, m)) if m.moving => {
-                                target = m
-                                    .stop
-                                    .transform_point(m.start.inverse_transform_point(start));
+                            Some((e, m))
+                                if m.moving
+                                    && moving_segment_free(
+                                        colliders,
+                                        table,
+                                        cands,
+                                        start,
+                                        ride(m),
+                                    )
+                                    .is_ok() =>
+                            {
+                                target = ride(m);
                                 v = m.velocity_at_stop(target);
                                 kick(recs, Some(e), v - v_orig, target, Vector::ZERO);
                             }
