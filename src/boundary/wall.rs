@@ -169,6 +169,18 @@ impl WallWorkspace {
     /// Computes the wall contributions of every particle of `grid`, whose sorted positions
     /// are `positions`. Returns the number of particles with a wall within `h`. `neighbors`
     /// must be the lists over `grid` when `hydrostatic` is given (they are read only then).
+    ///
+    /// The moving bodies of `coupling`'s table stand at their pose of the substep's start,
+    /// where the particles are for WCSPH and DFSPH; with `predicted` (PBF, whose positions
+    /// are predicted to the substep's end before this update) they stand at their pose of
+    /// the substep's *end*, with their surface velocity there, so a position constraint
+    /// pairs particle and body at the same time. Taken at its start, a body's motion over
+    /// the substep was missing from PBF's constraints, and the velocity change its impulses
+    /// make (which moves it from the next substep on) reached them a substep late: an
+    /// explicit-Euler loop, which a body resting on particles pinched against the floor
+    /// (stiff: they cannot move out of the way) drove into growing oscillation (stability
+    /// case 11: a 2000 kg/m³ box rocked and exploded after about 1 s; at the end pose it
+    /// rests, KE ratio 0.015).
     #[allow(clippy::too_many_arguments)]
     pub fn update(
         &mut self,
@@ -187,6 +199,7 @@ impl WallWorkspace {
         coupling: Option<&super::Coupling>,
         hydrostatic: Option<Vector>,
         viscous: bool,
+        predicted: bool,
     ) -> usize {
         let n = positions.len();
         self.tables(density_kernel, force_kernel, h, spacing);
@@ -261,10 +274,12 @@ impl WallWorkspace {
                             let Some(co) = colliders.get(handle) else {
                                 continue;
                             };
-                            // A moving body stands at its pose of the substep's start.
+                            // A moving body stands at its pose of the substep's start, or
+                            // of its end for positions predicted to the end.
                             let found = super::bodies::entry_of(table, handle);
                             let entry = found.map(|(_, m)| m);
                             let pose = match entry {
+                                Some(m) if m.moving && predicted => &m.stop,
                                 Some(m) if m.moving => &m.start,
                                 _ => co.position(),
                             };
@@ -305,6 +320,9 @@ impl WallWorkspace {
                             }
                             // The wall's velocity at the closest point (static: none).
                             let wall_velocity = match entry {
+                                Some(mc) if mc.moving && predicted => {
+                                    Some(mc.velocity_at_stop(proj.point))
+                                }
                                 Some(mc) if mc.moving => Some(mc.velocity_at_start(proj.point)),
                                 Some(_) => None,
                                 None => co
