@@ -18,18 +18,11 @@ const KNOWN_FAILURES: &[(&str, &str, &str)] = &[
          compression is released as motion, and the paper's kernel pair (poly6 density, spiky \
          force: no energy they are the gradient of) adds energy (see examples/stiffness_energy.rs)",
     ),
-    (
-        "11 heavy body at rest",
-        "PBF",
-        "the box resting on the last particle layer starts rocking, presses a corner into the \
-         layer and explodes (~1.9 s; in SLOW: the explosion runs the substep cap, 80 s)",
-    ),
 ];
 
 /// Runs that take 10–30 s each: left to the example (their verdicts are in the README).
 const SLOW: &[(&str, &str)] = &[
     ("4 frame 1/30 stiffest", "WCSPH"),
-    ("11 heavy body at rest", "PBF"),
 ];
 
 #[test]
