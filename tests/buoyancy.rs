@@ -132,9 +132,15 @@ fn boxes_float_at_the_right_depth_without_jitter() {
 /// The criterion read strictly: the submerged *fraction* within 5 % of its own value
 /// (Archimedes: density / 1000), at 2.5 cm (the box 8 particles tall), with PBF, whose
 /// boxes float closest (README, "Two-way coupling": WCSPH and DFSPH float them a few % too
-/// high, the 250 kg/m³ box with DFSPH by 30 %). Measured (3 s, the last second): 0.260 /
-/// 0.512 / 0.761 for 250 / 500 / 750 kg/m³ (+4.0 / +2.4 / +1.5 %), corners at 0.053 / 0.022
-/// / 0.022 g RMS. Same jitter and energy bounds as above. About a minute on two cores.
+/// high, the 250 kg/m³ box with DFSPH by 30 %). Same jitter and energy bounds as above,
+/// measured over the 5th second: "once settled". The box is placed at its expected depth in
+/// a lattice cut out around it, and the start excites a slosh of the whole tank (period
+/// about 1 s) that the light box rides: its sway decays from 0.05 m/s at 0.7 s to 0.02 at
+/// 2.5 s and 0.003 at 5.5 s (session 8). Over the 3rd second the 250 box still swayed at
+/// 0.0399 m/s against the water's 0.0321 (after the bodies were made to count in PBF's
+/// density at the substep's end pose, which calmed the water next to it), a start-up
+/// transient the relative-speed bound was not meant to judge. About two minutes on two
+/// cores.
 #[test]
 fn pbf_boxes_float_within_5_percent_of_archimedes() {
     let s = 0.025;
@@ -148,7 +154,7 @@ fn pbf_boxes_float_within_5_percent_of_archimedes() {
             0.15,
             0.1,
             density,
-            3.0,
+            5.0,
         );
         let expected = density / 1000.0;
         eprintln!(
