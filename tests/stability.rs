@@ -10,20 +10,16 @@ use rapier_sph::stability::{self, SuiteSize};
 
 /// (case, solver): runs whose verdict is FAIL today, and why (measured with
 /// `cargo run --release --example stability -- --quick`).
-const KNOWN_FAILURES: &[(&str, &str, &str)] = &[
-    (
-        "1 stiffness k=3000",
-        "WCSPH",
-        "the paper's tower starts at 5.5 ρ0 on its own lattice: at 1000x its stiffness that \
+const KNOWN_FAILURES: &[(&str, &str, &str)] = &[(
+    "1 stiffness k=3000",
+    "WCSPH",
+    "the paper's tower starts at 5.5 ρ0 on its own lattice: at 1000x its stiffness that \
          compression is released as motion, and the paper's kernel pair (poly6 density, spiky \
          force: no energy they are the gradient of) adds energy (see examples/stiffness_energy.rs)",
-    ),
-];
+)];
 
 /// Runs that take 10–30 s each: left to the example (their verdicts are in the README).
-const SLOW: &[(&str, &str)] = &[
-    ("4 frame 1/30 stiffest", "WCSPH"),
-];
+const SLOW: &[(&str, &str)] = &[("4 frame 1/30 stiffest", "WCSPH")];
 
 #[test]
 fn quick_stability_cases_pass_and_known_failures_are_still_known() {

@@ -689,7 +689,8 @@ fn resolve_moving(
                     if let Err(failed) = check {
                         recs.truncate(first_record);
                         let ride = |m: &MovingCollider| {
-                            m.stop.transform_point(m.start.inverse_transform_point(start))
+                            m.stop
+                                .transform_point(m.start.inverse_transform_point(start))
                         };
                         match failed.map(|e| (e, &table[e as usize])) {
                             Some((e, m))
