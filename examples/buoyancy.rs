@@ -6,7 +6,7 @@
 //! cargo run --release --example buoyancy -- --solver dfsph-hw   # DFSPH, hydrostatic walls
 //! cargo run --release --example buoyancy -- --solver dfsph --density 250 --trace 10  # a line every 10 frames
 //! cargo run --release --example buoyancy -- --solver pbf --cubes   # the ignored test's scene: 16 cm cubes, 2.5 cm, 4 s
-//! cargo run --release --example buoyancy -- --cubes --depth 0.3     # the same in deeper water
+//! cargo run --release --example buoyancy -- --cubes --depth 0.2     # the same in the shallower water it had before session 8
 //! cargo run --release --example buoyancy --features render -- --render out/  # PNG + GIF per box
 //! ```
 //!
@@ -33,7 +33,7 @@ fn main() {
     while i < args.len() {
         let value = args.get(i + 1).cloned().unwrap_or_default();
         if args[i] == "--cubes" {
-            // tests/buoyancy.rs's ignored scene (a 0.5 m tank, 0.2 m of water, 16 cm cubes):
+            // tests/buoyancy.rs's ignored scene (a 0.5 m tank, 0.3 m of water, 16 cm cubes):
             // its defaults, which later flags may still override.
             (cubes, s, seconds) = (true, 0.025, 4.0);
             i += 1;
@@ -133,7 +133,7 @@ fn recorder(dir: &std::path::Path, tank: Real, top: Real) -> rapier_sph::render:
 }
 
 /// The test's scene and measurement ([`FloatingBox`]): a 0.72 m tank, 0.3 m of water, a box
-/// 0.3 × 0.2 × 0.3 m (with `cubes`: a 0.5 m tank, 0.2 m of water, a 16 cm cube) at its expected depth;
+/// 0.3 × 0.2 × 0.3 m (with `cubes`: a 0.5 m tank, 0.3 m of water, a 16 cm cube) at its expected depth;
 /// `seconds` of 60 Hz frames, the last one measured.
 fn float(
     solver: Solver,
@@ -148,7 +148,7 @@ fn float(
     let mut scene = FloatingBox::new(FloatingBoxConfig {
         spacing: s,
         tank: if cubes { 0.5 } else { 0.72 },
-        depth: depth.unwrap_or(if cubes { 0.2 } else { 0.3 }),
+        depth: depth.unwrap_or(0.3),
         half_width: if cubes { 0.08 } else { 0.15 },
         half_height: if cubes { 0.08 } else { 0.1 },
         density,

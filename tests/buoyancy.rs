@@ -18,12 +18,13 @@
 //! `pbf_boxes_float_within_5_percent_of_archimedes` reads the criterion strictly (the
 //! fraction within 5 % of itself) for PBF at 2.5 cm, the solver whose boxes float closest.
 //!
-//! **Ignored**: the finer measurement with cubes (2.5 cm particles), about 2.5 minutes on two
-//! cores; since session 7's coupling change it also fails at 750 kg/m³ (0.855 submerged: the
-//! cube, tilted, sinks until its lowest corner is 2.2 spacings over the floor of this 0.2 m
-//! tank, too shallow for a tilted 16 cm cube; in 0.3 m of water it floats at 0.728:
-//! `cargo run --release --example buoyancy -- --cubes --depth 0.3 --density 750`). Run `cargo test --release --test buoyancy -- --ignored --nocapture` for its
-//! figures (README, "Two-way coupling").
+//! **Ignored** (time: 3–4 minutes on two cores): the finer measurement with 16 cm cubes
+//! (2.5 cm particles) in 0.3 m of water. Session 8 deepened its water from 0.2 m: the tilted
+//! 750 kg/m³ cube's lowest edge floats 0.146 m deep, and with 5.4 cm left under it the floor's
+//! wall term reached it (it sank to 0.855). Measured in 0.3 m: 0.219 / 0.478 / 0.728 for
+//! 250 / 500 / 750 kg/m³ (`cargo run --release --example buoyancy -- --cubes --depth 0.3`).
+//! Run `cargo test --release --test buoyancy -- --ignored --nocapture` for its figures
+//! (README, "Two-way coupling").
 
 use rapier_sph::math::Real;
 use rapier_sph::scenes::{Floating, FloatingBox, FloatingBoxConfig};
@@ -196,15 +197,18 @@ fn pbf_boxes_float_within_5_percent_of_archimedes() {
 }
 
 #[test]
-#[ignore = "2.5 minutes on two cores; and since session 7 it fails at 750 kg/m³ (0.855: the tilted cube sinks to 2.2 spacings over the floor of this 0.2 m tank; 0.728 in 0.3 m of water): see the module docs and README"]
+#[ignore = "3–4 minutes on two cores (measured in session 8: 0.219 / 0.478 / 0.728 for 250 / 500 / 750 kg/m³): see the module docs and README"]
 fn cubes_float_at_the_right_depth() {
-    // Cubes of 16 cm at 2.5 cm resolution in a 0.5 m tank. Cubes of these densities float
-    // tilted (see the module docs): the submerged fraction is that of the volume, whatever
-    // the tilt (Archimedes).
+    // Cubes of 16 cm at 2.5 cm resolution in a 0.5 m tank holding 0.3 m of water. Cubes of
+    // these densities float tilted (see the module docs): the submerged fraction is that of
+    // the volume, whatever the tilt (Archimedes). Tilted, the 750 kg/m³ cube reaches deep: edge
+    // down at 45°, its lowest edge floats a·√2 − a/2 = 0.146 m under the surface (a = 0.16),
+    // so the water must be deep enough to leave more than the kernel's reach (h = 5 cm) under
+    // it; in 0.2 m it was 5.4 cm, and the floor's wall term held the cube (it sank to 0.855).
     let s = 0.025;
     let mut failures = Vec::new();
     for density in [250.0, 500.0, 750.0] {
-        let f = float(WCSPH, s, 0.5, 0.2, 0.08, 0.08, density, 4.0);
+        let f = float(WCSPH, s, 0.5, 0.3, 0.08, 0.08, density, 4.0);
         let expected = density / 1000.0;
         eprintln!(
             "density {density}: submerged {:.3} (expected {expected:.2}; {:.3} to {:.3} over \
@@ -222,7 +226,7 @@ fn cubes_float_at_the_right_depth() {
             ));
         }
     }
-    let f = float(WCSPH, s, 0.5, 0.2, 0.08, 0.08, 2000.0, 4.0);
+    let f = float(WCSPH, s, 0.5, 0.3, 0.08, 0.08, 2000.0, 4.0);
     eprintln!(
         "density 2000: submerged {:.3}, corners: RMS speed {:.4} m/s",
         f.submerged, f.speed
