@@ -18,13 +18,13 @@
 //! `pbf_boxes_float_within_5_percent_of_archimedes` reads the criterion strictly (the
 //! fraction within 5 % of itself) for PBF at 2.5 cm, the solver whose boxes float closest.
 //!
-//! **Ignored** (time: 3–4 minutes on two cores): the finer measurement with 16 cm cubes
-//! (2.5 cm particles) in 0.3 m of water. Session 8 deepened its water from 0.2 m: the tilted
+//! `cubes_float_at_the_right_depth`, about two minutes: the finer measurement with 16 cm cubes
+//! (2.5 cm particles) in 0.3 m of water (ignored until session 8). Session 8 deepened its water from 0.2 m: the tilted
 //! 750 kg/m³ cube's lowest edge floats 0.146 m deep, and with 5.4 cm left under it the floor's
 //! wall term reached it (it sank to 0.855). Measured in 0.3 m: 0.219 / 0.478 / 0.728 for
 //! 250 / 500 / 750 kg/m³ (`cargo run --release --example buoyancy -- --cubes --depth 0.3`).
-//! Run `cargo test --release --test buoyancy -- --ignored --nocapture` for its figures
-//! (README, "Two-way coupling").
+//! `cargo test --release --test buoyancy -- --nocapture` prints every figure (README,
+//! "Two-way coupling").
 
 use rapier_sph::math::Real;
 use rapier_sph::scenes::{Floating, FloatingBox, FloatingBoxConfig};
@@ -196,8 +196,9 @@ fn pbf_boxes_float_within_5_percent_of_archimedes() {
     assert!(failures.is_empty(), "{failures:?}");
 }
 
+/// About two minutes on two cores (measured in session 8: 0.219 / 0.478 / 0.728 for 250 /
+/// 500 / 750 kg/m³, 129 s with the machine shared).
 #[test]
-#[ignore = "3–4 minutes on two cores (measured in session 8: 0.219 / 0.478 / 0.728 for 250 / 500 / 750 kg/m³): see the module docs and README"]
 fn cubes_float_at_the_right_depth() {
     // Cubes of 16 cm at 2.5 cm resolution in a 0.5 m tank holding 0.3 m of water. Cubes of
     // these densities float tilted (see the module docs): the submerged fraction is that of
