@@ -12,12 +12,18 @@ use rapier_sph::{Fluid, FluidHandle, FluidWorld};
 
 const SPACING: Real = 0.04;
 
-/// A world with no gravity, 60 Hz frames, and a block of water at rest filling
-/// `[min, min + size]`.
-fn world_with_block(min: Vector, size: Vector) -> (FluidWorld, FluidHandle) {
+/// An empty world with no gravity and 60 Hz frames.
+fn zero_gravity_world() -> FluidWorld {
     let mut world = FluidWorld::new();
     world.physics.gravity = Vector::ZERO;
     world.physics.integration_parameters.dt = 1.0 / 60.0;
+    world
+}
+
+/// A world with no gravity, 60 Hz frames, and a block of water at rest filling
+/// `[min, min + size]`.
+fn world_with_block(min: Vector, size: Vector) -> (FluidWorld, FluidHandle) {
+    let mut world = zero_gravity_world();
     let mut fluid = Fluid::new(water(SPACING)).unwrap();
     fluid.add_block(min, size).unwrap();
     let h = world.fluids.insert(fluid);
@@ -163,9 +169,7 @@ fn a_rotating_paddle_wheel_turns_the_water() {
     // A kinematic wheel of four thin blades (0.3 m long, 1 cm thick) spinning at 10 rad/s
     // about z inside a fixed closed box of water: no particle is ever inside a blade, and the
     // water the blades sweep turns with them.
-    let mut world = FluidWorld::new();
-    world.physics.gravity = Vector::ZERO;
-    world.physics.integration_parameters.dt = 1.0 / 60.0;
+    let mut world = zero_gravity_world();
     rapier_sph::scenes::add_closed_box(
         &mut world,
         Vector::new(-0.36, -0.36, -0.1),
@@ -249,9 +253,7 @@ fn sloshing_box(
     solver: rapier_sph::Solver,
     wall_viscosity: Real,
 ) -> (FluidWorld, FluidHandle, RigidBodyHandle, RigidBodyHandle) {
-    let mut world = FluidWorld::new();
-    world.physics.gravity = Vector::ZERO;
-    world.physics.integration_parameters.dt = 1.0 / 60.0;
+    let mut world = zero_gravity_world();
     let (min, max) = (Vector::new(0.0, 0.0, 0.0), Vector::new(0.48, 0.24, 0.24));
     let t = 0.025;
     let container = world.physics.insert_body(RigidBodyBuilder::dynamic());
@@ -443,9 +445,7 @@ fn an_off_centre_jet_spins_a_plate_with_the_angular_momentum_it_loses() {
     // Müller's viscosity force is not central, so it does not conserve angular momentum
     // within the fluid; pressure forces and frictionless contact are central.
     for walls in [false, true] {
-        let mut world = FluidWorld::new();
-        world.physics.gravity = Vector::ZERO;
-        world.physics.integration_parameters.dt = 1.0 / 60.0;
+        let mut world = zero_gravity_world();
         let params = rapier_sph::FluidParamsBuilder::water(SPACING)
             .viscosity(0.0)
             .wall_density(walls)
@@ -514,9 +514,7 @@ fn an_off_centre_jet_spins_a_plate_with_the_angular_momentum_it_loses() {
 /// returns the ball's ω_z after `frames` frames, its initial ω_z, and the angular momentum
 /// about the origin the ball lost and the water gained (kg·m²/s).
 fn spinning_ball(wall_viscosity: Real, frames: usize) -> (Real, Real, f64, f64) {
-    let mut world = FluidWorld::new();
-    world.physics.gravity = Vector::ZERO;
-    world.physics.integration_parameters.dt = 1.0 / 60.0;
+    let mut world = zero_gravity_world();
     let params = rapier_sph::FluidParamsBuilder::water(SPACING)
         .viscosity(0.0)
         .wall_viscosity(wall_viscosity)
