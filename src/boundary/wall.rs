@@ -109,7 +109,7 @@ pub struct WallWorkspace {
     /// `true` when `coupled` holds data for this update.
     pub coupled_any: bool,
     /// `L_i = Σ_k L_k`, the viscosity Laplacian integrated over the walls near each particle
-    /// (1/m²; see the module docs). Empty unless the update was asked for it.
+    /// (1/m²; see the module docs). Meaningful only after an update asked for it.
     pub viscous: Vec<Real>,
     /// `Σ_k L_k·v_k`, the walls' velocities weighted like `viscous` (zero for static walls).
     pub viscous_velocity: Vec<Vector>,
@@ -222,7 +222,8 @@ impl WallWorkspace {
         self.coupled_any = any_dynamic;
         // Read only when `coupled_any`; sized always so the chunks line up.
         self.coupled.resize(n, Coupled::default());
-        // Read only when asked for; sized always so the chunks line up.
+        // Written and read only when asked for (a fluid without wall viscosity does no work
+        // for them); sized always so the chunks line up.
         self.viscous.resize(n, 0.0);
         self.viscous_velocity.resize(n, Vector::ZERO);
         let lap = crate::kernel::ViscosityLaplacian::new(h);
@@ -232,8 +233,10 @@ impl WallWorkspace {
             self.motion.fill(0.0);
             self.coverage.fill(0.0);
             self.hydrostatic.fill(Vector::ZERO);
-            self.viscous.fill(0.0);
-            self.viscous_velocity.fill(Vector::ZERO);
+            if viscous {
+                self.viscous.fill(0.0);
+                self.viscous_velocity.fill(Vector::ZERO);
+            }
             self.near = 0;
             return 0;
         }
@@ -394,8 +397,10 @@ impl WallWorkspace {
                         motion[k] = m * rest_density * full_f;
                         cover[k] = u;
                         hyd[k] = hs;
-                        visc[k] = ls;
-                        visc_v[k] = lv;
+                        if viscous {
+                            visc[k] = ls;
+                            visc_v[k] = lv;
+                        }
                         if any_dynamic {
                             coupled[k] = Coupled {
                                 gradient: gc * (rest_density * full_f),
