@@ -1223,6 +1223,11 @@ fn step_dfsph<S: Separation>(
         dt,
         expected_neighbours: p.expected_neighbours(),
         closed,
+        self_density: p.particle_mass
+            * crate::with_kernel!(p.density_kernel, K => {
+                use crate::kernel::Kernel;
+                K::new(h).w(0.0)
+            }),
     };
 
     // 4. Divergence solve.

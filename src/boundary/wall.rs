@@ -125,6 +125,8 @@ pub struct WallWorkspace {
     /// difference from their weighted centre back to the particle is part of `hydrostatic`.
     pub neighbour_pressure: bool,
     near: usize,
+    /// See [`Self::pinch_fraction`].
+    pinch_fraction: Real,
 }
 
 impl WallWorkspace {
@@ -136,6 +138,39 @@ impl WallWorkspace {
     /// Particles with a wall within their support at the last update.
     pub fn particles_near_walls(&self) -> usize {
         self.near
+    }
+
+    /// `true` when the walls and the particle's own share `self_density` (`m·W(0)`) alone
+    /// bring particle `i` above [`Self::pinch_fraction`] of `rest_density`: it sits in a gap
+    /// between solids narrower than the fluid can fill (a body landing on the floor squeezes
+    /// such a layer), or has been pressed into a wall. No motion of the particle brings its
+    /// density down to `ρ0` there, so the pressure solves leave it out (DFSPH, PBF): asked
+    /// to, they raise its pressure iteration after iteration, and that pressure pushes the
+    /// bodies around it (measured before this test existed: a 5,000 kg/m³ box landing in
+    /// water was thrown 100 m up with DFSPH, PBF from 3,000 kg/m³; see
+    /// `tests/buoyancy.rs`). Contact keeps it out of the solids, and its neighbours still
+    /// push it out of the gap.
+    #[inline]
+    pub fn pinched(&self, i: usize, self_density: Real, rest_density: Real) -> bool {
+        self.pinch_fraction > 0.0
+            && self
+                .density
+                .get(i)
+                .is_some_and(|&w| w + self_density >= self.pinch_fraction * rest_density)
+    }
+
+    /// The threshold of [`Self::pinched`], as a fraction of `ρ0`: halfway between the
+    /// densest place a particle of a resting lattice can have next to walls and `ρ0`
+    /// itself. That place is the tip of a right-angled corner, one contact radius (half a
+    /// spacing) from three walls: walls and own share give `ρ0·(1 − (1 − Φ(s/2))³) + m·W(0)`
+    /// there (0.704 ρ0 with the cubic spline at `h = 2s`, 0.757 with Wendland C2, 0.674 with
+    /// poly6; one flat wall 0.468, an edge 0.596, and a particle midway in a gap one spacing
+    /// wide the same as an edge: the layer a heavy body rests on is not pinched). Pinched
+    /// with the cubic spline at `h = 2s` (threshold 0.852): a particle midway in a gap
+    /// narrower than 0.45 spacings, or one pressed onto a wall with another closer than
+    /// 0.85 spacings. 0 (nothing pinched) until the first update.
+    pub fn pinch_fraction(&self) -> Real {
+        self.pinch_fraction
     }
 
     /// Forgets every contribution (no collider near the fluid).
@@ -162,6 +197,13 @@ impl WallWorkspace {
         if fresh {
             let td = crate::with_kernel!(density, K => HalfSpaceTable::new::<K>(h, spacing));
             let tf = crate::with_kernel!(force, K => HalfSpaceTable::new::<K>(h, spacing));
+            let own = spacing.powi(3)
+                * crate::with_kernel!(density, K => {
+                    use crate::kernel::Kernel;
+                    K::new(h).w(0.0)
+                });
+            let corner = 1.0 - (1.0 - td.eval(0.5 * spacing).0).powi(3) + own;
+            self.pinch_fraction = 0.5 * (1.0 + corner);
             self.tables = Some((density, force, h, spacing, td, tf));
         }
     }
@@ -474,4 +516,44 @@ fn neighbour_centre(
         }
         if sw > 0.0 { sx / sw } else { Vector::ZERO }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The pinch threshold sits above every place a resting lattice reaches next to walls
+    /// (the tip of a right-angled corner) and below a particle squeezed midway in a gap a
+    /// quarter of a spacing wide, for the density kernels (figures in `pinch_fraction`).
+    #[test]
+    fn pinch_threshold_separates_corners_from_squeezed_gaps() {
+        let s = 0.02;
+        let h = 2.0 * s;
+        for kind in [
+            KernelKind::CubicSpline,
+            KernelKind::WendlandC2,
+            KernelKind::Poly6,
+        ] {
+            let mut ws = WallWorkspace::default();
+            ws.tables(kind, KernelKind::Spiky, h, s);
+            let (_, _, _, _, t, _) = ws.tables.as_ref().unwrap();
+            let own = s.powi(3)
+                * crate::with_kernel!(kind, K => {
+                    use crate::kernel::Kernel;
+                    K::new(h).w(0.0)
+                });
+            let phi = |d: Real| t.eval(d).0;
+            let union = |a: Real, b: Real| 1.0 - (1.0 - a) * (1.0 - b);
+            let corner = 1.0 - (1.0 - phi(0.5 * s)).powi(3) + own;
+            let edge = union(phi(0.5 * s), phi(0.5 * s)) + own;
+            let squeezed = union(phi(0.125 * s), phi(0.125 * s)) + own;
+            let f = ws.pinch_fraction();
+            assert!(
+                corner < f && edge < f,
+                "{kind:?}: corner {corner}, edge {edge}, threshold {f}"
+            );
+            assert!(squeezed > f, "{kind:?}: squeezed {squeezed}, threshold {f}");
+            assert!((f - 0.5 * (1.0 + corner)).abs() < 1e-6);
+        }
+    }
 }

@@ -654,6 +654,9 @@ pub struct SolveContext<'a> {
     /// and there is none). The warm start carries every value (the solve can take back what
     /// over-corrects).
     pub closed: bool,
+    /// A particle's own share of its density, `m·W(0)` (for
+    /// [`WallWorkspace::pinched`]).
+    pub self_density: Real,
 }
 
 /// `true` when a fluid of `n` particles of `mass` in `domain` has no free surface: the domain
@@ -848,7 +851,11 @@ pub fn divergence_solve(
             // out: their density deficit is not compression.
             let count =
                 ctx.neighbors.of(i).len() as Real + coverage.map_or(0.0, |c| c[i] * expected);
-            let r = if count < 0.6 * expected {
+            // Pinched particles (see `WallWorkspace::pinched`) are left out too.
+            let pinched = ctx
+                .wall
+                .is_some_and(|w| w.pinched(i, ctx.self_density, ctx.rest_density));
+            let r = if count < 0.6 * expected || pinched {
                 0.0
             } else {
                 rate.max(0.0)
@@ -886,6 +893,13 @@ pub fn density_solve(
             if ctx.closed {
                 let e = densities[i] + dt * rate - rho0;
                 return (e, e);
+            }
+            // A pinched particle (see `WallWorkspace::pinched`) is left out.
+            if ctx
+                .wall
+                .is_some_and(|w| w.pinched(i, ctx.self_density, rho0))
+            {
+                return (0.0, 0.0);
             }
             // Predicted density, clamped below at ρ0: only compression is corrected (a free
             // surface is allowed to be under-dense).

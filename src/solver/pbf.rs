@@ -289,7 +289,13 @@ pub fn solve_in<K: Kernel, S: Separation>(
                             grad += gw;
                         }
                         let denom = grad.length_squared() + ctx.mass * ctx.mass * g2;
-                        let constraint = (rho * inv_rho0 - 1.0 - ctx.tolerance).max(0.0);
+                        // A pinched particle (see `WallWorkspace::pinched`) is left out.
+                        let pinched = ctx.wall.is_some_and(|w| w.pinched(i, self_term, rho0));
+                        let constraint = if pinched {
+                            0.0
+                        } else {
+                            (rho * inv_rho0 - 1.0 - ctx.tolerance).max(0.0)
+                        };
                         let l = -constraint * rho0 * rho0 / (denom + eps);
                         lam[k] = l;
                         lsum[k] += l;
