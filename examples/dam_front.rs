@@ -15,7 +15,7 @@
 //! Flags: `--scene n2_1|n2_2|ko` (Martin & Moyce square column, n² = 2, Koshizuka & Oka),
 //! `--solver wcsph|dfsph|pbf`, `--n N` (particles across the column, default 12), `--dt S`
 //! (fixed step in seconds; default: adaptive), `--courant C`, `--viscosity E` (Pa·s),
-//! `--friction F`, `--density-error X`, `--divergence-error X`, `--warm-start W`,
+//! `--friction F`, `--wall-viscosity E` (Pa·s, needs wall density), `--density-error X`, `--divergence-error X`, `--warm-start W`,
 //! `--hydrostatic-walls`, `--no-divergence-solve` (DFSPH), `--gate V` (the column held by a gate at x = a that rises at
 //! V m/s from t = 0, instead of an instant release),
 //! `--sound C` (WCSPH's Tait speed of sound, m/s), `--wall-density on|off` (default: as
@@ -38,6 +38,7 @@ fn main() {
     let mut courant: Real = 0.4;
     let mut viscosity: Option<Real> = None;
     let mut friction: Option<Real> = None;
+    let mut wall_viscosity: Option<Real> = None;
     let mut density_error: Option<Real> = None;
     let mut divergence_error: Option<Real> = None;
     let mut warm: Option<Real> = None;
@@ -61,6 +62,7 @@ fn main() {
             "--courant" => courant = val().parse().unwrap(),
             "--viscosity" => viscosity = Some(val().parse().unwrap()),
             "--friction" => friction = Some(val().parse().unwrap()),
+            "--wall-viscosity" => wall_viscosity = Some(val().parse().unwrap()),
             "--density-error" => density_error = Some(val().parse().unwrap()),
             "--divergence-error" => divergence_error = Some(val().parse().unwrap()),
             "--warm-start" => warm = Some(val().parse().unwrap()),
@@ -118,6 +120,9 @@ fn main() {
     if let Some(f) = friction {
         params.friction = f;
     }
+    if let Some(e) = wall_viscosity {
+        params.wall_viscosity = e;
+    }
     let mut db = match periodic_z {
         None => DamBreak2d::new(&case, params.clone()).unwrap(),
         Some(layers) => periodic_slab(&case, params.clone(), layers),
@@ -174,11 +179,12 @@ fn main() {
         .map(|&(t, z)| z - (1.0 + 2.0 * t))
         .fold(f64::NEG_INFINITY, f64::max);
     println!(
-        "# {} {} N={n} s={:.5} visc={} friction={} dt={} mean_dt={:.3e} substeps={substeps} wall={:.1}s",
+        "# {} {} N={n} s={:.5} visc={} wall_visc={} friction={} dt={} mean_dt={:.3e} substeps={substeps} wall={:.1}s",
         case.name,
         method.name,
         params.particle_spacing,
         params.viscosity,
+        params.wall_viscosity,
         params.friction,
         dt.map_or("adaptive".to_string(), |d| format!("{d:e}")),
         t / substeps.max(1) as f64,

@@ -167,8 +167,9 @@ impl WallWorkspace {
     /// poly6; one flat wall 0.468, an edge 0.596, and a particle midway in a gap one spacing
     /// wide the same as an edge: the layer a heavy body rests on is not pinched). Pinched
     /// with the cubic spline at `h = 2s` (threshold 0.852): a particle midway in a gap
-    /// narrower than 0.45 spacings, or one pressed onto a wall with another closer than
-    /// 0.85 spacings. 0 (nothing pinched) until the first update.
+    /// narrower than about 0.47 spacings, or one on a wall's surface with another wall
+    /// closer than about 0.7 spacings (interpolated between table values at quarter
+    /// spacings). 0 (nothing pinched) until the first update.
     pub fn pinch_fraction(&self) -> Real {
         self.pinch_fraction
     }
