@@ -20,6 +20,11 @@
 //! The wall's velocity at the closest point enters the density's rate of change, so moving
 //! bodies compress the fluid they push.
 //!
+//! A particle the walls alone bring close to `ρ0` (squeezed into a gap narrower than the
+//! fluid's spacing, such as the layer under a heavy body landing on the floor) is *pinched*
+//! ([`WallWorkspace::pinched`]): no motion of its own lowers its density, and the pressure
+//! solves leave it to contact and to its neighbours.
+//!
 //! With [`crate::FluidParams::wall_viscosity`] `ε_w > 0` the solid volume also stands in for
 //! fluid moving with the wall in Müller's viscosity term: `Σ_j m/ρ_j ∇²W_ij (v_j − v_i)`
 //! gains `Σ_k L_k (v_k − v_i)`, `L_k` the viscosity Laplacian integrated over wall `k`'s
