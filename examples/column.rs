@@ -25,6 +25,9 @@
 //! particle–particle forces cancel in the total, so the walls' SPH terms (floor pressure
 //! term, floor and side hydrostatic terms) and contact carry the weight; it prints each SPH
 //! term's share and the rest (contact, and inertia, about zero averaged at rest).
+//! At the end it prints the kernel's first moment `M = −Σ_j V_j (x_j − x_i) ⊗ ∇W_ij` in the
+//! bulk (the identity for a continuum; a symmetric SPH gradient reads a linear pressure's
+//! gradient scaled by it), brute force over all pairs.
 //! It also prints the hydrostatic scene's pressure-profile RMS both ways: averaged over the
 //! samples' instantaneous profiles (as the scene reports it) and of the time-averaged profile.
 //! `--solver wcsph-walls` is WCSPH with walls counting in the density (the buoyancy tests'
@@ -310,6 +313,52 @@ fn main() {
         zeroth.0 / zeroth.2.max(1) as f64,
         zeroth.1 / zeroth.2.max(1) as f64
     );
+    // The kernel's first moment in the bulk at the end: `M = −Σ_j V_j (x_j − x_i) ⊗ ∇W_ij`
+    // (the identity for a continuum; the symmetric pressure force reads a linear pressure's
+    // gradient scaled by about `M_yy`), over particles at least h from every wall and below
+    // the top two layers. Brute force over all pairs.
+    {
+        use rapier_sph::kernel::{CubicSpline, Kernel};
+        let f = &tank.world.fluids[tank.fluid];
+        let prm = f.params();
+        let kern = CubicSpline::new(prm.smoothing_length);
+        let h = prm.smoothing_length;
+        let xs = f.positions();
+        let rho = f.densities();
+        let (mut myy, mut mxx, mut cnt) = (0.0f64, 0.0f64, 0usize);
+        for (i, xi) in xs.iter().enumerate() {
+            let inside = xi.x > h
+                && xi.x < width - h
+                && xi.z > h
+                && xi.z < width - h
+                && xi.y > h
+                && xi.y < height - 2.0 * s;
+            if !inside {
+                continue;
+            }
+            let (mut a, mut b) = (0.0f64, 0.0f64);
+            for (j, xj) in xs.iter().enumerate() {
+                let r = *xi - *xj;
+                let d = r.length();
+                if j == i || d >= h {
+                    continue;
+                }
+                let gw = r * (kern.dw(d) / d);
+                let v = (prm.particle_mass / rho[j]) as f64;
+                a -= v * ((xj.y - xi.y) * gw.y) as f64;
+                b -= v * ((xj.x - xi.x) * gw.x) as f64;
+            }
+            myy += a;
+            mxx += b;
+            cnt += 1;
+        }
+        println!(
+            "kernel first moment in the bulk at the end (1 for a continuum): M_yy {:.4}, M_xx {:.4} \
+             over {cnt} particles",
+            -myy / cnt.max(1) as f64,
+            -mxx / cnt.max(1) as f64
+        );
+    }
     // The same RMS from the time-averaged layers (interior and wall columns pooled).
     let averaged: Vec<f64> = (0..layers.saturating_sub(1))
         .filter_map(|k| {
