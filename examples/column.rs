@@ -25,6 +25,8 @@
 //! particle–particle forces cancel in the total, so the walls' SPH terms (floor pressure
 //! term, floor and side hydrostatic terms) and contact carry the weight; it prints each SPH
 //! term's share and the rest (contact, and inertia, about zero averaged at rest).
+//! `--trace` prints, every frame, the scene's bottom error, the mean pressure (the column's
+//! pressure level), the centre of mass's height and the kinetic energy.
 //! At the end it prints the kernel's first moment `M = −Σ_j V_j (x_j − x_i) ⊗ ∇W_ij` in the
 //! bulk (the identity for a continuum; a symmetric SPH gradient reads a linear pressure's
 //! gradient scaled by it), brute force over all pairs.
@@ -52,6 +54,7 @@ fn main() {
     let mut threads = 0usize;
     let mut radius: Option<Real> = None;
     let mut validation: Vec<usize> = Vec::new();
+    let mut trace = false;
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut i = 0;
     while i < args.len() {
@@ -74,13 +77,18 @@ fn main() {
                 hydrostatic_walls = Some(true);
                 step = 1;
             }
+            "--trace" => {
+                trace = true;
+                step = 1;
+            }
             "--no-hydrostatic-walls" => {
                 hydrostatic_walls = Some(false);
                 step = 1;
             }
             other => exit(&format!(
                 "unknown argument {other} (--n, --spacing, --seconds, --solver default|wcsph|wcsph-walls|dfsph|pbf, \
-                 --warm-start, --[no-]hydrostatic-walls, --threads, --radius (fraction of the spacing))"
+                 --warm-start, --[no-]hydrostatic-walls, --threads, --radius (fraction of the spacing), \
+                 --trace)"
             )),
         }
         i += step;
@@ -210,6 +218,19 @@ fn main() {
             .iter()
             .map(|v| v.length())
             .fold(0.0, Real::max);
+        if trace {
+            // Frame by frame: time, the scene's bottom error, the mean pressure (the column's
+            // pressure level), the centre of mass's height, the kinetic energy.
+            let b = HydrostaticTank::bottom_pressure_error_of(&tank.world, tank.fluid, height);
+            let n_p = fl.len().max(1) as f64;
+            let mean_p: f64 = fl.pressures().iter().map(|&p| p as f64).sum::<f64>() / n_p;
+            let cy: f64 = fl.positions().iter().map(|x| x.y as f64).sum::<f64>() / n_p;
+            println!(
+                "trace {:.4} s: bottom {b:+.4}, mean pressure {mean_p:.2} Pa, centre {cy:.6} m, \
+                 kinetic energy {ke:.3e} J",
+                f as Real * frame
+            );
+        }
         ke_window = ke_window.max(ke);
         v_window = v_window.max(vmax);
         if f % 15 == 0 {
