@@ -1223,11 +1223,7 @@ fn step_dfsph<S: Separation>(
         dt,
         expected_neighbours: p.expected_neighbours(),
         closed,
-        self_density: p.particle_mass
-            * crate::with_kernel!(p.density_kernel, K => {
-                use crate::kernel::Kernel;
-                K::new(h).w(0.0)
-            }),
+        self_density: p.particle_mass * p.density_kernel.w(0.0, h),
     };
 
     // 4. Divergence solve.

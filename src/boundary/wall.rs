@@ -203,11 +203,7 @@ impl WallWorkspace {
         if fresh {
             let td = crate::with_kernel!(density, K => HalfSpaceTable::new::<K>(h, spacing));
             let tf = crate::with_kernel!(force, K => HalfSpaceTable::new::<K>(h, spacing));
-            let own = spacing.powi(3)
-                * crate::with_kernel!(density, K => {
-                    use crate::kernel::Kernel;
-                    K::new(h).w(0.0)
-                });
+            let own = spacing.powi(3) * density.w(0.0, h);
             let corner = 1.0 - (1.0 - td.eval(0.5 * spacing).0).powi(3) + own;
             self.pinch_fraction = 0.5 * (1.0 + corner);
             self.tables = Some((density, force, h, spacing, td, tf));
@@ -543,11 +539,7 @@ mod tests {
             let mut ws = WallWorkspace::default();
             ws.tables(kind, KernelKind::Spiky, h, s);
             let (_, _, _, _, t, _) = ws.tables.as_ref().unwrap();
-            let own = s.powi(3)
-                * crate::with_kernel!(kind, K => {
-                    use crate::kernel::Kernel;
-                    K::new(h).w(0.0)
-                });
+            let own = s.powi(3) * kind.w(0.0, h);
             let phi = |d: Real| t.eval(d).0;
             let union = |a: Real, b: Real| 1.0 - (1.0 - a) * (1.0 - b);
             let corner = 1.0 - (1.0 - phi(0.5 * s)).powi(3) + own;
