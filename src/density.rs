@@ -51,31 +51,36 @@ pub fn compute_in<K: Kernel, S: Separation>(
         .zip(crate::par_chunks_mut!(inv_densities, CHUNK))
         .enumerate()
         .for_each(|(c, (out, inv_out))| {
-            let base = c * CHUNK;
-            for (k, (rho, inv)) in out.iter_mut().zip(inv_out.iter_mut()).enumerate() {
-                let i = base + k;
-                let xi = positions[i];
-                let nb = neighbors.of(i);
-                // LANES neighbours per iteration, each stage a loop over plain lane arrays:
-                // LLVM turns the square roots and kernel polynomials into packed SIMD.
-                let mut acc = [0.0; LANES];
-                let mut blocks = nb.chunks_exact(LANES);
-                for block in &mut blocks {
-                    let mut d = [0.0; LANES];
-                    for l in 0..LANES {
-                        d[l] = sep.sep(xi, positions[block[l] as usize]).length_squared();
+            crate::par::wide(
+                #[inline(always)]
+                || {
+                    let base = c * CHUNK;
+                    for (k, (rho, inv)) in out.iter_mut().zip(inv_out.iter_mut()).enumerate() {
+                        let i = base + k;
+                        let xi = positions[i];
+                        let nb = neighbors.of(i);
+                        // LANES neighbours per iteration, each stage a loop over plain lane arrays:
+                        // LLVM turns the square roots and kernel polynomials into packed SIMD.
+                        let mut acc = [0.0; LANES];
+                        let mut blocks = nb.chunks_exact(LANES);
+                        for block in &mut blocks {
+                            let mut d = [0.0; LANES];
+                            for l in 0..LANES {
+                                d[l] = sep.sep(xi, positions[block[l] as usize]).length_squared();
+                            }
+                            for l in 0..LANES {
+                                acc[l] += kernel.w(d[l].sqrt());
+                            }
+                        }
+                        let mut sum = lane_sum(acc);
+                        for &j in blocks.remainder() {
+                            sum += kernel.w(sep.sep(xi, positions[j as usize]).length());
+                        }
+                        *rho = self_term + mass * sum + wall.map_or(0.0, |w| w[i]);
+                        *inv = 1.0 / *rho;
                     }
-                    for l in 0..LANES {
-                        acc[l] += kernel.w(d[l].sqrt());
-                    }
-                }
-                let mut sum = lane_sum(acc);
-                for &j in blocks.remainder() {
-                    sum += kernel.w(sep.sep(xi, positions[j as usize]).length());
-                }
-                *rho = self_term + mass * sum + wall.map_or(0.0, |w| w[i]);
-                *inv = 1.0 / *rho;
-            }
+                },
+            );
         });
 }
 

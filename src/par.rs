@@ -24,6 +24,45 @@ pub fn lane_sum<T: Copy + std::ops::Add<Output = T>>(a: [T; LANES]) -> T {
     ((a[0] + a[4]) + (a[1] + a[5])) + ((a[2] + a[6]) + (a[3] + a[7]))
 }
 
+/// `true` when the CPU runs AVX2 (checked at run time, cached by the standard library;
+/// always `false` off x86-64).
+#[inline(always)]
+pub fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// Runs `f`, compiled for AVX2 where the CPU has it: the pair loops' lane arrays
+/// ([`LANES`]) then run as one 8-wide vector instead of two 4-wide SSE2 halves. `f` must be
+/// `#[inline(always)]` all the way down for its body to be compiled inside the AVX2
+/// function. Same arithmetic lane by lane either way (no FMA, no reassociation: Rust does
+/// neither on its own), so the same results bit for bit (see `tests/parallel_parity.rs`
+/// and the unit test below).
+#[inline(always)]
+pub fn wide<R>(f: impl FnOnce() -> R) -> R {
+    #[cfg(test)]
+    if tests::PORTABLE.load(std::sync::atomic::Ordering::Relaxed) {
+        return f();
+    }
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2() {
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        unsafe fn avx2<R>(f: impl FnOnce() -> R) -> R {
+            f()
+        }
+        // SAFETY: AVX2 was detected at run time.
+        return unsafe { avx2(f) };
+    }
+    f()
+}
+
 /// `slice.par_chunks_mut(n)` with the `parallel` feature, `slice.chunks_mut(n)` without.
 #[doc(hidden)]
 #[macro_export]
@@ -113,4 +152,89 @@ pub(crate) fn permute<T: Copy + Send + Sync>(
             });
     }
     std::mem::swap(data, scratch);
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::kernel::CubicSpline;
+    use crate::math::{Real, Vector};
+    use crate::neighbors::{NeighborGrid, NeighborLists};
+    use std::sync::atomic::{AtomicBool, Ordering};
+
+    /// Makes [`super::wide`] run its portable path (this module's test only; the results
+    /// are the same either way, so other tests running meanwhile are not affected).
+    pub(super) static PORTABLE: AtomicBool = AtomicBool::new(false);
+
+    /// Density, pressure force and viscosity passes give the same bits through the AVX2 path
+    /// (where the CPU has it) and the portable one.
+    #[test]
+    fn wide_and_portable_pair_passes_agree_bit_for_bit() {
+        let (h, s, m) = (0.1, 0.05, 0.125);
+        let mut seed = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as Real / (1u64 << 24) as Real - 0.5
+        };
+        let mut positions = Vec::new();
+        let mut velocities = Vec::new();
+        for x in 0..12 {
+            for y in 0..12 {
+                for z in 0..12 {
+                    let p = Vector::new(x as Real, y as Real, z as Real) * s;
+                    positions.push(p + Vector::new(next(), next(), next()) * (0.4 * s));
+                    velocities.push(Vector::new(next(), next(), next()));
+                }
+            }
+        }
+        let mut grid = NeighborGrid::default();
+        grid.sort(&positions, h);
+        let perm: Vec<usize> = grid
+            .permutation()
+            .iter()
+            .map(|&(_, i)| i as usize)
+            .collect();
+        let positions: Vec<Vector> = perm.iter().map(|&i| positions[i]).collect();
+        let velocities: Vec<Vector> = perm.iter().map(|&i| velocities[i]).collect();
+        grid.build_cells();
+        let mut lists = NeighborLists::default();
+        lists.build(&grid, &positions, h);
+        let n = positions.len();
+        let run = |portable: bool| {
+            PORTABLE.store(portable, Ordering::Relaxed);
+            let (mut rho, mut inv) = (vec![0.0; n], vec![0.0; n]);
+            crate::density::compute::<CubicSpline>(
+                &positions, &lists, m, h, None, &mut rho, &mut inv,
+            );
+            let pressures: Vec<Real> = rho.iter().map(|r| 100.0 * (r - 1000.0)).collect();
+            let mut acc = vec![Vector::ZERO; n];
+            crate::pressure::wcsph::pressure_accelerations::<CubicSpline>(
+                &positions, &inv, &pressures, &lists, m, h, None, &mut acc,
+            );
+            crate::forces::viscosity::add_accelerations(
+                &positions,
+                &velocities,
+                &inv,
+                &lists,
+                m,
+                0.5,
+                h,
+                &mut acc,
+            );
+            PORTABLE.store(false, Ordering::Relaxed);
+            let mut bits: Vec<u32> = rho.iter().map(|v| v.to_bits()).collect();
+            bits.extend(
+                acc.iter()
+                    .flat_map(|a| [a.x.to_bits(), a.y.to_bits(), a.z.to_bits()]),
+            );
+            bits
+        };
+        if !super::has_avx2() {
+            eprintln!("no AVX2 on this CPU: both runs took the portable path");
+        }
+        let (wide, portable) = (run(false), run(true));
+        assert_eq!(wide.len(), n * 4);
+        assert!(wide == portable, "the AVX2 and portable passes differ");
+    }
 }

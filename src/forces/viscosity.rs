@@ -56,42 +56,48 @@ pub fn add_accelerations_in<S: Separation>(
     crate::par_chunks_mut!(accelerations, CHUNK)
         .enumerate()
         .for_each(|(c, out)| {
-            let base = c * CHUNK;
-            for (k, a) in out.iter_mut().enumerate() {
-                let i = base + k;
-                let xi = positions[i];
-                let vi = velocities[i];
-                let nb = neighbors.of(i);
-                // LANES neighbours at a time in lane arrays (packed sqrt and Laplacian).
-                let (mut fx, mut fy, mut fz) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
-                let mut blocks = nb.chunks_exact(LANES);
-                for block in &mut blocks {
-                    let (mut dvx, mut dvy, mut dvz) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
-                    let (mut d, mut inv) = ([0.0; LANES], [0.0; LANES]);
-                    // Gathers only; the arithmetic follows in uniform loops that vectorise.
-                    for l in 0..LANES {
-                        let j = block[l] as usize;
-                        d[l] = sep.sep(xi, positions[j]).length_squared();
-                        let dv = velocities[j] - vi;
-                        (dvx[l], dvy[l], dvz[l]) = (dv.x, dv.y, dv.z);
-                        inv[l] = inv_densities[j];
+            crate::par::wide(
+                #[inline(always)]
+                || {
+                    let base = c * CHUNK;
+                    for (k, a) in out.iter_mut().enumerate() {
+                        let i = base + k;
+                        let xi = positions[i];
+                        let vi = velocities[i];
+                        let nb = neighbors.of(i);
+                        // LANES neighbours at a time in lane arrays (packed sqrt and Laplacian).
+                        let (mut fx, mut fy, mut fz) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+                        let mut blocks = nb.chunks_exact(LANES);
+                        for block in &mut blocks {
+                            let (mut dvx, mut dvy, mut dvz) =
+                                ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+                            let (mut d, mut inv) = ([0.0; LANES], [0.0; LANES]);
+                            // Gathers only; the arithmetic follows in uniform loops that vectorise.
+                            for l in 0..LANES {
+                                let j = block[l] as usize;
+                                d[l] = sep.sep(xi, positions[j]).length_squared();
+                                let dv = velocities[j] - vi;
+                                (dvx[l], dvy[l], dvz[l]) = (dv.x, dv.y, dv.z);
+                                inv[l] = inv_densities[j];
+                            }
+                            for l in 0..LANES {
+                                d[l] = lap.laplacian(d[l].sqrt()) * inv[l];
+                            }
+                            for l in 0..LANES {
+                                fx[l] += dvx[l] * d[l];
+                                fy[l] += dvy[l] * d[l];
+                                fz[l] += dvz[l] * d[l];
+                            }
+                        }
+                        let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
+                        for &j in blocks.remainder() {
+                            let ju = j as usize;
+                            let d = sep.sep(xi, positions[ju]).length();
+                            f += (velocities[ju] - vi) * (lap.laplacian(d) * inv_densities[ju]);
+                        }
+                        *a += f * (em * inv_densities[i]);
                     }
-                    for l in 0..LANES {
-                        d[l] = lap.laplacian(d[l].sqrt()) * inv[l];
-                    }
-                    for l in 0..LANES {
-                        fx[l] += dvx[l] * d[l];
-                        fy[l] += dvy[l] * d[l];
-                        fz[l] += dvz[l] * d[l];
-                    }
-                }
-                let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
-                for &j in blocks.remainder() {
-                    let ju = j as usize;
-                    let d = sep.sep(xi, positions[ju]).length();
-                    f += (velocities[ju] - vi) * (lap.laplacian(d) * inv_densities[ju]);
-                }
-                *a += f * (em * inv_densities[i]);
-            }
+                },
+            );
         });
 }

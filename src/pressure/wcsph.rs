@@ -66,65 +66,72 @@ pub fn pressure_accelerations_in<K: Kernel, S: Separation>(
     crate::par_chunks_mut!(accelerations, CHUNK)
         .enumerate()
         .for_each(|(c, out)| {
-            let base = c * CHUNK;
-            for (k, a) in out.iter_mut().enumerate() {
-                let i = base + k;
-                let xi = positions[i];
-                let pi = pressures[i];
-                let nb = neighbors.of(i);
-                // LANES neighbours at a time in lane arrays (packed sqrt/divide/kernel); the
-                // result equals `Kernel::gradient` pair by pair, coincident pairs included.
-                let coincident = K::COINCIDENT_FRACTION * h;
-                let (mut fx, mut fy, mut fz) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
-                let mut blocks = nb.chunks_exact(LANES);
-                for block in &mut blocks {
-                    let (mut rx, mut ry, mut rz, mut d) =
-                        ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
-                    let mut s = [0.0; LANES];
-                    for l in 0..LANES {
-                        let j = block[l] as usize;
-                        let r = sep.sep(xi, positions[j]);
-                        (rx[l], ry[l], rz[l]) = (r.x, r.y, r.z);
-                        d[l] = r.length_squared();
-                        s[l] = (pi + pressures[j]) * inv_densities[j];
-                    }
-                    // Separate uniform loops (no data-dependent branch) vectorise.
-                    for l in 0..LANES {
-                        d[l] = d[l].sqrt();
-                    }
-                    let mut c = [0.0; LANES];
-                    for l in 0..LANES {
-                        // 1/d for separated pairs, 0 for coincident ones (fixed up below).
-                        let far = (d[l] > coincident) as u32 as Real;
-                        c[l] = kernel.dw(d[l]) * (far / d[l].max(coincident)) * s[l];
-                    }
-                    for l in 0..LANES {
-                        fx[l] -= rx[l] * c[l];
-                        fy[l] -= ry[l] * c[l];
-                        fz[l] -= rz[l] * c[l];
-                    }
-                    if d.iter().any(|&dl| dl <= coincident) {
-                        for l in 0..LANES {
-                            if d[l] <= coincident {
-                                let g =
-                                    kernel.gradient(Vector::ZERO, d[l], i as u32, block[l]) * s[l];
-                                (fx[l], fy[l], fz[l]) = (fx[l] - g.x, fy[l] - g.y, fz[l] - g.z);
+            crate::par::wide(
+                #[inline(always)]
+                || {
+                    let base = c * CHUNK;
+                    for (k, a) in out.iter_mut().enumerate() {
+                        let i = base + k;
+                        let xi = positions[i];
+                        let pi = pressures[i];
+                        let nb = neighbors.of(i);
+                        // LANES neighbours at a time in lane arrays (packed sqrt/divide/kernel); the
+                        // result equals `Kernel::gradient` pair by pair, coincident pairs included.
+                        let coincident = K::COINCIDENT_FRACTION * h;
+                        let (mut fx, mut fy, mut fz) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+                        let mut blocks = nb.chunks_exact(LANES);
+                        for block in &mut blocks {
+                            let (mut rx, mut ry, mut rz, mut d) =
+                                ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
+                            let mut s = [0.0; LANES];
+                            for l in 0..LANES {
+                                let j = block[l] as usize;
+                                let r = sep.sep(xi, positions[j]);
+                                (rx[l], ry[l], rz[l]) = (r.x, r.y, r.z);
+                                d[l] = r.length_squared();
+                                s[l] = (pi + pressures[j]) * inv_densities[j];
+                            }
+                            // Separate uniform loops (no data-dependent branch) vectorise.
+                            for l in 0..LANES {
+                                d[l] = d[l].sqrt();
+                            }
+                            let mut c = [0.0; LANES];
+                            for l in 0..LANES {
+                                // 1/d for separated pairs, 0 for coincident ones (fixed up below).
+                                let far = (d[l] > coincident) as u32 as Real;
+                                c[l] = kernel.dw(d[l]) * (far / d[l].max(coincident)) * s[l];
+                            }
+                            for l in 0..LANES {
+                                fx[l] -= rx[l] * c[l];
+                                fy[l] -= ry[l] * c[l];
+                                fz[l] -= rz[l] * c[l];
+                            }
+                            if d.iter().any(|&dl| dl <= coincident) {
+                                for l in 0..LANES {
+                                    if d[l] <= coincident {
+                                        let g =
+                                            kernel.gradient(Vector::ZERO, d[l], i as u32, block[l])
+                                                * s[l];
+                                        (fx[l], fy[l], fz[l]) =
+                                            (fx[l] - g.x, fy[l] - g.y, fz[l] - g.z);
+                                    }
+                                }
                             }
                         }
+                        let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
+                        for &j in blocks.remainder() {
+                            let ju = j as usize;
+                            let r = sep.sep(xi, positions[ju]);
+                            let d = r.length();
+                            let grad = kernel.gradient(r, d, i as u32, j);
+                            f -= grad * ((pi + pressures[ju]) * inv_densities[ju]);
+                        }
+                        *a = f * (half_m * inv_densities[i]);
+                        if let Some(grad) = wall {
+                            *a -= grad[i] * (0.5 * pi * inv_densities[i] * inv_densities[i]);
+                        }
                     }
-                }
-                let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
-                for &j in blocks.remainder() {
-                    let ju = j as usize;
-                    let r = sep.sep(xi, positions[ju]);
-                    let d = r.length();
-                    let grad = kernel.gradient(r, d, i as u32, j);
-                    f -= grad * ((pi + pressures[ju]) * inv_densities[ju]);
-                }
-                *a = f * (half_m * inv_densities[i]);
-                if let Some(grad) = wall {
-                    *a -= grad[i] * (0.5 * pi * inv_densities[i] * inv_densities[i]);
-                }
-            }
+                },
+            )
         });
 }

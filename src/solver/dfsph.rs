@@ -304,85 +304,90 @@ pub fn density_and_factors_in<K: Kernel, S: Separation>(
         .zip(crate::par_chunks_mut!(pushed, CHUNK))
         .enumerate()
         .for_each(|(c, ((((dens, inv), alpha), gc), pushed))| {
-            let base = c * CHUNK;
-            let (offsets, indices) = neighbors.chunk(c);
-            let pairs = offsets[dens.len()] as usize;
-            gc.grad.resize(pairs, Vec3A::ZERO);
-            gc.laplacian.resize(viscosity.map_or(0, |_| pairs), 0.0);
-            for k in 0..dens.len() {
-                let i = base + k;
-                let xi = positions[i];
-                let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
-                let nb = &indices[s..e];
-                let out = &mut gc.grad[s..e];
-                let lap_out: &mut [Real] = match viscosity {
-                    Some(_) => &mut gc.laplacian[s..e],
-                    None => &mut [],
-                };
-                let (mut w, mut sx, mut sy, mut sz, mut s2) = (
-                    [0.0; LANES],
-                    [0.0; LANES],
-                    [0.0; LANES],
-                    [0.0; LANES],
-                    [0.0; LANES],
-                );
-                let full = nb.len() / LANES * LANES;
-                for (t, block) in nb[..full].chunks_exact(LANES).enumerate() {
-                    let b = gradient_block(&sep, &kernel, i, xi, positions, block);
-                    let o = t * LANES;
-                    to_vectors(&b.gx, &b.gy, &b.gz, &mut out[o..o + LANES]);
-                    if let Some(lap) = &viscosity {
-                        let lap_out: &mut [Real; LANES] =
-                            (&mut lap_out[o..o + LANES]).try_into().unwrap();
-                        for (o, &d) in lap_out.iter_mut().zip(&b.d) {
-                            *o = lap.laplacian(d);
+            crate::par::wide(
+                #[inline(always)]
+                || {
+                    let base = c * CHUNK;
+                    let (offsets, indices) = neighbors.chunk(c);
+                    let pairs = offsets[dens.len()] as usize;
+                    gc.grad.resize(pairs, Vec3A::ZERO);
+                    gc.laplacian.resize(viscosity.map_or(0, |_| pairs), 0.0);
+                    for k in 0..dens.len() {
+                        let i = base + k;
+                        let xi = positions[i];
+                        let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
+                        let nb = &indices[s..e];
+                        let out = &mut gc.grad[s..e];
+                        let lap_out: &mut [Real] = match viscosity {
+                            Some(_) => &mut gc.laplacian[s..e],
+                            None => &mut [],
+                        };
+                        let (mut w, mut sx, mut sy, mut sz, mut s2) = (
+                            [0.0; LANES],
+                            [0.0; LANES],
+                            [0.0; LANES],
+                            [0.0; LANES],
+                            [0.0; LANES],
+                        );
+                        let full = nb.len() / LANES * LANES;
+                        for (t, block) in nb[..full].chunks_exact(LANES).enumerate() {
+                            let b = gradient_block(&sep, &kernel, i, xi, positions, block);
+                            let o = t * LANES;
+                            to_vectors(&b.gx, &b.gy, &b.gz, &mut out[o..o + LANES]);
+                            if let Some(lap) = &viscosity {
+                                let lap_out: &mut [Real; LANES] =
+                                    (&mut lap_out[o..o + LANES]).try_into().unwrap();
+                                for (o, &d) in lap_out.iter_mut().zip(&b.d) {
+                                    *o = lap.laplacian(d);
+                                }
+                            }
+                            // A separate loop: mixed with the stores above it did not vectorise.
+                            for l in 0..LANES {
+                                w[l] += kernel.w(b.d[l]);
+                                sx[l] += b.gx[l];
+                                sy[l] += b.gy[l];
+                                sz[l] += b.gz[l];
+                                s2[l] += b.gx[l] * b.gx[l] + b.gy[l] * b.gy[l] + b.gz[l] * b.gz[l];
+                            }
                         }
+                        let mut wsum = lane_sum(w);
+                        let mut g = Vector::new(lane_sum(sx), lane_sum(sy), lane_sum(sz));
+                        let mut g2 = lane_sum(s2);
+                        for t in full..nb.len() {
+                            let (gr, d) = gradient_one(&sep, &kernel, i, xi, positions, nb[t]);
+                            out[t] = Vec3A::from(gr);
+                            if let Some(lap) = &viscosity {
+                                lap_out[t] = lap.laplacian(d);
+                            }
+                            wsum += kernel.w(d);
+                            g += gr;
+                            g2 += gr.length_squared();
+                        }
+                        let mut rho = self_term + mass * wsum;
+                        let grad = g * mass;
+                        // Own pressure's effect on own density: the push Σm∇W + γ∇ρ_wall dotted with the
+                        // density gradient Σm∇W + ∇ρ_wall (γ = `wall.mirror`).
+                        let mut denom = grad.length_squared() + mass * mass * g2;
+                        if let Some(wall) = wall {
+                            rho += wall.density[i];
+                            let gw = wall.gradient[i];
+                            denom = (grad + gw * wall.mirror).dot(grad + gw) + mass * mass * g2;
+                        }
+                        if let Some(push) = &push {
+                            let v = Vec3A::from(push.velocities[i]);
+                            pushed[k] = v - pressure_push(nb, out, push.pi, i, mass, wall, push.dt);
+                        }
+                        dens[k] = rho;
+                        inv[k] = 1.0 / rho;
+                        // An isolated particle has no neighbour to push: no pressure.
+                        alpha[k] = if denom > 1e-12 * rho * rho / (h * h) {
+                            1.0 / denom
+                        } else {
+                            0.0
+                        };
                     }
-                    // A separate loop: mixed with the stores above it did not vectorise.
-                    for l in 0..LANES {
-                        w[l] += kernel.w(b.d[l]);
-                        sx[l] += b.gx[l];
-                        sy[l] += b.gy[l];
-                        sz[l] += b.gz[l];
-                        s2[l] += b.gx[l] * b.gx[l] + b.gy[l] * b.gy[l] + b.gz[l] * b.gz[l];
-                    }
-                }
-                let mut wsum = lane_sum(w);
-                let mut g = Vector::new(lane_sum(sx), lane_sum(sy), lane_sum(sz));
-                let mut g2 = lane_sum(s2);
-                for t in full..nb.len() {
-                    let (gr, d) = gradient_one(&sep, &kernel, i, xi, positions, nb[t]);
-                    out[t] = Vec3A::from(gr);
-                    if let Some(lap) = &viscosity {
-                        lap_out[t] = lap.laplacian(d);
-                    }
-                    wsum += kernel.w(d);
-                    g += gr;
-                    g2 += gr.length_squared();
-                }
-                let mut rho = self_term + mass * wsum;
-                let grad = g * mass;
-                // Own pressure's effect on own density: the push Σm∇W + γ∇ρ_wall dotted with the
-                // density gradient Σm∇W + ∇ρ_wall (γ = `wall.mirror`).
-                let mut denom = grad.length_squared() + mass * mass * g2;
-                if let Some(wall) = wall {
-                    rho += wall.density[i];
-                    let gw = wall.gradient[i];
-                    denom = (grad + gw * wall.mirror).dot(grad + gw) + mass * mass * g2;
-                }
-                if let Some(push) = &push {
-                    let v = Vec3A::from(push.velocities[i]);
-                    pushed[k] = v - pressure_push(nb, out, push.pi, i, mass, wall, push.dt);
-                }
-                dens[k] = rho;
-                inv[k] = 1.0 / rho;
-                // An isolated particle has no neighbour to push: no pressure.
-                alpha[k] = if denom > 1e-12 * rho * rho / (h * h) {
-                    1.0 / denom
-                } else {
-                    0.0
-                };
-            }
+                },
+            );
         });
 }
 
@@ -408,41 +413,46 @@ fn rate_pass<F: Fn(usize, Real) -> (Real, Real) + Sync>(
         .zip(crate::par_iter_mut!(partials))
         .enumerate()
         .for_each(|(c, (pi, partial))| {
-            let base = c * CHUNK;
-            let (offsets, indices) = neighbors.chunk(c);
-            let gc = &grads.chunk(c).grad;
-            let mut err_sum = 0.0f64;
-            let mut err_max: Real = 0.0;
-            for k in 0..pi.len() {
-                let i = base + k;
-                let vi = velocities[i];
-                let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
-                let (nb, g) = (&indices[s..e], &gc[s..e]);
-                let mut acc = [Vec3A::ZERO; ACC];
-                let full = nb.len() / ACC * ACC;
-                for (j, g) in nb[..full]
-                    .chunks_exact(ACC)
-                    .zip(g[..full].chunks_exact(ACC))
-                {
-                    for l in 0..ACC {
-                        acc[l] += (vi - velocities[j[l] as usize]) * g[l];
+            crate::par::wide(
+                #[inline(always)]
+                || {
+                    let base = c * CHUNK;
+                    let (offsets, indices) = neighbors.chunk(c);
+                    let gc = &grads.chunk(c).grad;
+                    let mut err_sum = 0.0f64;
+                    let mut err_max: Real = 0.0;
+                    for k in 0..pi.len() {
+                        let i = base + k;
+                        let vi = velocities[i];
+                        let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
+                        let (nb, g) = (&indices[s..e], &gc[s..e]);
+                        let mut acc = [Vec3A::ZERO; ACC];
+                        let full = nb.len() / ACC * ACC;
+                        for (j, g) in nb[..full]
+                            .chunks_exact(ACC)
+                            .zip(g[..full].chunks_exact(ACC))
+                        {
+                            for l in 0..ACC {
+                                acc[l] += (vi - velocities[j[l] as usize]) * g[l];
+                            }
+                        }
+                        for (l, (&j, &g)) in nb[full..].iter().zip(&g[full..]).enumerate() {
+                            acc[l] += (vi - velocities[j as usize]) * g;
+                        }
+                        let a = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+                        let mut rate = (a.x + a.y + a.z) * mass;
+                        if let Some(wall) = wall {
+                            let vi = Vector::from(vi);
+                            rate += vi.dot(wall.gradient[i]) - wall.motion[i];
+                        }
+                        let (p, e) = finish(i, rate);
+                        pi[k] = p;
+                        err_sum += e as f64;
+                        err_max = err_max.max(e);
                     }
-                }
-                for (l, (&j, &g)) in nb[full..].iter().zip(&g[full..]).enumerate() {
-                    acc[l] += (vi - velocities[j as usize]) * g;
-                }
-                let a = (acc[0] + acc[1]) + (acc[2] + acc[3]);
-                let mut rate = (a.x + a.y + a.z) * mass;
-                if let Some(wall) = wall {
-                    let vi = Vector::from(vi);
-                    rate += vi.dot(wall.gradient[i]) - wall.motion[i];
-                }
-                let (p, e) = finish(i, rate);
-                pi[k] = p;
-                err_sum += e as f64;
-                err_max = err_max.max(e);
-            }
-            *partial = (err_sum, err_max);
+                    *partial = (err_sum, err_max);
+                },
+            );
         });
 }
 
@@ -544,13 +554,19 @@ fn apply_pressure(
     crate::par_chunks_mut!(velocities, CHUNK)
         .enumerate()
         .for_each(|(c, out)| {
-            let base = c * CHUNK;
-            let (offsets, indices) = neighbors.chunk(c);
-            let gc = &grads.chunk(c).grad;
-            for (k, v) in out.iter_mut().enumerate() {
-                let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
-                *v -= pressure_push(&indices[s..e], &gc[s..e], pi, base + k, mass, wall, dt);
-            }
+            crate::par::wide(
+                #[inline(always)]
+                || {
+                    let base = c * CHUNK;
+                    let (offsets, indices) = neighbors.chunk(c);
+                    let gc = &grads.chunk(c).grad;
+                    for (k, v) in out.iter_mut().enumerate() {
+                        let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
+                        *v -=
+                            pressure_push(&indices[s..e], &gc[s..e], pi, base + k, mass, wall, dt);
+                    }
+                },
+            );
         });
 }
 
@@ -578,32 +594,37 @@ pub fn viscosity(
     crate::par_chunks_mut!(accelerations, CHUNK)
         .enumerate()
         .for_each(|(c, out)| {
-            let base = c * CHUNK;
-            let (offsets, indices) = neighbors.chunk(c);
-            let lap = &pairs.chunk(c).laplacian;
-            for (k, a) in out.iter_mut().enumerate() {
-                let i = base + k;
-                let vi = velocities[i];
-                let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
-                let (nb, lap) = (&indices[s..e], &lap[s..e]);
-                let mut acc = [Vec3A::ZERO; ACC];
-                let full = nb.len() / ACC * ACC;
-                for (j, lap) in nb[..full]
-                    .chunks_exact(ACC)
-                    .zip(lap[..full].chunks_exact(ACC))
-                {
-                    for l in 0..ACC {
-                        let j = j[l] as usize;
-                        acc[l] += (velocities[j] - vi) * (lap[l] * inv_densities[j]);
+            crate::par::wide(
+                #[inline(always)]
+                || {
+                    let base = c * CHUNK;
+                    let (offsets, indices) = neighbors.chunk(c);
+                    let lap = &pairs.chunk(c).laplacian;
+                    for (k, a) in out.iter_mut().enumerate() {
+                        let i = base + k;
+                        let vi = velocities[i];
+                        let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
+                        let (nb, lap) = (&indices[s..e], &lap[s..e]);
+                        let mut acc = [Vec3A::ZERO; ACC];
+                        let full = nb.len() / ACC * ACC;
+                        for (j, lap) in nb[..full]
+                            .chunks_exact(ACC)
+                            .zip(lap[..full].chunks_exact(ACC))
+                        {
+                            for l in 0..ACC {
+                                let j = j[l] as usize;
+                                acc[l] += (velocities[j] - vi) * (lap[l] * inv_densities[j]);
+                            }
+                        }
+                        for (l, (&j, &lap)) in nb[full..].iter().zip(&lap[full..]).enumerate() {
+                            let j = j as usize;
+                            acc[l] += (velocities[j] - vi) * (lap * inv_densities[j]);
+                        }
+                        let f = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+                        *a += Vector::from(f) * (em * inv_densities[i]);
                     }
-                }
-                for (l, (&j, &lap)) in nb[full..].iter().zip(&lap[full..]).enumerate() {
-                    let j = j as usize;
-                    acc[l] += (velocities[j] - vi) * (lap * inv_densities[j]);
-                }
-                let f = (acc[0] + acc[1]) + (acc[2] + acc[3]);
-                *a += Vector::from(f) * (em * inv_densities[i]);
-            }
+                },
+            );
         });
 }
 

@@ -246,65 +246,73 @@ pub fn solve_in<K: Kernel, S: Separation>(
                 .zip(crate::par_iter_mut!(partials))
                 .enumerate()
                 .for_each(|(c, ((((lam, dens), inv), lsum), partial))| {
-                    let base = c * CHUNK;
-                    let mut err_sum = 0.0f64;
-                    let mut err_max: Real = 0.0;
-                    for k in 0..lam.len() {
-                        let i = base + k;
-                        let xi = positions[i];
-                        let nb = ctx.neighbors.of(i);
-                        let (mut w, mut sx, mut sy, mut sz, mut s2) = (
-                            [0.0; LANES],
-                            [0.0; LANES],
-                            [0.0; LANES],
-                            [0.0; LANES],
-                            [0.0; LANES],
-                        );
-                        let mut blocks = nb.chunks_exact(LANES);
-                        for block in &mut blocks {
-                            let b = gradient_block(&sep, &kernel, i, xi, positions, block);
-                            for l in 0..LANES {
-                                w[l] += kernel.w(b.d[l]);
-                                sx[l] += b.gx[l];
-                                sy[l] += b.gy[l];
-                                sz[l] += b.gz[l];
-                                s2[l] += b.gx[l] * b.gx[l] + b.gy[l] * b.gy[l] + b.gz[l] * b.gz[l];
+                    crate::par::wide(
+                        #[inline(always)]
+                        || {
+                            let base = c * CHUNK;
+                            let mut err_sum = 0.0f64;
+                            let mut err_max: Real = 0.0;
+                            for k in 0..lam.len() {
+                                let i = base + k;
+                                let xi = positions[i];
+                                let nb = ctx.neighbors.of(i);
+                                let (mut w, mut sx, mut sy, mut sz, mut s2) = (
+                                    [0.0; LANES],
+                                    [0.0; LANES],
+                                    [0.0; LANES],
+                                    [0.0; LANES],
+                                    [0.0; LANES],
+                                );
+                                let mut blocks = nb.chunks_exact(LANES);
+                                for block in &mut blocks {
+                                    let b = gradient_block(&sep, &kernel, i, xi, positions, block);
+                                    for l in 0..LANES {
+                                        w[l] += kernel.w(b.d[l]);
+                                        sx[l] += b.gx[l];
+                                        sy[l] += b.gy[l];
+                                        sz[l] += b.gz[l];
+                                        s2[l] += b.gx[l] * b.gx[l]
+                                            + b.gy[l] * b.gy[l]
+                                            + b.gz[l] * b.gz[l];
+                                    }
+                                }
+                                let mut wsum = lane_sum(w);
+                                let mut g = Vector::new(lane_sum(sx), lane_sum(sy), lane_sum(sz));
+                                let mut g2 = lane_sum(s2);
+                                for &j in blocks.remainder() {
+                                    let (gr, d) = gradient_one(&sep, &kernel, i, xi, positions, j);
+                                    wsum += kernel.w(d);
+                                    g += gr;
+                                    g2 += gr.length_squared();
+                                }
+                                let mut rho = self_term + ctx.mass * wsum;
+                                let mut grad = g * ctx.mass;
+                                if let Some(wall) = ctx.wall {
+                                    // Linearised about the positions the walls were evaluated at.
+                                    let gw = wall.gradient[i];
+                                    rho += (wall.density[i] + gw.dot(xi - wall_origin[i])).max(0.0);
+                                    grad += gw;
+                                }
+                                let denom = grad.length_squared() + ctx.mass * ctx.mass * g2;
+                                // A pinched particle (see `WallWorkspace::pinched`) is left out.
+                                let pinched =
+                                    ctx.wall.is_some_and(|w| w.pinched(i, self_term, rho0));
+                                let constraint = if pinched {
+                                    0.0
+                                } else {
+                                    (rho * inv_rho0 - 1.0 - ctx.tolerance).max(0.0)
+                                };
+                                let l = -constraint * rho0 * rho0 / (denom + eps);
+                                lam[k] = l;
+                                lsum[k] += l;
+                                dens[k] = rho;
+                                inv[k] = 1.0 / rho;
+                                err_sum += constraint as f64;
+                                err_max = err_max.max(constraint);
                             }
-                        }
-                        let mut wsum = lane_sum(w);
-                        let mut g = Vector::new(lane_sum(sx), lane_sum(sy), lane_sum(sz));
-                        let mut g2 = lane_sum(s2);
-                        for &j in blocks.remainder() {
-                            let (gr, d) = gradient_one(&sep, &kernel, i, xi, positions, j);
-                            wsum += kernel.w(d);
-                            g += gr;
-                            g2 += gr.length_squared();
-                        }
-                        let mut rho = self_term + ctx.mass * wsum;
-                        let mut grad = g * ctx.mass;
-                        if let Some(wall) = ctx.wall {
-                            // Linearised about the positions the walls were evaluated at.
-                            let gw = wall.gradient[i];
-                            rho += (wall.density[i] + gw.dot(xi - wall_origin[i])).max(0.0);
-                            grad += gw;
-                        }
-                        let denom = grad.length_squared() + ctx.mass * ctx.mass * g2;
-                        // A pinched particle (see `WallWorkspace::pinched`) is left out.
-                        let pinched = ctx.wall.is_some_and(|w| w.pinched(i, self_term, rho0));
-                        let constraint = if pinched {
-                            0.0
-                        } else {
-                            (rho * inv_rho0 - 1.0 - ctx.tolerance).max(0.0)
-                        };
-                        let l = -constraint * rho0 * rho0 / (denom + eps);
-                        lam[k] = l;
-                        lsum[k] += l;
-                        dens[k] = rho;
-                        inv[k] = 1.0 / rho;
-                        err_sum += constraint as f64;
-                        err_max = err_max.max(constraint);
-                    }
-                    *partial = (err_sum, err_max);
+                            *partial = (err_sum, err_max);
+                        },
+                    );
                 });
         }
         let (sum, _) = reduce_partials(partials);
@@ -316,50 +324,56 @@ pub fn solve_in<K: Kernel, S: Separation>(
             crate::par_chunks_mut!(correction, CHUNK)
                 .enumerate()
                 .for_each(|(c, out)| {
-                    let base = c * CHUNK;
-                    for (k, dx) in out.iter_mut().enumerate() {
-                        let i = base + k;
-                        let xi = positions[i];
-                        let li = lambda[i];
-                        let nb = ctx.neighbors.of(i);
-                        let (mut fx, mut fy, mut fz) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
-                        let mut blocks = nb.chunks_exact(LANES);
-                        for block in &mut blocks {
-                            let b = gradient_block(&sep, &kernel, i, xi, positions, block);
-                            for l in 0..LANES {
-                                let s_corr = if s_k > 0.0 {
-                                    -s_k * (kernel.w(b.d[l]) * inv_w_dq).powi(s_n)
+                    crate::par::wide(
+                        #[inline(always)]
+                        || {
+                            let base = c * CHUNK;
+                            for (k, dx) in out.iter_mut().enumerate() {
+                                let i = base + k;
+                                let xi = positions[i];
+                                let li = lambda[i];
+                                let nb = ctx.neighbors.of(i);
+                                let (mut fx, mut fy, mut fz) =
+                                    ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+                                let mut blocks = nb.chunks_exact(LANES);
+                                for block in &mut blocks {
+                                    let b = gradient_block(&sep, &kernel, i, xi, positions, block);
+                                    for l in 0..LANES {
+                                        let s_corr = if s_k > 0.0 {
+                                            -s_k * (kernel.w(b.d[l]) * inv_w_dq).powi(s_n)
+                                        } else {
+                                            0.0
+                                        };
+                                        let s = li + lambda[block[l] as usize] + s_corr;
+                                        fx[l] += s * b.gx[l];
+                                        fy[l] += s * b.gy[l];
+                                        fz[l] += s * b.gz[l];
+                                    }
+                                }
+                                let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
+                                for &j in blocks.remainder() {
+                                    let (g, d) = gradient_one(&sep, &kernel, i, xi, positions, j);
+                                    let s_corr = if s_k > 0.0 {
+                                        -s_k * (kernel.w(d) * inv_w_dq).powi(s_n)
+                                    } else {
+                                        0.0
+                                    };
+                                    f += g * (li + lambda[j as usize] + s_corr);
+                                }
+                                let mut d = f * ctx.mass;
+                                if let Some(wall) = ctx.wall {
+                                    d += wall.gradient[i] * li;
+                                }
+                                let d = d * inv_rho0;
+                                let len = d.length();
+                                *dx = if len > ctx.max_move {
+                                    d * (ctx.max_move / len)
                                 } else {
-                                    0.0
+                                    d
                                 };
-                                let s = li + lambda[block[l] as usize] + s_corr;
-                                fx[l] += s * b.gx[l];
-                                fy[l] += s * b.gy[l];
-                                fz[l] += s * b.gz[l];
                             }
-                        }
-                        let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
-                        for &j in blocks.remainder() {
-                            let (g, d) = gradient_one(&sep, &kernel, i, xi, positions, j);
-                            let s_corr = if s_k > 0.0 {
-                                -s_k * (kernel.w(d) * inv_w_dq).powi(s_n)
-                            } else {
-                                0.0
-                            };
-                            f += g * (li + lambda[j as usize] + s_corr);
-                        }
-                        let mut d = f * ctx.mass;
-                        if let Some(wall) = ctx.wall {
-                            d += wall.gradient[i] * li;
-                        }
-                        let d = d * inv_rho0;
-                        let len = d.length();
-                        *dx = if len > ctx.max_move {
-                            d * (ctx.max_move / len)
-                        } else {
-                            d
-                        };
-                    }
+                        },
+                    );
                 });
         }
         crate::par_chunks_mut!(positions, CHUNK)
