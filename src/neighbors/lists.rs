@@ -54,9 +54,12 @@ const COMPACT: [([u8; BLOCK], u8); 256] = {
 
 /// Bit `k` set when candidate `j0 + k` is closer than `sqrt(h2)` to `(xi, yi, zi)`.
 /// Same arithmetic as the scalar test `dx·dx + dy·dy + dz·dz < h2` (in this order, no FMA),
-/// so the lists do not depend on how the test is vectorised.
+/// so the lists do not depend on how the test is vectorised: one 8-lane pass with `AVX2`
+/// (only inside code compiled for it, see [`scan_chunk_avx2`]), two 4-lane SSE2 halves
+/// otherwise on x86-64, scalar elsewhere.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn block_mask(
+fn block_mask<const AVX2: bool>(
     xs: &[Real],
     ys: &[Real],
     zs: &[Real],
@@ -71,8 +74,23 @@ fn block_mask(
     let bz: &[Real; BLOCK] = zs[j0..j0 + BLOCK].try_into().unwrap();
     #[cfg(target_arch = "x86_64")]
     {
-        // SSE2 is part of every x86-64 CPU: two 4-lane halves, `movmskps` for the bits.
         use std::arch::x86_64::*;
+        if AVX2 {
+            // SAFETY: `AVX2` is set only in code compiled with AVX2 enabled
+            // (`scan_chunk_avx2`, entered after run-time detection); each load reads the 8
+            // floats of a checked array.
+            return unsafe {
+                let dx = _mm256_sub_ps(_mm256_set1_ps(xi), _mm256_loadu_ps(bx.as_ptr()));
+                let dy = _mm256_sub_ps(_mm256_set1_ps(yi), _mm256_loadu_ps(by.as_ptr()));
+                let dz = _mm256_sub_ps(_mm256_set1_ps(zi), _mm256_loadu_ps(bz.as_ptr()));
+                let d2 = _mm256_add_ps(
+                    _mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
+                    _mm256_mul_ps(dz, dz),
+                );
+                _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(d2, _mm256_set1_ps(h2))) as u32
+            };
+        }
+        // SSE2 is part of every x86-64 CPU: two 4-lane halves, `movmskps` for the bits.
         // SAFETY: the loads read 4 floats from arrays of 8 at offsets 0 and 4; SSE2 is
         // always available on x86_64.
         unsafe {
@@ -121,60 +139,11 @@ static COMPACT32: [[u32; BLOCK]; 256] = {
     table
 };
 
-/// [`block_mask`] in one 8-lane AVX2 pass: the same arithmetic lane by lane (`dx·dx + dy·dy
-/// + dz·dz < h2` in this order, no FMA), so the same bits.
-#[cfg(target_arch = "x86_64")]
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn block_mask_avx2(
-    xs: &[Real],
-    ys: &[Real],
-    zs: &[Real],
-    j0: usize,
-    xi: Real,
-    yi: Real,
-    zi: Real,
-    h2: Real,
-) -> u32 {
-    use std::arch::x86_64::*;
-    let bx: &[Real; BLOCK] = xs[j0..j0 + BLOCK].try_into().unwrap();
-    let by: &[Real; BLOCK] = ys[j0..j0 + BLOCK].try_into().unwrap();
-    let bz: &[Real; BLOCK] = zs[j0..j0 + BLOCK].try_into().unwrap();
-    // SAFETY: called only from code compiled with AVX2 enabled (`scan_chunk_avx2`, entered
-    // after run-time detection); each load reads the 8 floats of a checked array.
-    unsafe {
-        let dx = _mm256_sub_ps(_mm256_set1_ps(xi), _mm256_loadu_ps(bx.as_ptr()));
-        let dy = _mm256_sub_ps(_mm256_set1_ps(yi), _mm256_loadu_ps(by.as_ptr()));
-        let dz = _mm256_sub_ps(_mm256_set1_ps(zi), _mm256_loadu_ps(bz.as_ptr()));
-        let d2 = _mm256_add_ps(
-            _mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)),
-            _mm256_mul_ps(dz, dz),
-        );
-        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(d2, _mm256_set1_ps(h2))) as u32
-    }
-}
-
-#[cfg(not(target_arch = "x86_64"))]
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn block_mask_avx2(
-    xs: &[Real],
-    ys: &[Real],
-    zs: &[Real],
-    j0: usize,
-    xi: Real,
-    yi: Real,
-    zi: Real,
-    h2: Real,
-) -> u32 {
-    block_mask(xs, ys, zs, j0, xi, yi, zi, h2)
-}
-
 /// `out[k] = j0 + lanes[k]` in one 8-lane add and store (AVX2).
 #[inline(always)]
 fn store_lanes_avx2(out: &mut [u32; BLOCK], j0: u32, lanes: &[u32; BLOCK]) {
     #[cfg(target_arch = "x86_64")]
-    // SAFETY: as in `block_mask_avx2`; `out` and `lanes` are 8 u32 each.
+    // SAFETY: called only with `AVX2` set, as in `block_mask`; `out` and `lanes` are 8 u32 each.
     unsafe {
         use std::arch::x86_64::*;
         let v = _mm256_add_epi32(
@@ -284,10 +253,8 @@ fn scan_chunk<S: Separation, const AVX2: bool>(
             while j0 < e {
                 let mut mask = if S::PERIODIC {
                     periodic_block_mask(sep, xs, ys, zs, j0, xi, yi, zi, h2)
-                } else if AVX2 {
-                    block_mask_avx2(xs, ys, zs, j0, xi, yi, zi, h2)
                 } else {
-                    block_mask(xs, ys, zs, j0, xi, yi, zi, h2)
+                    block_mask::<AVX2>(xs, ys, zs, j0, xi, yi, zi, h2)
                 };
                 if e - j0 < BLOCK {
                     mask &= (1 << (e - j0)) - 1;
