@@ -42,8 +42,8 @@ pub fn has_avx2() -> bool {
 /// ([`LANES`]) then run as one 8-wide vector instead of two 4-wide SSE2 halves. `f` must be
 /// `#[inline(always)]` all the way down for its body to be compiled inside the AVX2
 /// function. Same arithmetic lane by lane either way (no FMA, no reassociation: Rust does
-/// neither on its own), so the same results bit for bit (see `tests/parallel_parity.rs`
-/// and the unit test below).
+/// neither on its own), so the same results bit for bit (the unit test
+/// `wide_and_portable_pair_passes_agree_bit_for_bit` compares the two paths).
 #[inline(always)]
 pub fn wide<R>(f: impl FnOnce() -> R) -> R {
     #[cfg(test)]
