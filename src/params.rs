@@ -428,8 +428,9 @@ impl FluidParamsBuilder {
     ///
     /// Known issue: with walls that count in the density, DFSPH and PBF are not stable at
     /// supports above about 2.5 particle spacings (a resting column is thrown within a
-    /// frame; measured in the README, "Larger supports"). The presets use 2 spacings;
-    /// WCSPH is not affected.
+    /// frame): their Jacobi iterations would need under-relaxation there, which is not
+    /// chosen automatically yet (measured in the README, "Larger supports"). The presets
+    /// use 2 spacings; WCSPH is not affected.
     pub fn smoothing_length(mut self, v: Real) -> Self {
         self.params.smoothing_length = v;
         self
