@@ -426,11 +426,11 @@ impl FluidParamsBuilder {
     }
     /// Kernel support radius `h` (m).
     ///
-    /// Known issue: with walls that count in the density, DFSPH and PBF are not stable at
-    /// supports above about 2.5 particle spacings (a resting column is thrown within a
-    /// frame): their Jacobi iterations would need under-relaxation there, which is not
-    /// chosen automatically yet (measured in the README, "Larger supports"). The presets
-    /// use 2 spacings; WCSPH is not affected.
+    /// Supports above about 2.5 particle spacings with walls that count in the density: DFSPH
+    /// relaxes its Jacobi iteration on its own there (see
+    /// [`crate::solver::dfsph::MAX_RELAXATION_HALVINGS`]); **PBF is not stable there** (a
+    /// resting column is thrown within a frame; measured in the README, "Larger supports").
+    /// The presets use 2 spacings; WCSPH is not affected.
     pub fn smoothing_length(mut self, v: Real) -> Self {
         self.params.smoothing_length = v;
         self

@@ -508,6 +508,7 @@ fn step_fluid(
         warm_density,
         warm_divergence,
         springs,
+        solver_relaxation,
         workspace: ws,
         ..
     } = fluid;
@@ -648,6 +649,7 @@ fn step_fluid(
             pressures,
             warm_density,
             warm_divergence,
+            solver_relaxation,
             ws,
             report,
             sep,
@@ -1181,6 +1183,7 @@ fn step_dfsph<S: Separation>(
     pressures: &mut [Real],
     warm_density: &mut [Real],
     warm_divergence: &mut [Real],
+    solver_relaxation: &mut u32,
     ws: &mut crate::fluid::Workspace,
     report: &mut StepReport,
     sep: S,
@@ -1188,6 +1191,7 @@ fn step_dfsph<S: Separation>(
     let h = p.smoothing_length;
     let n = positions.len();
     ws.dfsph.resize(n);
+    ws.dfsph.relaxation_halvings = *solver_relaxation;
     // 3. Density and DFSPH factors, and the divergence solve's warm start (same pass).
     // A fluid filling a periodic box has no free surface (see `dfsph::SolveContext::closed`).
     let closed = dfsph::fills_periodic_box(
@@ -1290,6 +1294,10 @@ fn step_dfsph<S: Separation>(
         }
         dfsph::density_solve(&ctx, settings, &mut ws.dfsph, warm_density, velocities)
     });
+    *solver_relaxation = ws.dfsph.relaxation_halvings;
+    report.solver_relaxation_halvings = report
+        .solver_relaxation_halvings
+        .max(ws.dfsph.relaxation_halvings);
     report.solver_iterations += stats.iterations;
     report.solver_density_error = report.solver_density_error.max(stats.error);
     report.solver_capped += stats.capped as u32;

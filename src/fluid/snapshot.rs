@@ -26,6 +26,8 @@ pub(crate) struct FluidState {
     needs_depenetration: bool,
     #[serde(default)]
     relax_pending: bool,
+    #[serde(default)]
+    solver_relaxation: u32,
     emitted: usize,
     drained: usize,
     sources: crate::emitter::Sources,
@@ -49,6 +51,7 @@ impl FluidState {
             quarantined: f.quarantined,
             needs_depenetration: f.needs_depenetration,
             relax_pending: f.relax_pending,
+            solver_relaxation: f.solver_relaxation,
             emitted: f.emitted,
             drained: f.drained,
             sources: f.sources.clone(),
@@ -95,6 +98,9 @@ impl FluidState {
         f.quarantined = self.quarantined;
         f.needs_depenetration = self.needs_depenetration;
         f.relax_pending = self.relax_pending;
+        f.solver_relaxation = self
+            .solver_relaxation
+            .min(crate::solver::dfsph::MAX_RELAXATION_HALVINGS);
         f.emitted = self.emitted;
         f.drained = self.drained;
         for e in self.sources.emitters.iter() {

@@ -167,7 +167,22 @@ pub struct DfsphBuffers {
     /// pair passes load a neighbour's velocity in one instruction). Also the scratch copy
     /// of [`viscosity`].
     pub velocities: Vec<Vec3A>,
+    /// The fluid's relaxation state for this step (see [`MAX_RELAXATION_HALVINGS`]): the
+    /// solves' increments are scaled by `0.5^relaxation_halvings`.
+    pub relaxation_halvings: u32,
 }
+
+/// Most halvings of the Jacobi relaxation `ω` (down to 1/8). Jacobi with DFSPH's diagonal
+/// factor converges while `ω·λ_max < 2`, `λ_max` the largest eigenvalue of the diagonally
+/// scaled system; at the presets' support of 2 spacings `ω = 1` is inside that bound, but
+/// `λ_max` grows with the neighbour count and, with walls counting in the density, a support
+/// of 3 spacings goes past it (measured in session 10: a column at rest thrown within a
+/// frame). So when a solve's average error grows from one iteration to the next (the
+/// iteration diverging), the fluid's `ω` is halved, for good: letting it creep back
+/// (× 1.1 or × 1.01 per solve) let the blow-up return. At 2 spacings it never triggers in
+/// the tests, the validation scenes or the salva scene (their results are unchanged bit for
+/// bit); the step report says when it did ([`crate::StepReport::solver_relaxation_halvings`]).
+pub const MAX_RELAXATION_HALVINGS: u32 = 3;
 
 impl DfsphBuffers {
     /// Sizes every array for `n` particles (no allocation once warm).
@@ -739,6 +754,7 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
         pi,
         partials,
         velocities: wide,
+        relaxation_halvings: halvings,
     } = buffers;
     // The passes work on a 16-byte copy of the velocities (see [`PairGradients`]).
     if !matches!(warm_start, WarmStart::Pushed(true)) {
@@ -797,6 +813,7 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
         }
     }
     let mut stats = SolveStats::default();
+    let mut previous = Real::INFINITY;
     loop {
         rate(wide, pi, partials);
         let sum = if ctx.closed {
@@ -805,6 +822,20 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
             reduce_partials(partials).0
         };
         stats.error = (sum / n as f64) as Real * error_scale;
+        // The iteration diverging: halve the relaxation (see `MAX_RELAXATION_HALVINGS`). A
+        // closed box's update is relaxed already (`CLOSED_RELAXATION`).
+        if !ctx.closed {
+            if stats.error > previous && *halvings < MAX_RELAXATION_HALVINGS {
+                *halvings += 1;
+            }
+            previous = stats.error;
+            if *halvings > 0 {
+                let omega = (0.5 as Real).powi(*halvings as i32);
+                for p in pi.iter_mut() {
+                    *p *= omega;
+                }
+            }
+        }
         let done = stats.error <= target;
         if (done && stats.iterations >= min_iterations)
             || stats.iterations >= settings.max_iterations
