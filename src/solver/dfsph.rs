@@ -179,9 +179,11 @@ pub struct DfsphBuffers {
 /// of 3 spacings goes past it (measured in session 10: a column at rest thrown within a
 /// frame). So when a solve's average error grows from one iteration to the next (the
 /// iteration diverging), the fluid's `ω` is halved, for good: letting it creep back
-/// (× 1.1 or × 1.01 per solve) let the blow-up return. At 2 spacings it never triggers in
-/// the tests, the validation scenes or the salva scene (their results are unchanged bit for
-/// bit); the step report says when it did ([`crate::StepReport::solver_relaxation_halvings`]).
+/// (× 1.1 or × 1.01 per solve) let the blow-up return. At 2 spacings it did not trigger in
+/// the runs checked (the salva scene and 5,000-particle dam breaks: final-state hashes
+/// unchanged; the hydrostatic scene and the square-column front: the same errors to the
+/// printed digit; the test `dfsph_column_with_a_wide_support_stays_at_rest` checks a column);
+/// the step report says when it did ([`crate::StepReport::solver_relaxation_halvings`]).
 pub const MAX_RELAXATION_HALVINGS: u32 = 3;
 
 impl DfsphBuffers {
