@@ -140,9 +140,10 @@ pub struct StepReport {
     pub solver_divergence_error: Real,
     /// Solves stopped by their iteration cap before reaching their error target.
     pub solver_capped: u32,
-    /// DFSPH: the most times any fluid's Jacobi relaxation has been halved because a solve
-    /// diverged (0: never, the usual case; see
-    /// [`crate::solver::dfsph::MAX_RELAXATION_HALVINGS`]).
+    /// DFSPH and PBF: the most times any fluid's Jacobi relaxation has been halved because a
+    /// solve diverged (0: never, the usual case; see
+    /// [`crate::solver::dfsph::MAX_RELAXATION_HALVINGS`] and
+    /// [`crate::solver::pbf::MAX_RELAXATION_HALVINGS`]).
     pub solver_relaxation_halvings: u32,
     /// Particles with a collider within their kernel support (walls counting in density).
     pub particles_near_walls: usize,

@@ -618,6 +618,7 @@ fn step_fluid(
             accelerations,
             densities,
             pressures,
+            solver_relaxation,
             ws,
             report,
             sep,
@@ -1060,6 +1061,7 @@ fn relax_overlaps(
             rest_density: lattice_density,
             tolerance: RELAX_TOLERANCE,
             max_move: RELAX_MAX_MOVE * p.particle_spacing,
+            safeguard: false,
         };
         let stats = timed(report, Stage::DensitySolve, || {
             crate::with_separation!(p.domain, S, sep =>
@@ -1331,11 +1333,13 @@ fn step_pbf<S: Separation>(
     accelerations: &mut [Vector],
     densities: &mut [Real],
     pressures: &mut [Real],
+    solver_relaxation: &mut u32,
     ws: &mut crate::fluid::Workspace,
     report: &mut StepReport,
     sep: S,
 ) -> (usize, Real) {
     let h = p.smoothing_length;
+    ws.pbf.relaxation_halvings = *solver_relaxation;
     let ctx = crate::solver::pbf::PbfContext {
         neighbors: &ws.neighbors,
         wall,
@@ -1345,12 +1349,17 @@ fn step_pbf<S: Separation>(
         rest_density: p.rest_density,
         tolerance: 0.0,
         max_move: Real::INFINITY,
+        safeguard: true,
     };
     // 3–5. The position solve (densities are measured in its first pass).
     let stats = timed(report, Stage::DensitySolve, || {
         crate::with_kernel!(p.density_kernel, K => crate::solver::pbf::solve_in::<K, S>(
             &ctx, settings, &mut ws.pbf, positions, densities, &mut ws.inv_densities, sep))
     });
+    *solver_relaxation = ws.pbf.relaxation_halvings;
+    report.solver_relaxation_halvings = report
+        .solver_relaxation_halvings
+        .max(ws.pbf.relaxation_halvings);
     report.solver_iterations += stats.iterations;
     report.solver_density_error = report.solver_density_error.max(stats.error);
     // The pressure the corrections stand for: Δx = dt²·a with a = −Σ m (π_i + π_j) ∇W gives

@@ -264,7 +264,7 @@ pub fn cases() -> Vec<Case> {
         Case {
             name: "12 support 3 spacings",
             description: "a column at rest, cubic-spline support 3 spacings (presets: 2); \
-                          PBF with walls and Clavet are known to fail it (README)",
+                          Clavet is known to fail it (README)",
             quick: false,
             build: wide_support,
         },

@@ -551,20 +551,24 @@ fn pbf_adaptive_substeps_hold_the_density_error_target() {
     eprintln!("PBF column: worst mean compression {worst}");
 }
 
-/// A DFSPH column at rest with walls counting in the density stays at rest with a kernel
-/// support of 3 spacings (presets: 2). Before the Jacobi relaxation safeguard
-/// (`dfsph::MAX_RELAXATION_HALVINGS`, session 10) this column was thrown within its first two
-/// frames (kinetic energy 0.27 J, then 2.6 J, above the column's whole potential energy): the
-/// unrelaxed iteration diverges at this support. Tolerance: kinetic energy at most 1 % of the
-/// column's potential energy over the floor (`M·g·H/2`, about 2 J) in every frame — the
-/// lattice start's own settling reaches ~0.3 % at 2 spacings. At 2 spacings the safeguard
-/// must never trigger (the presets' results stay as they were).
-#[test]
-fn dfsph_column_with_a_wide_support_stays_at_rest() {
+/// A column at rest with walls counting in the density stays at rest with a kernel support of
+/// 3 spacings (presets: 2), with DFSPH and with PBF. Before the Jacobi relaxation safeguards
+/// (`dfsph::MAX_RELAXATION_HALVINGS`, session 10; `pbf::MAX_RELAXATION_HALVINGS`, session 11)
+/// this column was thrown: DFSPH within its first two frames (kinetic energy 0.27 J, then
+/// 2.6 J), PBF within its first frames (2.9 J): the unrelaxed iterations diverge at this
+/// support. Tolerances, against the column's potential energy over the floor (`M·g·H/2`,
+/// about 2 J): the kinetic energy stays within 5 % of it in every frame (no blow-up: the
+/// unrelaxed runs reached 14 % and then 130 % with DFSPH, 148 % with PBF; the relaxed PBF's
+/// start-up slosh peaks at 1.6 %), and averages at most 0.5 % over the last 10 of the 60
+/// frames (settled: the lattice start's own settling peaks at 0.3–0.5 % at 2 spacings; the
+/// unrelaxed DFSPH was still at 1.6 % after 60 frames). At 2 spacings the safeguard must
+/// never trigger (the presets' results stay as they were).
+fn column_with_a_wide_support_stays_at_rest(solver: Solver) {
     for (ratio, expect_relaxed) in [(3.0, true), (2.0, false)] {
         let s = 0.0125;
         let params = FluidParamsBuilder::water(s)
             .smoothing_length(ratio * s)
+            .solver(solver)
             .build()
             .unwrap();
         let mut tank = rapier_sph::scenes::HydrostaticTank::new(params, [8, 16, 8]).unwrap();
@@ -574,17 +578,28 @@ fn dfsph_column_with_a_wide_support_stays_at_rest() {
         let potential = f.len() as f64 * m * 9.81 * tank.fluid_height as f64 / 2.0;
         let mut halvings = 0;
         let mut worst: f64 = 0.0;
-        for _ in 0..60 {
+        let mut tail = 0.0;
+        for frame in 0..60 {
             let r = tank.world.step().unwrap();
             halvings = halvings.max(r.solver_relaxation_halvings);
-            worst = worst.max(tank.world.fluids[tank.fluid].kinetic_energy() as f64);
+            let e = tank.world.fluids[tank.fluid].kinetic_energy() as f64;
+            worst = worst.max(e);
+            if frame >= 50 {
+                tail += e / 10.0;
+            }
         }
         println!(
-            "support {ratio} s: largest kinetic energy {worst:.3e} J of {potential:.3} J, relaxation halved {halvings}×"
+            "{}, support {ratio} s: largest kinetic energy {worst:.3e} J, over the last 10 frames \
+             {tail:.3e} J, of {potential:.3} J; relaxation halved {halvings}×",
+            solver.name()
         );
         assert!(
-            worst <= 0.01 * potential,
+            worst <= 0.05 * potential,
             "support {ratio} s: kinetic energy {worst:e} J against potential {potential} J"
+        );
+        assert!(
+            tail <= 0.005 * potential,
+            "support {ratio} s: not settled, kinetic energy {tail:e} J over the last 10 frames"
         );
         assert_eq!(
             halvings > 0,
@@ -592,4 +607,16 @@ fn dfsph_column_with_a_wide_support_stays_at_rest() {
             "support {ratio} s: halvings {halvings}"
         );
     }
+}
+
+/// DFSPH: see [`column_with_a_wide_support_stays_at_rest`].
+#[test]
+fn dfsph_column_with_a_wide_support_stays_at_rest() {
+    column_with_a_wide_support_stays_at_rest(Solver::dfsph());
+}
+
+/// PBF: see [`column_with_a_wide_support_stays_at_rest`].
+#[test]
+fn pbf_column_with_a_wide_support_stays_at_rest() {
+    column_with_a_wide_support_stays_at_rest(Solver::pbf());
 }

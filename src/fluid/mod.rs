@@ -89,8 +89,9 @@ pub struct Fluid {
     /// Set when an overlap relaxation was stopped by its round cap: the next substep goes on
     /// relaxing.
     pub(crate) relax_pending: bool,
-    /// How many times DFSPH's Jacobi relaxation was halved for this fluid (0: ω = 1; see
-    /// [`crate::solver::dfsph::MAX_RELAXATION_HALVINGS`]).
+    /// How many times the solver's Jacobi relaxation was halved for this fluid (0: ω = 1; see
+    /// [`crate::solver::dfsph::MAX_RELAXATION_HALVINGS`] and
+    /// [`crate::solver::pbf::MAX_RELAXATION_HALVINGS`]).
     pub(crate) solver_relaxation: u32,
     pub(crate) workspace: Workspace,
 }
