@@ -365,7 +365,7 @@ pub fn solve_in<K: Kernel, S: Separation>(
             *relaxation_halvings += 1;
         }
         let omega = if ctx.safeguard && *relaxation_halvings > 0 {
-            (0.5 as Real).powi(*relaxation_halvings as i32)
+            Real::powi(0.5, *relaxation_halvings as i32)
         } else {
             1.0
         };
