@@ -225,6 +225,9 @@ impl FluidPipeline {
                     report.quarantined += fluid.quarantine_non_finite();
                 }
                 fluid.workspace.max_speed = vmax;
+                if matches!(time_stepping, TimeStepping::Adaptive { .. }) {
+                    refresh_clavet_stiffest(fluid);
+                }
             }
             let mut elapsed: Real = 0.0;
             let mut weighted_mean_error = 0.0f64;
@@ -366,6 +369,30 @@ fn wall_viscosity(
         });
 }
 
+/// Bound of the Clavet relaxation's `θ = λ·dt²` per squared Courant number (see
+/// `stable_time_step`): 1.2 at the default Courant number 0.4, 90 % of the linear stability
+/// bound 4/3.
+const CLAVET_THETA_PER_COURANT2: Real = 7.5;
+
+/// Computes the Clavet fluid's stiffest rest mode if its parameters changed since it was last
+/// computed (see [`crate::solver::clavet::stiffest_rest_mode`]); other solvers drop it.
+fn refresh_clavet_stiffest(fluid: &mut Fluid) {
+    let p = fluid.params();
+    let Solver::Clavet(settings) = p.solver else {
+        fluid.workspace.clavet_stiffest = None;
+        return;
+    };
+    let (h, s) = (p.smoothing_length, p.particle_spacing);
+    let c = p.equation_of_state.speed_of_sound();
+    if let Some((h0, s0, c0, k0, _)) = fluid.workspace.clavet_stiffest
+        && (h0, s0, c0, k0) == (h, s, c, settings)
+    {
+        return;
+    }
+    let lambda = crate::solver::clavet::stiffest_rest_mode(&settings, h, s, c);
+    fluid.workspace.clavet_stiffest = Some((h, s, c, settings, lambda));
+}
+
 /// The longest stable substep for `fluid` (see [`TimeStepping::Adaptive`]), at most `remaining`.
 fn stable_time_step(fluid: &Fluid, gravity: Vector, courant: Real, remaining: Real) -> Real {
     if fluid.is_empty() {
@@ -410,6 +437,18 @@ fn stable_time_step(fluid: &Fluid, gravity: Vector, courant: Real, remaining: Re
                     .max(1e-6)
                     .sqrt();
             limit = limit.min(courant * p.smoothing_length / (c + v));
+            // That estimate holds at h = 2s. The stiffest mode grows faster than c²/h² with
+            // the support in spacings (λ·h²/c² = 6.6, 12.1, 21.1 at h/s = 2, 2.5, 3: the
+            // acoustic substep's θ is 1.06, 1.94, 3.37, unstable from about 2.2 spacings;
+            // session 11), so the fluid's own stiffest mode (computed once per parameter set,
+            // `refresh_clavet_stiffest`) also bounds the substep: θ = λ·dt² ≤
+            // CLAVET_THETA_PER_COURANT2·courant², 1.2 at the default Courant number (90 % of
+            // the bound 4/3). At h = 2s the acoustic limit above is the tighter one.
+            if let Some((.., lambda)) = fluid.workspace.clavet_stiffest
+                && lambda > 0.0
+            {
+                limit = limit.min(courant * (CLAVET_THETA_PER_COURANT2 / lambda).sqrt());
+            }
         }
         Solver::Dfsph(d) if g > 0.0 => {
             // The density solve undoes, every substep, the compression that gravity makes in

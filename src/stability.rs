@@ -264,7 +264,7 @@ pub fn cases() -> Vec<Case> {
         Case {
             name: "12 support 3 spacings",
             description: "a column at rest, cubic-spline support 3 spacings (presets: 2); \
-                          Clavet is known to fail it (README)",
+                          Clavet passes the verdict but its column does not rest (README)",
             quick: false,
             build: wide_support,
         },

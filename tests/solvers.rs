@@ -239,6 +239,46 @@ fn adaptive_substeps_meet_the_limits_and_report_the_cap() {
     assert_eq!((r.substeps, r.max_substep), (1, frame));
 }
 
+/// Clavet's adaptive substep keeps the relaxation inside its linear stability bound at any
+/// kernel support: `θ = λ·dt² ≤ 4/3`, `λ` the stiffest mode of the rest lattice
+/// ([`rapier_sph::solver::clavet::stiffest_rest_mode`]). At 2 spacings the acoustic substep
+/// already does (θ = 1.06 at the default Courant number 0.4); at 3 spacings the acoustic
+/// substep alone gave θ = 3.37 (the relaxation's stiffest mode grows faster than `c²/h²`
+/// with the support), and the substep must shrink to meet the bound.
+#[test]
+fn clavet_substeps_stay_inside_the_relaxation_stability_bound() {
+    let s = 0.05;
+    for ratio in [2.0, 3.0] {
+        let params = FluidParamsBuilder::water(s)
+            .smoothing_length(ratio * s)
+            .solver(Solver::clavet())
+            .build()
+            .unwrap();
+        let Solver::Clavet(settings) = params.solver else {
+            unreachable!()
+        };
+        let c = params.equation_of_state.speed_of_sound();
+        let lambda = rapier_sph::solver::clavet::stiffest_rest_mode(
+            &settings,
+            params.smoothing_length,
+            s,
+            c,
+        );
+        let acoustic = 0.4 * params.smoothing_length / c;
+        let (mut world, fh, _) = world_with(params, vec![]);
+        world.fluids[fh]
+            .add_block(Vector::ZERO, Vector::splat(0.3))
+            .unwrap();
+        let r = step_fluid(&mut world, Vector::new(0.0, -9.81, 0.0), 1.0 / 60.0);
+        let theta = lambda * r.max_substep * r.max_substep;
+        println!(
+            "support {ratio} s: λ = {lambda:.0} /s², acoustic θ = {:.3}, substep θ = {theta:.3}",
+            lambda * acoustic * acoustic
+        );
+        assert!(theta <= 4.0 / 3.0, "support {ratio} s: θ = {theta}");
+    }
+}
+
 /// A particle made non-finite from outside is taken out at the next step, counted, and never
 /// reaches its neighbours.
 #[test]
@@ -582,7 +622,7 @@ fn column_with_a_wide_support_stays_at_rest(solver: Solver) {
         for frame in 0..60 {
             let r = tank.world.step().unwrap();
             halvings = halvings.max(r.solver_relaxation_halvings);
-            let e = tank.world.fluids[tank.fluid].kinetic_energy() as f64;
+            let e = tank.world.fluids[tank.fluid].kinetic_energy();
             worst = worst.max(e);
             if frame >= 50 {
                 tail += e / 10.0;

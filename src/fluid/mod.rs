@@ -31,6 +31,10 @@ pub(crate) struct Workspace {
     pub dfsph: DfsphBuffers,
     /// Clavet relaxation buffers.
     pub clavet: crate::solver::clavet::ClavetBuffers,
+    /// The stiffest rest mode of the Clavet relaxation (1/s²) and the parameters it was
+    /// computed for (support, spacing, speed of sound, settings); see
+    /// [`crate::solver::clavet::stiffest_rest_mode`].
+    pub clavet_stiffest: Option<(Real, Real, Real, crate::solver::Clavet, Real)>,
     /// Scratch of the Clavet solver's springs.
     pub springs: crate::solver::springs::SpringBuffers,
     /// PBF iteration buffers.

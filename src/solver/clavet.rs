@@ -313,11 +313,94 @@ pub fn relax_in<S: Separation>(
     error
 }
 
+/// Power iterations of [`stiffest_rest_mode`].
+const POWER_ITERATIONS: usize = 200;
+
+/// The stiffness `λ` (1/s², per unit mass) of the stiffest mode of the relaxation about a rest
+/// lattice of spacing `spacing`, support `h` and speed of sound `speed_of_sound`, with
+/// `settings`' stiffnesses. With the forces taken at the predicted positions, a mode of
+/// stiffness `λ` evolves over a substep `dt` as `x' = (1 − θ)(x + dt·v)`, `θ = λ·dt²`, which
+/// is bounded iff `θ ≤ 4/3` (the adaptive substep keeps `θ` inside that; see
+/// `pipeline::stable_time_step`).
+///
+/// Found by power iteration on the linearised relaxation (finite differences of
+/// [`relax_in`] with `dt = 1`, which returns the displacement `a·dt²`) of a periodic lattice
+/// spanning at least `2h + 2s`, from a fixed start vector in which every wavelength is
+/// present; deterministic. It costs about 200 relaxations of 512–1,000 particles (tens of
+/// milliseconds), so the pipeline computes it once per parameter set and keeps it.
+pub fn stiffest_rest_mode(settings: &Clavet, h: Real, spacing: Real, speed_of_sound: Real) -> Real {
+    use crate::domain::MinimumImage;
+    use crate::neighbors::NeighborGrid;
+    let s = spacing;
+    let n = ((2.0 * h / s).ceil() as usize + 2).max(8);
+    let box_len = n as Real * s;
+    let domain = MinimumImage::new(Vector::ZERO, Vector::splat(box_len));
+    let mut x0 = crate::fluid::lattice(Vector::splat(0.5 * s), n, n, n, s);
+    let mut grid = NeighborGrid::default();
+    if grid.sort_periodic(&x0, h, &domain) {
+        let mut scratch = Vec::new();
+        crate::par::permute(&mut x0, &mut scratch, grid.permutation());
+    }
+    grid.build_cells();
+    let mut neighbors = NeighborLists::default();
+    neighbors.build_periodic(&grid, &x0, h, domain);
+    let ctx = ClavetContext {
+        neighbors: &neighbors,
+        h,
+        spacing: s,
+        speed_of_sound,
+        dt: 1.0,
+    };
+    // The springs are not part of the relaxation (their stiffness bounds the substep
+    // separately, through the acoustic limit).
+    let settings = Clavet {
+        springs: None,
+        ..*settings
+    };
+    let mut buffers = ClavetBuffers::default();
+    let mut rel = vec![0.0; x0.len()];
+    let mut displacement = |x: &[Vector]| -> Vec<Vector> {
+        let mut y = x.to_vec();
+        relax_in(&ctx, &settings, &mut buffers, &mut y, &mut rel, domain);
+        y.iter().zip(x).map(|(a, b)| *a - *b).collect()
+    };
+    let d0 = displacement(&x0);
+    // A fixed, mixed start vector (every wavelength present).
+    let mut v: Vec<Vector> = (0..x0.len())
+        .map(|i| {
+            let f = |m: usize| ((i * m) % 17) as Real - 8.0;
+            Vector::new(f(37), f(11), f(5))
+        })
+        .collect();
+    let eps = 1e-4 * s;
+    let mut lambda = 0.0f64;
+    for _ in 0..POWER_ITERATIONS {
+        let norm = v
+            .iter()
+            .map(|a| a.length_squared() as f64)
+            .sum::<f64>()
+            .sqrt();
+        if norm == 0.0 || !norm.is_finite() {
+            break;
+        }
+        for a in &mut v {
+            *a /= norm as Real;
+        }
+        let xp: Vec<Vector> = x0.iter().zip(&v).map(|(x, a)| *x + *a * eps).collect();
+        let kv: Vec<Vector> = displacement(&xp)
+            .iter()
+            .zip(&d0)
+            .map(|(a, b)| -(*a - *b) / eps)
+            .collect();
+        lambda = kv.iter().zip(&v).map(|(a, b)| a.dot(*b) as f64).sum();
+        v = kv;
+    }
+    lambda.max(0.0) as Real
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::domain::MinimumImage;
-    use crate::neighbors::NeighborGrid;
 
     /// The stability limit quoted in `pipeline::stable_time_step`. With the forces taken at
     /// the predicted positions a mode of stiffness λ evolves as `x' = (1 − θ)(x + dt·v)`,
@@ -329,63 +412,10 @@ mod tests {
     /// loose).
     #[test]
     fn the_acoustic_substep_is_inside_the_relaxations_linear_stability_limit() {
-        let (s, n) = (0.05, 8);
+        let s = 0.05;
         let h = 2.0 * s;
         let c = 30.0;
-        let box_len = n as Real * s;
-        let domain = MinimumImage::new(Vector::ZERO, Vector::splat(box_len));
-        let mut x0 = crate::fluid::lattice(Vector::splat(0.5 * s), n, n, n, s);
-        let mut grid = NeighborGrid::default();
-        if grid.sort_periodic(&x0, h, &domain) {
-            let mut scratch = Vec::new();
-            crate::par::permute(&mut x0, &mut scratch, grid.permutation());
-        }
-        grid.build_cells();
-        let mut neighbors = NeighborLists::default();
-        neighbors.build_periodic(&grid, &x0, h, domain);
-        let ctx = ClavetContext {
-            neighbors: &neighbors,
-            h,
-            spacing: s,
-            speed_of_sound: c,
-            dt: 1.0,
-        };
-        let settings = Clavet::default();
-        let mut buffers = ClavetBuffers::default();
-        let mut rel = vec![0.0; x0.len()];
-        let mut displacement = |x: &[Vector]| -> Vec<Vector> {
-            let mut y = x.to_vec();
-            relax_in(&ctx, &settings, &mut buffers, &mut y, &mut rel, domain);
-            y.iter().zip(x).map(|(a, b)| *a - *b).collect()
-        };
-        let d0 = displacement(&x0);
-        // A fixed, mixed start vector (every wavelength present).
-        let mut v: Vec<Vector> = (0..x0.len())
-            .map(|i| {
-                let f = |m: usize| ((i * m) % 17) as Real - 8.0;
-                Vector::new(f(37), f(11), f(5))
-            })
-            .collect();
-        let eps = 1e-4 * s;
-        let mut lambda = 0.0f64;
-        for _ in 0..200 {
-            let norm = v
-                .iter()
-                .map(|a| a.length_squared() as f64)
-                .sum::<f64>()
-                .sqrt();
-            for a in &mut v {
-                *a /= norm as Real;
-            }
-            let xp: Vec<Vector> = x0.iter().zip(&v).map(|(x, a)| *x + *a * eps).collect();
-            let kv: Vec<Vector> = displacement(&xp)
-                .iter()
-                .zip(&d0)
-                .map(|(a, b)| -(*a - *b) / eps)
-                .collect();
-            lambda = kv.iter().zip(&v).map(|(a, b)| a.dot(*b) as f64).sum();
-            v = kv;
-        }
+        let lambda = stiffest_rest_mode(&Clavet::default(), h, s, c) as f64;
         let theta = |courant: f64| lambda * (courant * h as f64 / c as f64).powi(2);
         eprintln!(
             "λ = {lambda:.1} /s², θ(0.4) = {:.3}, θ(0.5) = {:.3}",
