@@ -1,7 +1,7 @@
 //! Step benchmark: the dam break at 2,500, 20,000 and 100,000 particles on 1 and 2 threads,
 //! whole step and per stage. A small harness of our own (no criterion): each case is warmed
 //! up, then timed over a fixed number of steps, and the figures are printed as a Markdown
-//! table (the README's figures come from here).
+//! table (the figures in the README and docs/performance.md come from here).
 //!
 //! ```text
 //! cargo bench --bench step                 # all cases

@@ -1,5 +1,5 @@
 //! One dam-break front against the experiment: Z(T) of one scene × solver × resolution ×
-//! time step, with the fluid's settings overridable, for convergence studies (the README's
+//! time step, with the fluid's settings overridable, for convergence studies (docs/validation.md's
 //! "Convergence of the dam-break front" notes were measured with it). Prints the errors the
 //! report prints (`front_rms_t3`: RMS relative deviation from the measured points with
 //! T ≤ 3), Z at T = 0.5, 1, 2, 3, and the time shift δ that best aligns the simulated front

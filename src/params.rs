@@ -429,7 +429,7 @@ impl FluidParamsBuilder {
     /// Supports above about 2.5 particle spacings with walls that count in the density: DFSPH
     /// relaxes its Jacobi iteration on its own there (see
     /// [`crate::solver::dfsph::MAX_RELAXATION_HALVINGS`]); **PBF is not stable there** (a
-    /// resting column is thrown within a frame; measured in the README, "Larger supports").
+    /// resting column is thrown within a frame; measured in docs/solvers.md, "Larger supports").
     /// The presets use 2 spacings; WCSPH is not affected.
     pub fn smoothing_length(mut self, v: Real) -> Self {
         self.params.smoothing_length = v;

@@ -264,7 +264,7 @@ pub fn cases() -> Vec<Case> {
         Case {
             name: "12 support 3 spacings",
             description: "a column at rest, cubic-spline support 3 spacings (presets: 2); \
-                          Clavet passes the verdict but its column does not rest (README)",
+                          Clavet passes the verdict but its column does not rest (docs/solvers.md)",
             quick: false,
             build: wide_support,
         },
@@ -478,7 +478,7 @@ fn heavy_body(solver: &Solver, size: SuiteSize, density: Real) -> Option<SphResu
 /// Case 12: a column 8 × 16 × 8 at rest in a closed tank ([`crate::scenes::HydrostaticTank`],
 /// spacing 1.25 cm) with a kernel support of 3 spacings instead of the presets' 2, for 2 s in
 /// 1/60 s frames. Found in session 10: DFSPH and PBF with walls that count in the density
-/// threw the column within a frame (see the README, "Larger supports"); DFSPH passes since its
+/// threw the column within a frame (see docs/solvers.md, "Larger supports"); DFSPH passes since its
 /// relaxation safeguard ([`crate::solver::dfsph::MAX_RELAXATION_HALVINGS`]), PBF still fails,
 /// and the case keeps that visible. Clavet (walls by contact only) fails it too (measured:
 /// 9.3 × the initial energy, not traced); WCSPH runs without wall density here, as in every

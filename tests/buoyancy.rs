@@ -27,8 +27,8 @@
 //! 7,850 kg/m³ land on the floor and rest, with WCSPH, DFSPH and PBF, the total energy never
 //! above its start (they were thrown when they landed before pinched particles were left
 //! out of the solves).
-//! `cargo test --release --test buoyancy -- --nocapture` prints every figure (README,
-//! "Two-way coupling").
+//! `cargo test --release --test buoyancy -- --nocapture` prints every figure
+//! (docs/coupling.md).
 
 use rapier_sph::math::Real;
 use rapier_sph::scenes::{Floating, FloatingBox, FloatingBoxConfig};
@@ -151,7 +151,7 @@ fn boxes_float(solver: rapier_sph::Solver, failures: &mut Vec<String>) {
 
 /// The criterion read strictly: the submerged *fraction* within 5 % of its own value
 /// (Archimedes: density / 1000), at 2.5 cm (the box 8 particles tall), with PBF, whose
-/// boxes float closest (README, "Two-way coupling": WCSPH and DFSPH float them a few % too
+/// boxes float closest (docs/coupling.md: WCSPH and DFSPH float them a few % too
 /// high, the 250 kg/m³ box with DFSPH by 30 %). Same jitter and energy bounds as above,
 /// measured over the 5th second: "once settled". The box is placed at its expected depth in
 /// a lattice cut out around it, and the start excites a slosh of the whole tank (period

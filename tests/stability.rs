@@ -3,7 +3,7 @@
 //! or lost, kinetic energy never above 1.05 × the initial energy, DFSPH never capped.
 //!
 //! Runs that fail today are not hidden here: they are listed in `KNOWN_FAILURES` with the
-//! reason, printed by the example and recorded in the README, and this test checks that the
+//! reason, printed by the example and recorded in docs/stability.md, and this test checks that the
 //! list is still true (a run that starts passing must be moved back into the suite).
 
 use rapier_sph::stability::{self, SuiteSize};
@@ -18,7 +18,7 @@ const KNOWN_FAILURES: &[(&str, &str, &str)] = &[(
          force: no energy they are the gradient of) adds energy (see examples/stiffness_energy.rs)",
 )];
 
-/// Runs that take 10–30 s each: left to the example (their verdicts are in the README).
+/// Runs that take 10–30 s each: left to the example (their verdicts are in docs/stability.md).
 const SLOW: &[(&str, &str)] = &[("4 frame 1/30 stiffest", "WCSPH")];
 
 #[test]
@@ -48,7 +48,7 @@ fn quick_stability_cases_pass_and_known_failures_are_still_known() {
             if known {
                 assert!(
                     !r.passed(),
-                    "{key:?} passes now: take it off KNOWN_FAILURES and the README's list"
+                    "{key:?} passes now: take it off KNOWN_FAILURES and docs/stability.md's list"
                 );
             } else {
                 assert!(r.passed(), "{key:?} failed: {}", r.failure.unwrap());

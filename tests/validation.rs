@@ -101,7 +101,7 @@ fn assert_conserved(r: &RunRecord) {
 /// (about 1.5 %), so a correct solver and wall treatment meet 2 %; a wrong wall treatment
 /// (a missing half kernel at the floor) errs by tens of per cent.
 #[test]
-#[ignore = "not met yet: measured +16 % for the default solver (DFSPH with wall density, N = 8, adaptive; WCSPH +27 %, PBF +17 %, session 7 report); DFSPH with the opt-in hydrostatic walls -0.3 / +2.2 / +1.4 % at N = 6 / 8 / 12 (session 7); session 9, 3 s runs: default walls +17 % at N = 8, hydrostatic walls -2.2 % (their pressure level is a near-null mode that jumps frame to frame): see README"]
+#[ignore = "not met yet: measured +16 % for the default solver (DFSPH with wall density, N = 8, adaptive; WCSPH +27 %, PBF +17 %, session 7 report); DFSPH with the opt-in hydrostatic walls -0.3 / +2.2 / +1.4 % at N = 6 / 8 / 12 (session 7); session 9, 3 s runs: default walls +17 % at N = 8, hydrostatic walls -2.2 % (their pressure level is a near-null mode that jumps frame to frame): see docs/solvers.md"]
 fn hydrostatic_bottom_pressure_within_2_percent() {
     let r = Scene::Hydrostatic
         .run(
@@ -168,9 +168,9 @@ fn dam_break_front_within_10_percent_of_martin_moyce_for_recommended_solvers() {
 /// experiment's). Convergence is tested instead against the solver itself
 /// (`dam_break_front_converges_when_spacing_halves`) and against Koshizuka & Oka's MPS solution
 /// of the same model (`dam_break_front_error_against_the_mps_solution_does_not_grow_...`);
-/// see the README.
+/// see docs/validation.md.
 #[test]
-#[ignore = "not met for the default solver DFSPH (square column 0.018 -> 0.062 from N = 8 to 16): its front converges to one ~0.2 in T ahead of the experiment; see the doc comment and README"]
+#[ignore = "not met for the default solver DFSPH (square column 0.018 -> 0.062 from N = 8 to 16): its front converges to one ~0.2 in T ahead of the experiment; see the doc comment and docs/validation.md"]
 fn dam_break_front_error_does_not_grow_when_spacing_halves() {
     let m = default_method();
     for case in [
@@ -358,9 +358,9 @@ fn taylor_green_n12_ekin_rms(name: &str) -> f64 {
 }
 
 /// The Taylor–Green decay at Re = 100 (N = 12, WCSPH, adaptive, t ≤ 5) against the
-/// JAX-Fluids reference, within [`TGV_TOLERANCE`]. Not met: see the README.
+/// JAX-Fluids reference, within [`TGV_TOLERANCE`]. Not met: see docs/validation.md.
 #[test]
-#[ignore = "not met: measured E_kin RMS error 0.34 (WCSPH, N = 12, adaptive, Re = 100, t <= 5; 0.39 at N = 16, 0.47 at N = 20): see README"]
+#[ignore = "not met: measured E_kin RMS error 0.34 (WCSPH, N = 12, adaptive, Re = 100, t <= 5; 0.39 at N = 16, 0.47 at N = 20): see docs/validation.md"]
 fn taylor_green_decay_against_reference() {
     let rms = taylor_green_n12_ekin_rms("WCSPH");
     assert!(rms < TGV_TOLERANCE, "E_kin RMS error {rms}");
@@ -376,7 +376,7 @@ fn taylor_green_decay_against_reference() {
 /// 1–3 %. Measured (RMS over its 17 points, T ≤ 2.94): DFSPH 0.067, 0.042, 0.030, 0.019, 0.015,
 /// 0.009 at N = 8, 12, 16, 24, 32, 48; WCSPH without wall density 0.107, 0.089, 0.082, 0.079 at
 /// N = 8 … 24 (it stalls near 8 %: the slab's side walls missing from its density, see the
-/// README), with wall density 0.023 at N = 16.
+/// docs/validation.md), with wall density 0.023 at N = 16.
 #[test]
 fn dam_break_front_error_against_the_mps_solution_does_not_grow_when_spacing_halves() {
     let mut solvers = vec![default_method()];
@@ -427,7 +427,7 @@ fn front_change(coarse: &RunRecord, fine: &RunRecord) -> f64 {
 /// Why against itself and not against the experiment: a consistent solver converges to the
 /// model's answer, an instantly released inviscid-ish column on a free-slip floor, and that
 /// answer runs ahead of Martin & Moyce's measured front by about 0.2 in T (measured, see the
-/// README's convergence notes and `examples/dam_front.rs`: DFSPH's front converges at first
+/// convergence notes in docs/validation.md and `examples/dam_front.rs`: DFSPH's front converges at first
 /// order, and at N = 48 it lies within 1 % RMS of Koshizuka & Oka's own MPS solution of their
 /// experiment, which is itself 12 % ahead of that experiment on average). The error against the experiment
 /// therefore grows once the discretisation error (a front that is too slow at coarse spacing)

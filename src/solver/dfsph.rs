@@ -72,7 +72,7 @@ pub const WALL_MIRROR: Real = 1.0;
 /// particle's own value twice instead left its distance to the wall tied to nothing (a
 /// bottom layer whose pressure fell below the layer above was pressed into the floor and
 /// held by contact, which then carried 10 % of a resting column's weight) and kept a
-/// resting column moving (see the README).
+/// resting column moving (see docs/solvers.md).
 pub const HYDROSTATIC_WALL_MIRROR: Real = 2.0;
 
 /// Accumulators of the solves' pair sums (pair `t` of a particle goes to `t % ACC`), summed
@@ -107,7 +107,7 @@ pub struct Dfsph {
     /// is predicted to exceed `ρ0` (the rest are separating: pressure carried over there
     /// would push fluid that is already coming apart, and the solve's increments, never
     /// negative, could not take it back). Higher values need fewer iterations, since the
-    /// solve only rebuilds the remaining fraction each step; see the README for the measured
+    /// solve only rebuilds the remaining fraction each step; see docs/solvers.md for the measured
     /// trade-off (at 1.0 a column at rest in a closed tank kept jittering).
     #[cfg_attr(feature = "snapshot", serde(default = "default_warm_start"))]
     pub warm_start: Real,
@@ -116,7 +116,7 @@ pub struct Dfsph {
     /// [`HYDROSTATIC_WALL_MIRROR`]), instead of the particle's own weighted by
     /// [`WALL_MIRROR`]. The pressure next to walls then comes out hydrostatic (a settled
     /// column's bottom pressure within about 2 % instead of 14–21 % high, no compressed
-    /// layer above the floor); the README gives the measured trade-offs that keep it off by
+    /// layer above the floor); docs/solvers.md gives the measured trade-offs that keep it off by
     /// default: a column at rest moves more than with the default walls (kinetic energy
     /// about 3 times the default's), and the wall stage costs a second scan of the
     /// neighbours of the particles next to walls.

@@ -36,7 +36,7 @@
 //! the discretisation's too-slow front stops hiding that lead. Without wall density the front
 //! is slower by an amount that does not vanish with the spacing: the slab's two outer layers
 //! (of [`LAYERS`]) miss 15 % of their density next to the side walls at every N. See the
-//! README, "Convergence of the dam-break front".
+//! docs/validation.md, "Convergence of the dam-break front".
 
 use super::data::{Curve, read_curve};
 use super::{DriveSpec, Method, Metric, RunRecord, SimCurve, TimePolicy, drive, rms_relative};
@@ -187,7 +187,7 @@ impl Case {
     /// same geometry and scaling as [`Self::koshizuka_oka`]: a numerical solution of the
     /// model this crate solves (an instant release onto a free-slip floor), not a
     /// measurement, so the error against it isolates the discretisation from what the
-    /// experiment has and the model has not (the README's "Convergence of the dam-break
+    /// experiment has and the model has not (docs/validation.md, "Convergence of the dam-break
     /// front": it is 12 % ahead of the experiment on average). Runs to T = 3.0 (last point
     /// 2.94).
     pub fn koshizuka_oka_mps() -> SphResult<Self> {
