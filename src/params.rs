@@ -427,10 +427,12 @@ impl FluidParamsBuilder {
     /// Kernel support radius `h` (m).
     ///
     /// Supports above about 2.5 particle spacings with walls that count in the density: DFSPH
-    /// relaxes its Jacobi iteration on its own there (see
-    /// [`crate::solver::dfsph::MAX_RELAXATION_HALVINGS`]); **PBF is not stable there** (a
-    /// resting column is thrown within a frame; measured in docs/solvers.md, "Larger supports").
-    /// The presets use 2 spacings; WCSPH is not affected.
+    /// and PBF relax their Jacobi iterations on their own there (see
+    /// [`crate::solver::dfsph::MAX_RELAXATION_HALVINGS`] and
+    /// [`crate::solver::pbf::MAX_RELAXATION_HALVINGS`]), and Clavet's adaptive substep follows
+    /// the relaxation's stiffest mode ([`crate::solver::clavet::stiffest_rest_mode`]); at 3
+    /// spacings a Clavet column at rest still does not come to rest (measured in
+    /// docs/solvers.md, "Larger supports"). The presets use 2 spacings; WCSPH is not affected.
     pub fn smoothing_length(mut self, v: Real) -> Self {
         self.params.smoothing_length = v;
         self
