@@ -326,8 +326,9 @@ const POWER_ITERATIONS: usize = 200;
 /// Found by power iteration on the linearised relaxation (finite differences of
 /// [`relax_in`] with `dt = 1`, which returns the displacement `a·dt²`) of a periodic lattice
 /// spanning at least `2h + 2s`, from a fixed start vector in which every wavelength is
-/// present; deterministic. It costs about 200 relaxations of 512–1,000 particles (tens of
-/// milliseconds), so the pipeline computes it once per parameter set and keeps it.
+/// present; deterministic. It costs 200 relaxations of a lattice of `n³` particles, `n =
+/// max(8, ⌈2h/s⌉ + 2)` (512 particles up to h = 3s, 1,000 at 4s: tens of milliseconds; the cost
+/// grows as `(h/s)⁶`), so the pipeline computes it once per parameter set and keeps it.
 pub fn stiffest_rest_mode(settings: &Clavet, h: Real, spacing: Real, speed_of_sound: Real) -> Real {
     use crate::domain::MinimumImage;
     use crate::neighbors::NeighborGrid;
