@@ -120,7 +120,7 @@ pub struct PbfBuffers {
 /// and 6, which pass either way (quick jets: largest compression 0.82 → 1.8–3.0 %, KE/E0
 /// 0.494 → 0.498); and 7 of the error report's 54 PBF runs (the coarsest dam breaks and the
 /// Taylor–Green vortex: front errors 0.123 → 0.131 and 0.050 → 0.041, Taylor–Green's largest
-/// compression lower, 0.04–0.28 → 0.03–0.07). Requiring the divergence in three consecutive
+/// compression 0.04–0.28 → 0.03–0.07 and its energy error a little lower). Requiring the divergence in three consecutive
 /// solves instead spared those, but case 12 then diverged unnoticed (solve 1 diverges, the
 /// next 150 do not, then the column blows up within a few substeps): kept as it is.
 pub const MAX_RELAXATION_HALVINGS: u32 = 3;
