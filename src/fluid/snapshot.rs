@@ -100,7 +100,7 @@ impl FluidState {
         f.relax_pending = self.relax_pending;
         f.solver_relaxation = self
             .solver_relaxation
-            .min(crate::solver::dfsph::MAX_RELAXATION_HALVINGS);
+            .min(crate::solver::MAX_RELAXATION_HALVINGS);
         f.emitted = self.emitted;
         f.drained = self.drained;
         for e in self.sources.emitters.iter() {

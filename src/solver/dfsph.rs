@@ -184,7 +184,8 @@ pub struct DfsphBuffers {
 /// unchanged; the hydrostatic scene and the square-column front: the same errors to the
 /// printed digit; the test `dfsph_column_with_a_wide_support_stays_at_rest` checks a column);
 /// the step report says when it did ([`crate::StepReport::solver_relaxation_halvings`]).
-pub const MAX_RELAXATION_HALVINGS: u32 = 3;
+#[doc(inline)]
+pub use super::MAX_RELAXATION_HALVINGS;
 
 impl DfsphBuffers {
     /// Sizes every array for `n` particles (no allocation once warm).
@@ -832,7 +833,7 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
             }
             previous = stats.error;
             if *halvings > 0 {
-                let omega = (0.5 as Real).powi(*halvings as i32);
+                let omega = super::relaxation(*halvings);
                 for p in pi.iter_mut() {
                     *p *= omega;
                 }

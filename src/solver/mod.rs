@@ -16,6 +16,20 @@ pub mod pbf;
 pub mod springs;
 
 pub use clavet::Clavet;
+
+use crate::math::Real;
+
+/// Most halvings of a fluid's Jacobi relaxation `ω` (down to 1/8), shared by DFSPH and PBF:
+/// both halve `ω` when their iteration diverges and keep the count on the fluid (one count per
+/// fluid, saved in snapshots, reported as [`crate::StepReport::solver_relaxation_halvings`]).
+/// Why and when, per solver: [`dfsph::MAX_RELAXATION_HALVINGS`], [`pbf::MAX_RELAXATION_HALVINGS`].
+pub const MAX_RELAXATION_HALVINGS: u32 = 3;
+
+/// The relaxation `ω = 0.5^halvings` after `halvings` halvings.
+#[inline]
+pub(crate) fn relaxation(halvings: u32) -> Real {
+    Real::powi(0.5, halvings as i32)
+}
 pub use dfsph::{Dfsph, HYDROSTATIC_WALL_MIRROR, WALL_MIRROR};
 pub use pbf::Pbf;
 pub use springs::Springs;

@@ -123,7 +123,8 @@ pub struct PbfBuffers {
 /// compression 0.04–0.28 → 0.03–0.07 and its energy error a little lower). Requiring the divergence in three consecutive
 /// solves instead spared those, but case 12 then diverged unnoticed (solve 1 diverges, the
 /// next 150 do not, then the column blows up within a few substeps): kept as it is.
-pub const MAX_RELAXATION_HALVINGS: u32 = 3;
+#[doc(inline)]
+pub use super::MAX_RELAXATION_HALVINGS;
 
 /// What reads as the iteration diverging: the average compression, already above this floor
 /// (a fraction of `ρ0`), grows from one iteration to the next by more than the factor
@@ -373,7 +374,7 @@ pub fn solve_in<K: Kernel, S: Separation>(
             *relaxation_halvings += 1;
         }
         let omega = if ctx.safeguard && *relaxation_halvings > 0 {
-            Real::powi(0.5, *relaxation_halvings as i32)
+            super::relaxation(*relaxation_halvings)
         } else {
             1.0
         };
