@@ -314,12 +314,15 @@ fn resolve_static(
                     continue;
                 }
                 let mut start = previous[i];
-                // Far from every candidate's box (by more than 2r around the motion's box),
-                // nothing below can touch the particle: the sweep needs the segment to meet a
-                // shape, a push needs the end point within r of one, a depenetration needs
-                // the start inside one. Skipping is then exact, and most particles of a cell
-                // next to a wall are not next to the wall themselves.
-                let reach = Aabb::new(start.min(xs[k]), start.max(xs[k])).loosened(2.0 * r);
+                // Far from every candidate's box (by more than r, plus a few ulps of the
+                // coordinates for round-off, around the motion's box), nothing below can
+                // touch the particle: the sweep needs the segment to meet a shape, a push
+                // needs the end point closer than r − slack to one (step 2's cull), a
+                // depenetration needs the start inside one. Skipping is then exact, and most
+                // particles of a cell next to a wall are not next to the wall themselves.
+                let scale = start.abs().max_element().max(xs[k].abs().max_element());
+                let reach = Aabb::new(start.min(xs[k]), start.max(xs[k]))
+                    .loosened(r + 8.0 * Real::EPSILON * scale);
                 if !boxes.iter().any(|b| b.intersects(&reach)) {
                     continue;
                 }
@@ -339,7 +342,7 @@ fn resolve_static(
                 // Ray casts are skipped for candidates whose box the segment's box does not
                 // reach within round-off (`tight`: 1 % of r plus a few ulps of the
                 // coordinates), so particles gliding at distance r along a wall cast none.
-                let scale = start.abs().max_element().max(xs[k].abs().max_element());
+                let scale = scale.max(start.abs().max_element());
                 let tight = 0.01 * r + 8.0 * Real::EPSILON * scale;
                 if let Some((t, normal)) = sweep(colliders, cands, boxes, tight, start, motion) {
                     let mut n = if normal.dot(motion) > 0.0 {
@@ -359,10 +362,16 @@ fn resolve_static(
                 for _ in 0..4 {
                     let mut moved = false;
                     for (&h, b) in cands.iter().zip(boxes) {
-                        // Within `r` of a shape is within `r` of its box: a candidate whose
-                        // box is farther than `2r` has nothing to project (margin `r` for
-                        // round-off).
-                        if apart(b, target, target, 2.0 * r) {
+                        // Within `r` of a shape is within `r` of its box (the box holds
+                        // the shape): a candidate whose box is farther than `r` along some
+                        // axis is farther than `r − slack` from the shape, which is left
+                        // alone below anyway. The margin `r` plus a few ulps of the
+                        // coordinates absorbs round-off; `slack` (0.1 % of r) sits on top.
+                        // Particles resting one radius off a wall, the usual case, then
+                        // query nothing (with the margin `2r` used before, each cost a
+                        // projection per wall per step).
+                        let cull = r + 8.0 * Real::EPSILON * scale.max(target.abs().max_element());
+                        if apart(b, target, target, cull) {
                             continue;
                         }
                         let Some(co) = colliders.get(h) else { continue };
