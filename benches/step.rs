@@ -215,7 +215,10 @@ fn run(case: &Case, paper: bool) -> Measurement {
             .build()
             .unwrap()
     };
-    let config = DamBreakConfig::tower(params.clone(), DamBreakConfig::scale_for(case.particles));
+    let config = DamBreakConfig::tower(
+        params.clone(),
+        DamBreakConfig::scale_for_at_least(case.particles),
+    );
     let mut scene = dam_break(&config).unwrap();
     let dt = params.acoustic_time_step().min(0.005);
     scene.world.physics.integration_parameters.dt = dt;

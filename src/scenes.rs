@@ -68,10 +68,9 @@ impl DamBreakConfig {
     /// The paper's 10 × 25 × 10 tower scaled by `scale` along each axis
     /// (`scale = 2` gives 20 × 50 × 20 = 20,000 particles).
     pub fn tower(params: FluidParams, scale: Real) -> Self {
-        let n = |k: Real| ((k * scale).round() as usize).max(1);
         Self {
             params,
-            counts: [n(10.0), n(25.0), n(10.0)],
+            counts: Self::tower_counts(scale),
             tank_length_ratio: 4.0,
             tank_height_ratio: 1.5,
         }
@@ -80,6 +79,23 @@ impl DamBreakConfig {
     /// The scale that gives about `particles` particles with the tower's 10:25:10 shape.
     pub fn scale_for(particles: usize) -> Real {
         (particles as Real / 2500.0).cbrt()
+    }
+
+    /// The smallest scale from [`Self::scale_for`] up (in steps of 0.1 %) whose tower holds
+    /// at least `particles` particles (the rounding of the tower's sides can leave the plain
+    /// scale short: 98,260 particles for 100,000, where this gives 105,350).
+    pub fn scale_for_at_least(particles: usize) -> Real {
+        let mut scale = Self::scale_for(particles);
+        while Self::tower_counts(scale).iter().product::<usize>() < particles {
+            scale *= 1.001;
+        }
+        scale
+    }
+
+    /// Particles along x, y and z of the 10:25:10 tower at `scale`.
+    fn tower_counts(scale: Real) -> [usize; 3] {
+        let n = |k: Real| ((k * scale).round() as usize).max(1);
+        [n(10.0), n(25.0), n(10.0)]
     }
 }
 
@@ -855,5 +871,26 @@ impl FloatingBox {
             water: (water / count as f64).sqrt() as Real,
             bottom,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::DamBreakConfig;
+
+    /// The bench's towers: at least the count asked for, the paper's tower exactly.
+    #[test]
+    fn scale_for_at_least_never_falls_short() {
+        let count = |n| {
+            DamBreakConfig::tower_counts(DamBreakConfig::scale_for_at_least(n))
+                .iter()
+                .product::<usize>()
+        };
+        assert_eq!(count(2_500), 2_500);
+        assert_eq!(count(20_000), 20_000);
+        assert_eq!(count(100_000), 105_350);
+        for n in [1, 7, 999, 4_000, 64_000, 250_000] {
+            assert!(count(n) >= n, "{n}: {}", count(n));
+        }
     }
 }
