@@ -12,7 +12,8 @@ pub enum Stage {
     /// Density and pressure-gradient contributions of nearby colliders (skipped when no
     /// collider is near, or when the fluid's `wall_density` is off).
     WallDensity,
-    /// Kernel-summed density (DFSPH: and its factors).
+    /// Kernel-summed density (DFSPH: and its factors), and the step report's density error
+    /// measured from it.
     Density,
     /// Pressure from density (equation of state; WCSPH only).
     Pressure,

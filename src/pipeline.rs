@@ -800,7 +800,10 @@ fn step_fluid(
     report.max_speed = report.max_speed.max(max_speed);
     ws.non_finite = non_finite;
     ws.max_speed = max_speed;
-    let (max_err, mean_err) = density::density_error(densities, p.rest_density, &mut ws.partials);
+    // The step report's density error (counted with the density stage, whose output it reads).
+    let (max_err, mean_err) = timed(report, Stage::Density, || {
+        density::density_error(densities, p.rest_density, &mut ws.partials)
+    });
     report.max_density_error = report.max_density_error.max(max_err);
 
     // 9. Collider contact.
