@@ -220,7 +220,9 @@ impl FluidPipeline {
             for (_, fluid) in fluids.iter_mut() {
                 // The scan (parallel) counts them and skips them in the maximum speed; the
                 // serial removal runs only when there is something to remove.
-                let (bad, vmax) = integrate::scan(&fluid.positions, &fluid.velocities);
+                let (bad, vmax) = timed(&mut report, Stage::ParticleUpdate, || {
+                    integrate::scan(&fluid.positions, &fluid.velocities)
+                });
                 if bad > 0 {
                     report.quarantined += fluid.quarantine_non_finite();
                 }
