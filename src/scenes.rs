@@ -86,7 +86,12 @@ impl DamBreakConfig {
     /// scale short: 98,260 particles for 100,000, where this gives 105,350).
     pub fn scale_for_at_least(particles: usize) -> Real {
         let mut scale = Self::scale_for(particles);
-        while Self::tower_counts(scale).iter().product::<usize>() < particles {
+        let count = |s| {
+            Self::tower_counts(s)
+                .iter()
+                .fold(1usize, |a, &b| a.saturating_mul(b))
+        };
+        while count(scale) < particles {
             scale *= 1.001;
         }
         scale
@@ -884,12 +889,12 @@ mod tests {
         let count = |n| {
             DamBreakConfig::tower_counts(DamBreakConfig::scale_for_at_least(n))
                 .iter()
-                .product::<usize>()
+                .fold(1usize, |a, &b| a.saturating_mul(b))
         };
         assert_eq!(count(2_500), 2_500);
         assert_eq!(count(20_000), 20_000);
         assert_eq!(count(100_000), 105_350);
-        for n in [1, 7, 999, 4_000, 64_000, 250_000] {
+        for n in [0, 1, 7, 999, 4_000, 64_000, 250_000, usize::MAX] {
             assert!(count(n) >= n, "{n}: {}", count(n));
         }
     }
