@@ -146,6 +146,9 @@ pub struct StepReport {
     /// [`crate::solver::dfsph::MAX_RELAXATION_HALVINGS`] and
     /// [`crate::solver::pbf::MAX_RELAXATION_HALVINGS`]).
     pub solver_relaxation_halvings: u32,
+    /// DFSPH with hydrostatic walls: solves that diverged and finished without the walls'
+    /// neighbour part (see [`crate::solver::dfsph::DfsphBuffers::applied_neighbour`]).
+    pub solver_wall_neighbour_dropped: u32,
     /// Particles with a collider within their kernel support (walls counting in density).
     pub particles_near_walls: usize,
     /// Most particles moved by one round of overlap relaxation (particles just added, or pushed

@@ -756,12 +756,13 @@ fn step_fluid(
                         };
                         // With hydrostatic walls the wall's pressure is the neighbours'
                         // (see `WallWorkspace::neighbour_pressure`).
+                        let applied = &ws.dfsph.applied_neighbour;
                         let wall_pi = crate::solver::dfsph::wall_neighbour_pressure(
                             &ws.neighbors,
                             &ws.gradients,
                             w,
                             i,
-                            total,
+                            |j| applied[j],
                         );
                         (w.mirror * total(i) + wall_pi) * m * dt
                     }
@@ -1249,6 +1250,18 @@ fn step_dfsph<S: Separation>(
         settings.max_density_error,
     );
     let pushed = settings.divergence_solve && dfsph::divergence_warm_start(warm_divergence, closed);
+    // Hydrostatic walls: the pressure values their neighbour part is applied with this
+    // substep, starting with the divergence warm start's push (see
+    // `dfsph::DfsphBuffers::applied_neighbour`).
+    if wall.is_some_and(|w| w.neighbour_pressure) {
+        let applied = &mut ws.dfsph.applied_neighbour;
+        applied.clear();
+        if pushed {
+            applied.extend_from_slice(warm_divergence);
+        } else {
+            applied.resize(n, 0.0);
+        }
+    }
     timed(report, Stage::Density, || {
         let viscosity = (p.viscosity > 0.0).then(|| ViscosityLaplacian::new(h));
         let push = pushed.then_some(dfsph::WarmPush {
@@ -1289,6 +1302,7 @@ fn step_dfsph<S: Separation>(
             )
         });
         report.divergence_iterations += stats.iterations;
+        report.solver_wall_neighbour_dropped += stats.neighbour_dropped as u32;
         report.solver_divergence_error = report.solver_divergence_error.max(stats.error);
         report.solver_capped += stats.capped as u32;
     }
@@ -1347,6 +1361,7 @@ fn step_dfsph<S: Separation>(
     report.solver_iterations += stats.iterations;
     report.solver_density_error = report.solver_density_error.max(stats.error);
     report.solver_capped += stats.capped as u32;
+    report.solver_wall_neighbour_dropped += stats.neighbour_dropped as u32;
     // The pressure reported is all the pressure the step applied: the constant-density and
     // the divergence solves' values (both are `π = p/ρ²` applied over the same `dt`).
     for (((pr, &w), &wv), &rho) in pressures

@@ -94,14 +94,15 @@ fn assert_conserved(r: &RunRecord) {
 }
 
 /// Hydrostatic tank, default solver, default resolution: the bottom layer's pressure within
-/// 2 % of `ρ0·g·depth` once settled.
+/// 2 % of `ρ0·g·depth` once settled. Met since session 12, when DFSPH's hydrostatic walls
+/// became its default (measured +1.5 % at N = 8; the walls that mirror the particle's own
+/// pressure read +16 %).
 ///
 /// Tolerance (the issue's): at rest the weakly-compressible density error is `(v/c)² ≈ 0`,
 /// and the bottom layer's depth is known to a quarter of a spacing of the 16-layer column
 /// (about 1.5 %), so a correct solver and wall treatment meet 2 %; a wrong wall treatment
 /// (a missing half kernel at the floor) errs by tens of per cent.
 #[test]
-#[ignore = "not met yet: measured +16 % for the default solver (DFSPH with wall density, N = 8, adaptive; WCSPH +27 %, PBF +17 %); DFSPH with the opt-in hydrostatic walls meets it (session 12: -0.14 / +0.90 / +0.34 % at N = 6 / 8 / 12) but is not the default: it fails two full-size stability cases (6 spawn at half spacing, 7 body immersed) that the default walls pass; see docs/solvers.md"]
 fn hydrostatic_bottom_pressure_within_2_percent() {
     let r = Scene::Hydrostatic
         .run(
