@@ -163,7 +163,9 @@ fn dam_break_front_within_10_percent_of_martin_moyce_for_recommended_solvers() {
 ///
 /// Not met by the default solver (DFSPH with wall density), and it cannot be for a solver
 /// that converges: its front converges to the model's answer, about 0.2 in T ahead of the
-/// experiment (measured: square column 0.018 → 0.062 from N = 8 to 16). WCSPH without wall
+/// experiment (measured with the mirrored walls: square column 0.018 → 0.062 from N = 8 to
+/// 16; with the hydrostatic walls, the default since session 12: square column 0.054 → 0.031,
+/// met, n² = 2 column 0.038 → 0.059, not met). WCSPH without wall
 /// density met it only up to N = 16 (square column 0.073 → 0.022 → 0.036 at N = 8, 16, 32: its
 /// front, slowed by the 4-layer slab's side walls missing from its density, rises through the
 /// experiment's). Convergence is tested instead against the solver itself
@@ -171,7 +173,7 @@ fn dam_break_front_within_10_percent_of_martin_moyce_for_recommended_solvers() {
 /// of the same model (`dam_break_front_error_against_the_mps_solution_does_not_grow_...`);
 /// see docs/validation.md.
 #[test]
-#[ignore = "not met for the default solver DFSPH (square column 0.018 -> 0.062 from N = 8 to 16): its front converges to one ~0.2 in T ahead of the experiment; see the doc comment and docs/validation.md"]
+#[ignore = "not met for the default solver DFSPH (session 12: n2 = 2 column 0.038 -> 0.059 from N = 8 to 16, the square column 0.054 -> 0.031): its front converges to one ~0.2 in T ahead of the experiment; see the doc comment and docs/validation.md"]
 fn dam_break_front_error_does_not_grow_when_spacing_halves() {
     let m = default_method();
     for case in [
