@@ -754,8 +754,9 @@ fn step_fluid(
                         let total = |j: usize| {
                             warm_density[j] + if divergence { warm_divergence[j] } else { 0.0 }
                         };
-                        // With hydrostatic walls the wall's pressure is the neighbours'
-                        // (see `WallWorkspace::neighbour_pressure`).
+                        // With hydrostatic walls the wall's pressure adds the neighbours'
+                        // (see `WallWorkspace::neighbour_pressure`), with the values it was
+                        // applied with (`DfsphBuffers::applied_neighbour`).
                         let applied = &ws.dfsph.applied_neighbour;
                         let wall_pi = crate::solver::dfsph::wall_neighbour_pressure(
                             &ws.neighbors,

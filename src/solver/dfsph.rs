@@ -189,8 +189,9 @@ pub struct DfsphBuffers {
     /// full size, session 12: KE 3.2× the initial energy). So once a solve's error grows
     /// from one iteration to the next, the rest of that solve runs with the particle's own
     /// pressure mirrored, as without hydrostatic walls; the next solve starts with it again.
-    /// A resting column is not affected (its bottom error −0.1 / +1.5 / +0.3 % at N = 6 /
-    /// 8 / 12, against −0.1 / +0.9 / +0.3 % with the coupling kept in every iteration).
+    /// A settling column stays within 2 % (bottom error −0.1 / +1.5 / +0.3 % at N = 6 / 8 /
+    /// 12, against −0.1 / +0.9 / +0.3 % with the coupling kept in every iteration: while it
+    /// settles, a solve diverges now and then and finishes without it).
     pub applied_neighbour: Vec<Real>,
 }
 
