@@ -72,9 +72,10 @@ struct Args {
     /// Clavet, off for paper).
     #[arg(long, num_args = 0..=1, default_missing_value = "true")]
     walls: Option<bool>,
-    /// DFSPH only: walls with hydrostatic pressure (`Dfsph::hydrostatic_walls`).
-    #[arg(long)]
-    hydrostatic_walls: bool,
+    /// DFSPH only: walls with hydrostatic pressure (`Dfsph::hydrostatic_walls`):
+    /// `--hydrostatic-walls false` turns them off (default: DFSPH's, on).
+    #[arg(long, num_args = 0..=1, default_missing_value = "true")]
+    hydrostatic_walls: Option<bool>,
     /// One substep per frame of exactly --dt (default: adaptive CFL substeps within each frame).
     #[arg(long)]
     fixed: bool,
@@ -172,7 +173,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(s) => matches!(s, SolverArg::Dfsph),
         None => matches!(args.preset, Preset::Water),
     };
-    if args.hydrostatic_walls && !dfsph {
+    if args.hydrostatic_walls.is_some() && !dfsph {
         return Err("--hydrostatic-walls is a DFSPH setting: add --solver dfsph".into());
     }
     match args.solver {
@@ -189,9 +190,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         None => {}
     }
     if dfsph {
+        let defaults = rapier_sph::solver::Dfsph::default();
         builder = builder.solver(Solver::Dfsph(rapier_sph::solver::Dfsph {
-            hydrostatic_walls: args.hydrostatic_walls,
-            ..Default::default()
+            hydrostatic_walls: args.hydrostatic_walls.unwrap_or(defaults.hydrostatic_walls),
+            ..defaults
         }));
     }
     if let Some(on) = args.walls {

@@ -16,7 +16,7 @@
 //! `--solver wcsph|dfsph|pbf`, `--n N` (particles across the column, default 12), `--dt S`
 //! (fixed step in seconds; default: adaptive), `--courant C`, `--viscosity E` (Pa·s),
 //! `--friction F`, `--wall-viscosity E` (Pa·s, needs wall density), `--density-error X`, `--divergence-error X`, `--warm-start W`,
-//! `--hydrostatic-walls`, `--no-divergence-solve` (DFSPH), `--gate V` (the column held by a gate at x = a that rises at
+//! `--hydrostatic-walls` / `--no-hydrostatic-walls` (DFSPH's default: on), `--no-divergence-solve` (DFSPH), `--gate V` (the column held by a gate at x = a that rises at
 //! V m/s from t = 0, instead of an instant release),
 //! `--sound C` (WCSPH's Tait speed of sound, m/s), `--wall-density on|off` (default: as
 //! `validation::methods()` runs the solver), `--periodic-z L` (no side walls: L ≥ 6 layers
@@ -48,7 +48,7 @@ fn main() {
     let mut quiet = false;
     let mut sound: Option<Real> = None;
     let mut periodic_z: Option<usize> = None;
-    let mut hydrostatic_walls = false;
+    let mut hydrostatic_walls: Option<bool> = None;
     let mut no_divergence = false;
     let mut gate: Option<Real> = None;
     let mut it = std::env::args().skip(1);
@@ -72,7 +72,8 @@ fn main() {
             "--quiet" => quiet = true,
             "--sound" => sound = Some(val().parse().unwrap()),
             "--periodic-z" => periodic_z = Some(val().parse().unwrap()),
-            "--hydrostatic-walls" => hydrostatic_walls = true,
+            "--hydrostatic-walls" => hydrostatic_walls = Some(true),
+            "--no-hydrostatic-walls" => hydrostatic_walls = Some(false),
             "--no-divergence-solve" => no_divergence = true,
             "--gate" => gate = Some(val().parse().unwrap()),
             other => panic!("unknown argument {other}"),
@@ -103,7 +104,9 @@ fn main() {
         if let Some(x) = warm {
             dd.warm_start = x;
         }
-        dd.hydrostatic_walls = hydrostatic_walls;
+        if let Some(on) = hydrostatic_walls {
+            dd.hydrostatic_walls = on;
+        }
         dd.divergence_solve = !no_divergence;
         *d = dd;
     }
