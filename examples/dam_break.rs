@@ -283,6 +283,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut fallbacks = 0;
     let (mut relaxed, mut relax_rounds, mut relax_unfinished) = (0, 0u64, 0u64);
     let (mut substeps, mut iterations, mut div_iterations) = (0u64, 0u64, 0u64);
+    // The solvers' safeguards: capped solves, the largest relaxation halving, DFSPH solves
+    // that finished without the hydrostatic walls' neighbour part.
+    let (mut capped, mut halvings, mut dropped) = (0u64, 0u32, 0u64);
     let t0 = Instant::now();
     for step in 1..=args.steps {
         let report = scene.world.step()?;
@@ -297,6 +300,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         substeps += report.substeps as u64;
         iterations += report.solver_iterations as u64;
         div_iterations += report.divergence_iterations as u64;
+        capped += report.solver_capped as u64;
+        halvings = halvings.max(report.solver_relaxation_halvings);
+        dropped += report.solver_wall_neighbour_dropped as u64;
         #[cfg(feature = "render")]
         if step % frame_every == 0
             && let Some(p) = &mut pictures
@@ -359,6 +365,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "solver iterations    {:.2} density + {:.2} divergence per substep",
         iterations as f64 / substeps as f64,
         div_iterations as f64 / substeps as f64
+    );
+    println!(
+        "solver safeguards    {capped} solves stopped by the iteration cap, relaxation halved \
+         {halvings}x at most, {dropped} solves finished without the walls' neighbour pressure"
     );
     println!("max density error    {:.2} %", 100.0 * max_err);
     println!(
