@@ -30,6 +30,41 @@ pub struct NeighborLists {
 /// Candidates tested together in the neighbour scan.
 const BLOCK: usize = 8;
 
+/// Candidates tested together by the AVX-512 scan ([`scan_chunk_avx512`]).
+const WIDE: usize = 16;
+
+/// Entries of padding at infinity after the coordinate arrays, and of slack after each
+/// range in the index buffer: a block (of [`BLOCK`] or [`WIDE`] lanes) may run past the
+/// last particle, and stores all its lanes.
+const PAD: usize = WIDE;
+
+/// Which instructions the scan uses (the lists are the same with each: same arithmetic per
+/// lane, no FMA; the unit test below compares them).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+enum Isa {
+    /// Scalar, or two SSE2 halves per block on x86-64.
+    Portable,
+    /// 8-lane blocks, one 8-lane store per block.
+    Avx2,
+    /// 16-lane blocks compacted in a register (`vpcompressd`) and stored at once.
+    Avx512,
+}
+
+impl Isa {
+    /// The widest the CPU runs (checked at run time). The periodic scan is scalar.
+    fn best(periodic: bool) -> Self {
+        if periodic {
+            Isa::Portable
+        } else if crate::par::has_avx512() {
+            Isa::Avx512
+        } else if crate::par::has_avx2() {
+            Isa::Avx2
+        } else {
+            Isa::Portable
+        }
+    }
+}
+
 /// For every 8-bit mask of accepted candidates: the lane numbers of its set bits in
 /// ascending order (padded with zeros), and how many there are. The scan stores all eight
 /// entries of a block and advances by the count, so it has no branch per candidate.
@@ -241,7 +276,7 @@ fn scan_chunk<S: Separation, const AVX2: bool>(
         let candidates: usize = ranges
             .as_slice()
             .iter()
-            .map(|&(s, e)| (e - s) as usize + BLOCK)
+            .map(|&(s, e)| (e - s) as usize + PAD)
             .sum();
         if buf.len() < used + candidates {
             buf.resize((used + candidates).max(2 * buf.len()), 0);
@@ -280,10 +315,98 @@ fn scan_chunk<S: Separation, const AVX2: bool>(
     }
 }
 
+/// [`scan_chunk`] with AVX-512: 16 candidates per block, the accepted ones compacted in a
+/// register (`vpcompressd`; the memory form is slow on some CPUs) and stored with one
+/// 16-lane store. Open space only (the periodic scan is scalar). The lists are the same as
+/// the other scans': the same arithmetic per lane (subtract, square, add in the same order,
+/// no FMA) and the same ascending order.
+///
+/// # Safety
+/// The CPU must support AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn scan_chunk_avx512<S: Separation>(
+    c: usize,
+    chunk: &mut Chunk,
+    (grid, xs, ys, zs, h2, _, n): ScanArgs<'_, S>,
+) {
+    use std::arch::x86_64::*;
+    debug_assert!(!S::PERIODIC);
+    let start = c * CHUNK;
+    let end = (start + CHUNK).min(n);
+    chunk.offsets.clear();
+    chunk.offsets.push(0);
+    let buf = &mut chunk.indices;
+    let mut used = 0usize;
+    let mut window = super::grid::Window::default();
+    let mut cached_cell = grid.cell_of(start);
+    let mut ranges = grid.neighbor_ranges_after::<false>(cached_cell, &mut window);
+    let lanes = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    let vh = _mm512_set1_ps(h2);
+    // Every load below reads `WIDE` floats from `j0 < e ≤ n`: the arrays hold `n + PAD`.
+    assert!(xs.len() >= n + WIDE && ys.len() >= n + WIDE && zs.len() >= n + WIDE);
+    for i in start..end {
+        let cell = grid.cell_of(i);
+        if cell != cached_cell {
+            cached_cell = cell;
+            ranges = grid.neighbor_ranges_after::<false>(cell, &mut window);
+        }
+        let candidates: usize = ranges
+            .as_slice()
+            .iter()
+            .map(|&(s, e)| (e - s) as usize + PAD)
+            .sum();
+        if buf.len() < used + candidates {
+            buf.resize((used + candidates).max(2 * buf.len()), 0);
+        }
+        let (vx, vy, vz) = (
+            _mm512_set1_ps(xs[i]),
+            _mm512_set1_ps(ys[i]),
+            _mm512_set1_ps(zs[i]),
+        );
+        for &(s, e) in ranges.as_slice() {
+            let (s, e) = (s as usize, e as usize);
+            let mut j0 = s;
+            while j0 < e {
+                // SAFETY: `j0 + WIDE ≤ n + WIDE ≤` each array's length (asserted above);
+                // AVX-512F is enabled for this function.
+                let d2 = unsafe {
+                    let dx = _mm512_sub_ps(vx, _mm512_loadu_ps(xs.as_ptr().add(j0)));
+                    let dy = _mm512_sub_ps(vy, _mm512_loadu_ps(ys.as_ptr().add(j0)));
+                    let dz = _mm512_sub_ps(vz, _mm512_loadu_ps(zs.as_ptr().add(j0)));
+                    _mm512_add_ps(
+                        _mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)),
+                        _mm512_mul_ps(dz, dz),
+                    )
+                };
+                let mut mask = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(d2, vh) as u32;
+                if e - j0 < WIDE {
+                    mask &= (1 << (e - j0)) - 1;
+                }
+                // The particle itself passes the test (distance 0): drop its bit.
+                if (j0..j0 + WIDE).contains(&i) {
+                    mask &= !(1 << (i - j0));
+                }
+                let packed = _mm512_maskz_compress_epi32(
+                    mask as __mmask16,
+                    _mm512_add_epi32(_mm512_set1_epi32(j0 as i32), lanes),
+                );
+                // The buffer holds `PAD = WIDE` entries of slack after every range.
+                let out = &mut buf[used..used + WIDE];
+                // SAFETY: `out` is 16 u32 long; unaligned store.
+                unsafe { _mm512_storeu_si512(out.as_mut_ptr() as *mut __m512i, packed) };
+                used += mask.count_ones() as usize;
+                j0 += WIDE;
+            }
+        }
+        chunk.offsets.push(used as u32);
+    }
+}
+
 impl NeighborLists {
     /// Rebuilds the lists for sorted `positions` over `grid` with support radius `h`.
     pub fn build(&mut self, grid: &NeighborGrid, positions: &[Vector], h: Real) {
-        self.build_with(grid, positions, h, Open, true);
+        self.build_with(grid, positions, h, Open, Isa::best(false));
     }
 
     /// [`Self::build`] in a periodic box, over a grid sorted by
@@ -296,7 +419,7 @@ impl NeighborLists {
         h: Real,
         domain: MinimumImage,
     ) {
-        self.build_with(grid, positions, h, domain, true);
+        self.build_with(grid, positions, h, domain, Isa::best(true));
     }
 
     #[inline(always)]
@@ -306,16 +429,16 @@ impl NeighborLists {
         positions: &[Vector],
         h: Real,
         sep: S,
-        allow_avx2: bool,
+        isa: Isa,
     ) {
         let n = positions.len();
         self.len = n;
         // Coordinates as three flat arrays, so the candidate test below runs on a block of
         // candidates at once (SIMD) instead of one 12-byte vector at a time. Each array has
-        // BLOCK entries of padding at infinity, so a block may run past the last particle.
-        self.xs.resize(n + BLOCK, Real::INFINITY);
-        self.ys.resize(n + BLOCK, Real::INFINITY);
-        self.zs.resize(n + BLOCK, Real::INFINITY);
+        // PAD entries of padding at infinity, so a block may run past the last particle.
+        self.xs.resize(n + PAD, Real::INFINITY);
+        self.ys.resize(n + PAD, Real::INFINITY);
+        self.zs.resize(n + PAD, Real::INFINITY);
         crate::par_chunks_mut!(self.xs[..n], CHUNK)
             .zip(crate::par_chunks_mut!(self.ys[..n], CHUNK))
             .zip(crate::par_chunks_mut!(self.zs[..n], CHUNK))
@@ -333,21 +456,21 @@ impl NeighborLists {
         self.chunks.resize_with(n.div_ceil(CHUNK), Chunk::default);
         let h2 = h * h;
         let (xs, ys, zs) = (&self.xs[..], &self.ys[..], &self.zs[..]);
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = allow_avx2;
-        #[cfg(target_arch = "x86_64")]
-        let avx2 = allow_avx2 && !S::PERIODIC && std::arch::is_x86_feature_detected!("avx2");
+        // A periodic scan is always scalar (`Isa::best(true)`).
+        let isa = if S::PERIODIC { Isa::Portable } else { isa };
         crate::par_iter_mut!(self.chunks)
             .enumerate()
             .for_each(|(c, chunk)| {
                 let args = (grid, xs, ys, zs, h2, &sep, n);
-                #[cfg(target_arch = "x86_64")]
-                if avx2 {
-                    // SAFETY: AVX2 was detected at run time just above.
-                    unsafe { scan_chunk_avx2(c, chunk, args) };
-                    return;
+                match isa {
+                    // SAFETY: `Isa::best` chose these after run-time detection (the unit
+                    // test asks only for what the CPU has).
+                    #[cfg(target_arch = "x86_64")]
+                    Isa::Avx512 => unsafe { scan_chunk_avx512(c, chunk, args) },
+                    #[cfg(target_arch = "x86_64")]
+                    Isa::Avx2 => unsafe { scan_chunk_avx2(c, chunk, args) },
+                    _ => scan_chunk::<S, false>(c, chunk, args),
                 }
-                scan_chunk::<S, false>(c, chunk, args);
             });
     }
 
@@ -401,10 +524,22 @@ impl NeighborLists {
 mod tests {
     use super::*;
 
-    /// The AVX2 scan (taken where the CPU has it) and the SSE2/scalar scan give the same
-    /// lists, on clouds near and far from the origin, with particles on cell borders.
+    /// The vector scans the CPU runs.
+    fn available() -> Vec<Isa> {
+        let mut out = Vec::new();
+        if crate::par::has_avx2() {
+            out.push(Isa::Avx2);
+        }
+        if crate::par::has_avx512() {
+            out.push(Isa::Avx512);
+        }
+        out
+    }
+
+    /// The AVX2 and AVX-512 scans (those the CPU has) and the SSE2/scalar scan give the
+    /// same lists, on clouds near and far from the origin, with particles on cell borders.
     #[test]
-    fn avx2_and_portable_scans_give_the_same_lists() {
+    fn vector_and_portable_scans_give_the_same_lists() {
         let h = 0.1;
         let mut seed = 0x9E37_79B9_7F4A_7C15u64;
         let mut next = || {
@@ -435,12 +570,20 @@ mod tests {
                 .map(|&(_, i)| positions[i as usize])
                 .collect();
             grid.build_cells();
-            let (mut a, mut b) = (NeighborLists::default(), NeighborLists::default());
-            a.build_with(&grid, &sorted, h, Open, true);
-            b.build_with(&grid, &sorted, h, Open, false);
-            assert!(a.total_pairs() > 0);
-            for i in 0..sorted.len() {
-                assert_eq!(a.of(i), b.of(i), "particle {i} near {centre:?}");
+            let mut portable = NeighborLists::default();
+            portable.build_with(&grid, &sorted, h, Open, Isa::Portable);
+            assert!(portable.total_pairs() > 0);
+            for isa in available() {
+                let mut wide = NeighborLists::default();
+                wide.build_with(&grid, &sorted, h, Open, isa);
+                assert_eq!(wide.total_pairs(), portable.total_pairs(), "{isa:?}");
+                for i in 0..sorted.len() {
+                    assert_eq!(
+                        wide.of(i),
+                        portable.of(i),
+                        "{isa:?}: particle {i} near {centre:?}"
+                    );
+                }
             }
         }
     }
