@@ -55,7 +55,7 @@ pub fn has_avx512() -> bool {
 /// Runs `f`, compiled for AVX-512 (F and VL) or else AVX2 where the CPU has them: the pair
 /// loops' lane arrays ([`LANES`]) then run as one 8-wide vector instead of two 4-wide SSE2
 /// halves (AVX-512VL adds 32 vector registers and masked operations on those 8 lanes:
-/// about 10 % off the pair passes on Zen 4). `f` must be `#[inline(always)]` all the way
+/// 5–12 % off the pair passes on Zen 4). `f` must be `#[inline(always)]` all the way
 /// down for its body to be compiled inside the vector function. Same arithmetic lane by
 /// lane on every path (no FMA, no reassociation: Rust does neither on its own), so the same
 /// results bit for bit (the unit test `wide_and_portable_pair_passes_agree_bit_for_bit`

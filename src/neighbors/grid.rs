@@ -223,11 +223,11 @@ impl NeighborGrid {
     /// step): those that stayed in their cell are still in order, so only the others (the
     /// movers, `m` of them) are sorted, then merged in: O(n + m log m) and serial, against a
     /// parallel sort of all `n` (the dam break at 2,500 particles on 2 threads: ~40 movers a
-    /// step, the neighbour search stage 162 → 150 µs). Returns
-    /// whether the order changed, or `None` when it does not apply (more than an eighth of
-    /// the particles moved, or those that stayed are not in order: the arrays changed since
-    /// the last sort), with every key back in the array, in some order. The result is the
-    /// sorted order either way: keys are unique and the kept run is checked to ascend.
+    /// step, the neighbour search stage 162 → 150 µs). Returns whether the order changed, or
+    /// `None` when it does not apply (more than an eighth of the particles moved, or those
+    /// that stayed are not in order: the arrays changed since the last sort), with every key
+    /// back in the array, in some order. The result is the sorted order either way: keys are
+    /// unique and the kept run is checked to ascend.
     fn merge_movers(&mut self) -> Option<bool> {
         let n = self.sort_keys.len();
         let limit = n / 8;
