@@ -345,61 +345,103 @@ unsafe fn scan_chunk_avx512<S: Separation>(
     let vh = _mm512_set1_ps(h2);
     // Every load below reads `WIDE` floats from `j0 < e ≤ n`: the arrays hold `n + PAD`.
     assert!(xs.len() >= n + WIDE && ys.len() >= n + WIDE && zs.len() >= n + WIDE);
-    for i in start..end {
+    // Candidates `j0..j0 + WIDE` closer than `sqrt(h2)` to the point `(vx, vy, vz)`.
+    // SAFETY (of every call): `j0 + WIDE ≤ n + WIDE ≤` each array's length (asserted above);
+    // AVX-512F is enabled for this function.
+    let test = |vx: __m512, vy: __m512, vz: __m512, bx: __m512, by: __m512, bz: __m512| {
+        let dx = _mm512_sub_ps(vx, bx);
+        let dy = _mm512_sub_ps(vy, by);
+        let dz = _mm512_sub_ps(vz, bz);
+        let d2 = _mm512_add_ps(
+            _mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)),
+            _mm512_mul_ps(dz, dz),
+        );
+        _mm512_cmp_ps_mask::<_CMP_LT_OQ>(d2, vh) as u32
+    };
+    // Particles of one cell have the same candidates: two of them are tested against each
+    // block of candidates at once (one set of loads for both). The second one's list is
+    // written one candidate count further on, then moved next to the first's.
+    let mut i = start;
+    while i < end {
         let cell = grid.cell_of(i);
         if cell != cached_cell {
             cached_cell = cell;
             ranges = grid.neighbor_ranges_after::<false>(cell, &mut window);
         }
+        let pair = i + 1 < end && grid.cell_of(i + 1) == cell;
+        // Room for every candidate plus `PAD` per range: a list's last block stores
+        // `WIDE` lanes past its end.
         let candidates: usize = ranges
             .as_slice()
             .iter()
             .map(|&(s, e)| (e - s) as usize + PAD)
             .sum();
-        if buf.len() < used + candidates {
-            buf.resize((used + candidates).max(2 * buf.len()), 0);
+        let need = used + if pair { 2 * candidates } else { candidates };
+        if buf.len() < need {
+            buf.resize(need.max(2 * buf.len()), 0);
         }
         let (vx, vy, vz) = (
             _mm512_set1_ps(xs[i]),
             _mm512_set1_ps(ys[i]),
             _mm512_set1_ps(zs[i]),
         );
+        let k = if pair { i + 1 } else { i };
+        let (wx, wy, wz) = (
+            _mm512_set1_ps(xs[k]),
+            _mm512_set1_ps(ys[k]),
+            _mm512_set1_ps(zs[k]),
+        );
+        let second = used + candidates;
+        let mut used2 = second;
         for &(s, e) in ranges.as_slice() {
             let (s, e) = (s as usize, e as usize);
             let mut j0 = s;
             while j0 < e {
-                // SAFETY: `j0 + WIDE ≤ n + WIDE ≤` each array's length (asserted above);
-                // AVX-512F is enabled for this function.
-                let d2 = unsafe {
-                    let dx = _mm512_sub_ps(vx, _mm512_loadu_ps(xs.as_ptr().add(j0)));
-                    let dy = _mm512_sub_ps(vy, _mm512_loadu_ps(ys.as_ptr().add(j0)));
-                    let dz = _mm512_sub_ps(vz, _mm512_loadu_ps(zs.as_ptr().add(j0)));
-                    _mm512_add_ps(
-                        _mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)),
-                        _mm512_mul_ps(dz, dz),
+                // SAFETY: see `test`.
+                let (bx, by, bz) = unsafe {
+                    (
+                        _mm512_loadu_ps(xs.as_ptr().add(j0)),
+                        _mm512_loadu_ps(ys.as_ptr().add(j0)),
+                        _mm512_loadu_ps(zs.as_ptr().add(j0)),
                     )
                 };
-                let mut mask = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(d2, vh) as u32;
+                let mut tail = u32::MAX;
                 if e - j0 < WIDE {
-                    mask &= (1 << (e - j0)) - 1;
+                    tail = (1 << (e - j0)) - 1;
                 }
+                let index = _mm512_add_epi32(_mm512_set1_epi32(j0 as i32), lanes);
+                let mut mask = test(vx, vy, vz, bx, by, bz) & tail;
                 // The particle itself passes the test (distance 0): drop its bit.
                 if (j0..j0 + WIDE).contains(&i) {
                     mask &= !(1 << (i - j0));
                 }
-                let packed = _mm512_maskz_compress_epi32(
-                    mask as __mmask16,
-                    _mm512_add_epi32(_mm512_set1_epi32(j0 as i32), lanes),
-                );
+                let packed = _mm512_maskz_compress_epi32(mask as __mmask16, index);
                 // The buffer holds `PAD = WIDE` entries of slack after every range.
                 let out = &mut buf[used..used + WIDE];
                 // SAFETY: `out` is 16 u32 long; unaligned store.
                 unsafe { _mm512_storeu_si512(out.as_mut_ptr() as *mut __m512i, packed) };
                 used += mask.count_ones() as usize;
+                if pair {
+                    let mut mask = test(wx, wy, wz, bx, by, bz) & tail;
+                    if (j0..j0 + WIDE).contains(&k) {
+                        mask &= !(1 << (k - j0));
+                    }
+                    let packed = _mm512_maskz_compress_epi32(mask as __mmask16, index);
+                    let out = &mut buf[used2..used2 + WIDE];
+                    // SAFETY: as above.
+                    unsafe { _mm512_storeu_si512(out.as_mut_ptr() as *mut __m512i, packed) };
+                    used2 += mask.count_ones() as usize;
+                }
                 j0 += WIDE;
             }
         }
         chunk.offsets.push(used as u32);
+        if pair {
+            buf.copy_within(second..used2, used);
+            used += used2 - second;
+            chunk.offsets.push(used as u32);
+        }
+        i += if pair { 2 } else { 1 };
     }
 }
 
