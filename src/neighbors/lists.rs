@@ -325,6 +325,9 @@ fn scan_chunk<S: Separation, const AVX2: bool>(
 /// The CPU must support AVX-512F.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
+// Indexed loops over the group: the same loops with `zip`/`enumerate` made the neighbour
+// search 12 % slower (217 → 244 µs at 2,500 particles on one thread).
+#[allow(clippy::needless_range_loop)]
 unsafe fn scan_chunk_avx512<S: Separation>(
     c: usize,
     chunk: &mut Chunk,
@@ -358,9 +361,10 @@ unsafe fn scan_chunk_avx512<S: Separation>(
         );
         _mm512_cmp_ps_mask::<_CMP_LT_OQ>(d2, vh) as u32
     };
-    // Particles of one cell have the same candidates: two of them are tested against each
-    // block of candidates at once (one set of loads for both). The second one's list is
-    // written one candidate count further on, then moved next to the first's.
+    // Particles of one cell have the same candidates: up to `GROUP` of them are tested
+    // against each block of candidates at once (one set of loads for all). Member `q`'s list
+    // is written `q` candidate counts further on, then moved next to the one before it.
+    const GROUP: usize = 4;
     let mut i = start;
     while i < end {
         let cell = grid.cell_of(i);
@@ -368,7 +372,10 @@ unsafe fn scan_chunk_avx512<S: Separation>(
             cached_cell = cell;
             ranges = grid.neighbor_ranges_after::<false>(cell, &mut window);
         }
-        let pair = i + 1 < end && grid.cell_of(i + 1) == cell;
+        let mut g = 1;
+        while g < GROUP && i + g < end && grid.cell_of(i + g) == cell {
+            g += 1;
+        }
         // Room for every candidate plus `PAD` per range: a list's last block stores
         // `WIDE` lanes past its end.
         let candidates: usize = ranges
@@ -376,23 +383,25 @@ unsafe fn scan_chunk_avx512<S: Separation>(
             .iter()
             .map(|&(s, e)| (e - s) as usize + PAD)
             .sum();
-        let need = used + if pair { 2 * candidates } else { candidates };
+        let need = used + g * candidates;
         if buf.len() < need {
             buf.resize(need.max(2 * buf.len()), 0);
         }
-        let (vx, vy, vz) = (
-            _mm512_set1_ps(xs[i]),
-            _mm512_set1_ps(ys[i]),
-            _mm512_set1_ps(zs[i]),
-        );
-        let k = if pair { i + 1 } else { i };
-        let (wx, wy, wz) = (
-            _mm512_set1_ps(xs[k]),
-            _mm512_set1_ps(ys[k]),
-            _mm512_set1_ps(zs[k]),
-        );
-        let second = used + candidates;
-        let mut used2 = second;
+        let base = used;
+        let mut points = [(
+            _mm512_setzero_ps(),
+            _mm512_setzero_ps(),
+            _mm512_setzero_ps(),
+        ); GROUP];
+        let mut cursor = [0usize; GROUP];
+        for q in 0..g {
+            points[q] = (
+                _mm512_set1_ps(xs[i + q]),
+                _mm512_set1_ps(ys[i + q]),
+                _mm512_set1_ps(zs[i + q]),
+            );
+            cursor[q] = base + q * candidates;
+        }
         for &(s, e) in ranges.as_slice() {
             let (s, e) = (s as usize, e as usize);
             let mut j0 = s;
@@ -410,38 +419,35 @@ unsafe fn scan_chunk_avx512<S: Separation>(
                     tail = (1 << (e - j0)) - 1;
                 }
                 let index = _mm512_add_epi32(_mm512_set1_epi32(j0 as i32), lanes);
-                let mut mask = test(vx, vy, vz, bx, by, bz) & tail;
-                // The particle itself passes the test (distance 0): drop its bit.
-                if (j0..j0 + WIDE).contains(&i) {
-                    mask &= !(1 << (i - j0));
-                }
-                let packed = _mm512_maskz_compress_epi32(mask as __mmask16, index);
-                // The buffer holds `PAD = WIDE` entries of slack after every range.
-                let out = &mut buf[used..used + WIDE];
-                // SAFETY: `out` is 16 u32 long; unaligned store.
-                unsafe { _mm512_storeu_si512(out.as_mut_ptr() as *mut __m512i, packed) };
-                used += mask.count_ones() as usize;
-                if pair {
-                    let mut mask = test(wx, wy, wz, bx, by, bz) & tail;
-                    if (j0..j0 + WIDE).contains(&k) {
-                        mask &= !(1 << (k - j0));
+                for q in 0..g {
+                    let (vx, vy, vz) = points[q];
+                    let mut mask = test(vx, vy, vz, bx, by, bz) & tail;
+                    // The particle itself passes the test (distance 0): drop its bit.
+                    let me = i + q;
+                    if (j0..j0 + WIDE).contains(&me) {
+                        mask &= !(1 << (me - j0));
                     }
                     let packed = _mm512_maskz_compress_epi32(mask as __mmask16, index);
-                    let out = &mut buf[used2..used2 + WIDE];
-                    // SAFETY: as above.
+                    // Each member's region holds `PAD = WIDE` entries of slack per range.
+                    let out = &mut buf[cursor[q]..cursor[q] + WIDE];
+                    // SAFETY: `out` is 16 u32 long; unaligned store.
                     unsafe { _mm512_storeu_si512(out.as_mut_ptr() as *mut __m512i, packed) };
-                    used2 += mask.count_ones() as usize;
+                    cursor[q] += mask.count_ones() as usize;
                 }
                 j0 += WIDE;
             }
         }
-        chunk.offsets.push(used as u32);
-        if pair {
-            buf.copy_within(second..used2, used);
-            used += used2 - second;
-            chunk.offsets.push(used as u32);
+        // Member 0's list is in place; each next one moves down next to the one before.
+        let mut end_of_lists = cursor[0];
+        chunk.offsets.push(end_of_lists as u32);
+        for q in 1..g {
+            let begin = base + q * candidates;
+            buf.copy_within(begin..cursor[q], end_of_lists);
+            end_of_lists += cursor[q] - begin;
+            chunk.offsets.push(end_of_lists as u32);
         }
-        i += if pair { 2 } else { 1 };
+        used = end_of_lists;
+        i += g;
     }
 }
 
