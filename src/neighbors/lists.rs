@@ -315,9 +315,10 @@ fn scan_chunk<S: Separation, const AVX2: bool>(
     }
 }
 
-/// [`scan_chunk`] with AVX-512: 16 candidates per block, the accepted ones compacted in a
-/// register (`vpcompressd`; the memory form is slow on some CPUs) and stored with one
-/// 16-lane store. Open space only (the periodic scan is scalar). The lists are the same as
+/// [`scan_chunk`] with AVX-512: 16 candidates per block, tested for up to four particles of
+/// one cell at once (one set of loads), the accepted ones compacted in a register
+/// (`vpcompressd`; the memory form is slow on some CPUs) and stored with one 16-lane store.
+/// Open space only (the periodic scan is scalar). The lists are the same as
 /// the other scans': the same arithmetic per lane (subtract, square, add in the same order,
 /// no FMA) and the same ascending order.
 ///
