@@ -244,6 +244,7 @@ unsafe fn scan_chunk_avx2<S: Separation>(c: usize, chunk: &mut Chunk, args: Scan
 
 /// Builds the lists of chunk `c` (see [`NeighborLists::build`]).
 #[inline(always)]
+#[allow(clippy::needless_range_loop)] // indexed group loops, as in `scan_chunk_avx512`
 fn scan_chunk<S: Separation, const AVX2: bool>(
     c: usize,
     chunk: &mut Chunk,
@@ -267,51 +268,83 @@ fn scan_chunk<S: Separation, const AVX2: bool>(
     };
     let mut cached_cell = grid.cell_of(start);
     let mut ranges = ranges_of(cached_cell);
-    for i in start..end {
+    // As in `scan_chunk_avx512`: up to `GROUP` particles of one cell are tested against each
+    // block of candidates in turn (the block stays in registers or L1), member `q`'s list
+    // written `q` candidate counts further on, then moved next to the one before it.
+    const GROUP: usize = 4;
+    let mut i = start;
+    while i < end {
         let cell = grid.cell_of(i);
         if cell != cached_cell {
             cached_cell = cell;
             ranges = ranges_of(cell);
+        }
+        let mut g = 1;
+        while g < GROUP && i + g < end && grid.cell_of(i + g) == cell {
+            g += 1;
         }
         let candidates: usize = ranges
             .as_slice()
             .iter()
             .map(|&(s, e)| (e - s) as usize + PAD)
             .sum();
-        if buf.len() < used + candidates {
-            buf.resize((used + candidates).max(2 * buf.len()), 0);
+        let need = used + g * candidates;
+        if buf.len() < need {
+            buf.resize(need.max(2 * buf.len()), 0);
         }
-        let (xi, yi, zi) = (xs[i], ys[i], zs[i]);
+        let base = used;
+        let mut points = [(0.0, 0.0, 0.0); GROUP];
+        let mut cursor = [0usize; GROUP];
+        for q in 0..g {
+            points[q] = (xs[i + q], ys[i + q], zs[i + q]);
+            cursor[q] = base + q * candidates;
+        }
         for &(s, e) in ranges.as_slice() {
             let (s, e) = (s as usize, e as usize);
             let mut j0 = s;
             while j0 < e {
-                let mut mask = if S::PERIODIC {
-                    periodic_block_mask(sep, xs, ys, zs, j0, xi, yi, zi, h2)
-                } else {
-                    block_mask::<AVX2>(xs, ys, zs, j0, xi, yi, zi, h2)
-                };
+                let mut tail = u32::MAX;
                 if e - j0 < BLOCK {
-                    mask &= (1 << (e - j0)) - 1;
+                    tail = (1 << (e - j0)) - 1;
                 }
-                // The particle itself passes the test (distance 0): drop its bit.
-                if (j0..j0 + BLOCK).contains(&i) {
-                    mask &= !(1 << (i - j0));
-                }
-                let (lanes, count) = &COMPACT[mask as usize];
-                let out: &mut [u32; BLOCK] = (&mut buf[used..used + BLOCK]).try_into().unwrap();
-                if AVX2 {
-                    store_lanes_avx2(out, j0 as u32, &COMPACT32[mask as usize]);
-                } else {
-                    for k in 0..BLOCK {
-                        out[k] = j0 as u32 + lanes[k] as u32;
+                for q in 0..g {
+                    let (xi, yi, zi) = points[q];
+                    let mut mask = if S::PERIODIC {
+                        periodic_block_mask(sep, xs, ys, zs, j0, xi, yi, zi, h2)
+                    } else {
+                        block_mask::<AVX2>(xs, ys, zs, j0, xi, yi, zi, h2)
+                    } & tail;
+                    // The particle itself passes the test (distance 0): drop its bit.
+                    let me = i + q;
+                    if (j0..j0 + BLOCK).contains(&me) {
+                        mask &= !(1 << (me - j0));
                     }
+                    let (lanes, count) = &COMPACT[mask as usize];
+                    let at = cursor[q];
+                    let out: &mut [u32; BLOCK] = (&mut buf[at..at + BLOCK]).try_into().unwrap();
+                    if AVX2 {
+                        store_lanes_avx2(out, j0 as u32, &COMPACT32[mask as usize]);
+                    } else {
+                        for k in 0..BLOCK {
+                            out[k] = j0 as u32 + lanes[k] as u32;
+                        }
+                    }
+                    cursor[q] += *count as usize;
                 }
-                used += *count as usize;
                 j0 += BLOCK;
             }
         }
-        chunk.offsets.push(used as u32);
+        // Member 0's list is in place; each next one moves down next to the one before.
+        let mut end_of_lists = cursor[0];
+        chunk.offsets.push(end_of_lists as u32);
+        for q in 1..g {
+            let begin = base + q * candidates;
+            buf.copy_within(begin..cursor[q], end_of_lists);
+            end_of_lists += cursor[q] - begin;
+            chunk.offsets.push(end_of_lists as u32);
+        }
+        used = end_of_lists;
+        i += g;
     }
 }
 
