@@ -236,6 +236,22 @@ fn log_range(values: impl Iterator<Item = f64>, floor: f64) -> std::ops::Range<f
     lo / 1.5..hi * 1.5
 }
 
+/// 1, 2 and 5 times the powers of ten inside `range` (label positions for a log axis).
+fn keys_125(range: &std::ops::Range<f64>) -> Vec<f64> {
+    let mut keys = Vec::new();
+    let mut decade = 10f64.powi(range.start.log10().floor() as i32);
+    while decade <= range.end {
+        for m in [1.0, 2.0, 5.0] {
+            let v = m * decade;
+            if range.contains(&v) {
+                keys.push(v);
+            }
+        }
+        decade *= 10.0;
+    }
+    keys
+}
+
 fn error_panel(
     area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
     scene: Scene,
@@ -636,12 +652,18 @@ fn draw_scaling(out: &Path, points: &[ScalingPoint], method_names: &[&'static st
                 }
             };
             let ys = log_range(points.iter().map(value), 1e-3);
+            // Labels at 1, 2 and 5 per decade: plotters' own log-axis labels ran together
+            // between 4,000 and 10,000 particles and left the cost axis one label (1000).
+            let (x_keys, y_keys) = (keys_125(&xs), keys_125(&ys));
             let mut chart = ChartBuilder::on(&panels[k])
                 .caption(title, ("sans-serif", 18))
                 .margin(8)
                 .x_label_area_size(36)
                 .y_label_area_size(60)
-                .build_cartesian_2d(xs.clone().log_scale(), ys.log_scale())?;
+                .build_cartesian_2d(
+                    xs.clone().log_scale().with_key_points(x_keys),
+                    ys.log_scale().with_key_points(y_keys),
+                )?;
             chart
                 .configure_mesh()
                 .x_desc("particles")
