@@ -155,46 +155,62 @@ fn dam_break_front_within_10_percent_of_martin_moyce_for_recommended_solvers() {
 }
 
 /// Convergence, default solver: halving the spacing (8 → 16 particles across the column)
-/// does not make the front error over T ≤ 3 grow, for either column.
+/// does not make the front error over T ≤ 3 grow. The square column; the n² = 2 column is
+/// `dam_break_front_error_does_not_grow_when_spacing_halves_n2_column` (not met).
 ///
 /// Tolerance: the finer run may exceed the coarser run's RMS by at most 0.01 (1 % of Z), the
 /// smallest error the data's own transcription carries: below that the two runs cannot be
 /// ranked against these data.
 ///
-/// Not met by the default solver (DFSPH with wall density), and it cannot be for a solver
-/// that converges: its front converges to the model's answer, about 0.2 in T ahead of the
-/// experiment (measured with the mirrored walls: square column 0.018 → 0.062 from N = 8 to
-/// 16; with the hydrostatic walls, the default since session 12: square column 0.054 → 0.031,
-/// met, n² = 2 column 0.038 → 0.059, not met). WCSPH without wall
-/// density met it only up to N = 16 (square column 0.073 → 0.022 → 0.036 at N = 8, 16, 32: its
-/// front, slowed by the 4-layer slab's side walls missing from its density, rises through the
-/// experiment's). Convergence is tested instead against the solver itself
-/// (`dam_break_front_converges_when_spacing_halves`) and against Koshizuka & Oka's MPS solution
-/// of the same model (`dam_break_front_error_against_the_mps_solution_does_not_grow_...`);
+/// Measured (DFSPH with its hydrostatic walls, the default since session 12; session 14):
+/// 0.043 → 0.031 (`cargo test --release --test validation dam_break_front -- --nocapture`).
+/// With the mirrored walls it was not met (0.018 → 0.062): the square column's front, like
+/// the n² = 2 column's, converges to the model's answer ahead of the experiment (see the n² = 2
+/// test), so this test can fail at finer spacings than the two it runs.
+#[test]
+fn dam_break_front_error_does_not_grow_when_spacing_halves() {
+    front_error_does_not_grow(dam_break::Case::martin_moyce_square().unwrap());
+}
+
+/// The convergence criterion on the n² = 2 column: not met by the default solver
+/// (DFSPH with wall density), and it cannot be for a solver that converges: its front
+/// converges to the model's answer, about 0.2 in T ahead of the experiment (DFSPH with the
+/// hydrostatic walls: 0.037 → 0.059 from N = 8 to 16; Lethe's VOF example shifts its
+/// simulation by 0.175 in T before comparing with the same table). WCSPH without wall
+/// density met it only up to N = 16 on the square column (0.073 → 0.022 → 0.036 at N = 8,
+/// 16, 32: its front, slowed by the 4-layer slab's side walls missing from its density,
+/// rises through the experiment's). Convergence is tested instead against the solver itself
+/// (`dam_break_front_converges_when_spacing_halves`) and against Koshizuka & Oka's MPS
+/// solution of the same model (`dam_break_front_error_against_the_mps_solution_does_not_grow_...`);
 /// see docs/validation.md.
 #[test]
-#[ignore = "not met for the default solver DFSPH (session 12: n2 = 2 column 0.038 -> 0.059 from N = 8 to 16, the square column 0.054 -> 0.031): its front converges to one ~0.2 in T ahead of the experiment; see the doc comment and docs/validation.md"]
-fn dam_break_front_error_does_not_grow_when_spacing_halves() {
+#[ignore = "not met for the default solver DFSPH (session 14: n2 = 2 column 0.037 -> 0.059 from N = 8 to 16): its front converges to one ~0.2 in T ahead of the experiment; see the doc comment and docs/validation.md"]
+fn dam_break_front_error_does_not_grow_when_spacing_halves_n2_column() {
+    front_error_does_not_grow(dam_break::Case::martin_moyce_n2().unwrap());
+}
+
+/// Asserts that the default solver's Martin & Moyce front error over T ≤ 3 does not grow by
+/// more than 0.01 from N = 8 to N = 16 on `case`.
+fn front_error_does_not_grow(case: dam_break::Case) {
     let m = default_method();
-    for case in [
-        dam_break::Case::martin_moyce_square().unwrap(),
-        dam_break::Case::martin_moyce_n2().unwrap(),
-    ] {
-        let coarse = martin_moyce(case.clone(), &m, 8, 3.05);
-        let fine = martin_moyce(case, &m, 16, 3.05);
-        assert_conserved(&coarse);
-        assert_conserved(&fine);
-        let (ec, ef) = (
-            coarse.error("front_rms_t3").unwrap(),
-            fine.error("front_rms_t3").unwrap(),
-        );
-        assert!(
-            ef <= ec + 0.01,
-            "{} {}: front error grew from {ec:.4} (N = 8) to {ef:.4} (N = 16)",
-            coarse.scene,
-            m.name
-        );
-    }
+    let coarse = martin_moyce(case.clone(), &m, 8, 3.05);
+    let fine = martin_moyce(case, &m, 16, 3.05);
+    assert_conserved(&coarse);
+    assert_conserved(&fine);
+    let (ec, ef) = (
+        coarse.error("front_rms_t3").unwrap(),
+        fine.error("front_rms_t3").unwrap(),
+    );
+    println!(
+        "{} {}: front error {ec:.4} (N = 8), {ef:.4} (N = 16)",
+        coarse.scene, m.name
+    );
+    assert!(
+        ef <= ec + 0.01,
+        "{} {}: front error grew from {ec:.4} (N = 8) to {ef:.4} (N = 16)",
+        coarse.scene,
+        m.name
+    );
 }
 
 /// Every scene, every solver, every time-step policy at the quick sweep's coarsest
