@@ -7,6 +7,7 @@
 //! cargo run --release --example column -- --solver dfsph --hydrostatic-walls --warm-start 0.5
 //! cargo run --release --example column -- --solver dfsph --validation 6,8,12   # the report's scene
 //! cargo run --release --example column -- --solver dfsph --hydrostatic-walls --n 8 --spacing 0.0125 --radius 0.4
+//! cargo run --release --example column -- --solver clavet --n 8 --spacing 0.0125 --cohesion 0.1 --trace
 //! ```
 //!
 //! The tank is [`rapier_sph::scenes::HydrostaticTank`] (`n × 2n × n` particles on a lattice
@@ -33,7 +34,9 @@
 //! It also prints the hydrostatic scene's pressure-profile RMS both ways: averaged over the
 //! samples' instantaneous profiles (as the scene reports it) and of the time-averaged profile.
 //! `--solver wcsph-walls` is WCSPH with walls counting in the density (the buoyancy tests'
-//! setting); `--radius r` sets the contact radius to `r` spacings (the preset's is 0.5).
+//! setting); `--radius r` sets the contact radius to `r` spacings (the preset's is 0.5);
+//! `--support r` the kernel support to `r` spacings (the presets' is 2); `--solver clavet`
+//! runs Clavet's relaxation (walls by contact only), `--cohesion k` sets its cohesion (default 1).
 //!
 //! `--validation 6,8,12` instead runs the report's hydrostatic scene
 //! (`rapier_sph::validation::hydrostatic`, adaptive steps) with the chosen settings at those
@@ -53,6 +56,8 @@ fn main() {
     let mut max_density_error: Option<Real> = None;
     let mut threads = 0usize;
     let mut radius: Option<Real> = None;
+    let mut support: Option<Real> = None;
+    let mut cohesion: Option<Real> = None;
     let mut validation: Vec<usize> = Vec::new();
     let mut trace = false;
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -68,6 +73,8 @@ fn main() {
             "--warm-start" => warm = Some(parse(&value, "--warm-start")),
             "--threads" => threads = parse(&value, "--threads"),
             "--radius" => radius = Some(parse(&value, "--radius")),
+            "--support" => support = Some(parse(&value, "--support")),
+            "--cohesion" => cohesion = Some(parse(&value, "--cohesion")),
             "--validation" => {
                 validation = value.split(',').map(|v| parse(v, "--validation")).collect()
             }
@@ -86,8 +93,8 @@ fn main() {
                 step = 1;
             }
             other => exit(&format!(
-                "unknown argument {other} (--n, --spacing, --seconds, --solver default|wcsph|wcsph-walls|dfsph|pbf, \
-                 --warm-start, --[no-]hydrostatic-walls, --threads, --radius (fraction of the spacing), \
+                "unknown argument {other} (--n, --spacing, --seconds, --solver default|wcsph|wcsph-walls|dfsph|pbf|clavet, \
+                 --warm-start, --[no-]hydrostatic-walls, --threads, --radius (fraction of the spacing), --support (h in spacings), --cohesion (Clavet), \
                  --trace)"
             )),
         }
@@ -109,7 +116,18 @@ fn main() {
         "wcsph-walls" => b = b.solver(Solver::Wcsph).wall_density(true),
         "dfsph" => b = b.solver(Solver::dfsph()).wall_density(true),
         "pbf" => b = b.solver(Solver::pbf()).wall_density(true),
+        "clavet" => {
+            let mut c = rapier_sph::solver::Clavet::default();
+            if let Some(k) = cohesion {
+                c.cohesion = k;
+            }
+            b = b.solver(Solver::Clavet(c)).wall_density(false)
+        }
         other => exit(&format!("unknown solver {other}")),
+    }
+    if let Some(r) = support {
+        // Kernel support in spacings (the presets' is 2).
+        b = b.smoothing_length(r * s);
     }
     if let Some(r) = radius {
         // Contact radius as a fraction of the spacing (the preset's is 0.5).
