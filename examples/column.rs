@@ -36,7 +36,8 @@
 //! `--solver wcsph-walls` is WCSPH with walls counting in the density (the buoyancy tests'
 //! setting); `--radius r` sets the contact radius to `r` spacings (the preset's is 0.5);
 //! `--support r` the kernel support to `r` spacings (the presets' is 2); `--solver clavet`
-//! runs Clavet's relaxation (walls by contact only), `--cohesion k` sets its cohesion (default 1).
+//! runs Clavet's relaxation (walls by contact only; `clavet-walls`: walls in its densities),
+//! `--cohesion k` sets its cohesion (default 1).
 //!
 //! `--validation 6,8,12` instead runs the report's hydrostatic scene
 //! (`rapier_sph::validation::hydrostatic`, adaptive steps) with the chosen settings at those
@@ -93,7 +94,7 @@ fn main() {
                 step = 1;
             }
             other => exit(&format!(
-                "unknown argument {other} (--n, --spacing, --seconds, --solver default|wcsph|wcsph-walls|dfsph|pbf|clavet, \
+                "unknown argument {other} (--n, --spacing, --seconds, --solver default|wcsph|wcsph-walls|dfsph|pbf|clavet|clavet-walls, \
                  --warm-start, --[no-]hydrostatic-walls, --threads, --radius (fraction of the spacing), --support (h in spacings), --cohesion (Clavet), \
                  --trace)"
             )),
@@ -116,12 +117,14 @@ fn main() {
         "wcsph-walls" => b = b.solver(Solver::Wcsph).wall_density(true),
         "dfsph" => b = b.solver(Solver::dfsph()).wall_density(true),
         "pbf" => b = b.solver(Solver::pbf()).wall_density(true),
-        "clavet" => {
+        "clavet" | "clavet-walls" => {
             let mut c = rapier_sph::solver::Clavet::default();
             if let Some(k) = cohesion {
                 c.cohesion = k;
             }
-            b = b.solver(Solver::Clavet(c)).wall_density(false)
+            b = b
+                .solver(Solver::Clavet(c))
+                .wall_density(solver == "clavet-walls")
         }
         other => exit(&format!("unknown solver {other}")),
     }

@@ -104,8 +104,9 @@ pub struct FluidParams {
     pub solver: Solver,
     /// Colliders near a particle add their volume's density to it and push with the
     /// particle's pressure (see [`crate::boundary::wall`]), so particles do not cling to or
-    /// clump along walls. Water preset: on, except with the Clavet solver (which meets walls
-    /// through contact only) unless asked for explicitly; paper preset: off (the paper's
+    /// clump along walls. Water preset: on, except with the Clavet solver (which by default
+    /// meets walls through contact only: walls in its densities are perfectly wetting, see
+    /// [`crate::solver::clavet`]) unless asked for explicitly; paper preset: off (the paper's
     /// walls only reflect).
     pub wall_density: bool,
     /// Where the particles live: open space (default) or a periodic box (see
@@ -242,13 +243,6 @@ impl FluidParams {
                 non_negative("yield_ratio", sp.yield_ratio)?;
                 non_negative("plasticity", sp.plasticity)?;
             }
-            if self.wall_density {
-                return Err(SphError::InvalidParameter {
-                    field: "wall_density",
-                    value: 1.0,
-                    reason: "the Clavet solver meets walls through contact only",
-                });
-            }
         }
         if let Solver::Dfsph(d) = &self.solver {
             positive("max_density_error", d.max_density_error)?;
@@ -301,7 +295,7 @@ pub struct FluidParamsBuilder {
     params: FluidParams,
     mass_given: bool,
     /// Whether [`Self::wall_density`] was called: otherwise the preset's choice holds, and a
-    /// Clavet solver (which refuses wall density) turns it off.
+    /// Clavet solver turns it off.
     walls_given: bool,
 }
 
@@ -392,7 +386,8 @@ impl FluidParamsBuilder {
     }
     /// Whether walls add density (see [`FluidParams::wall_density`]). Unless this is
     /// called, the preset's choice holds (water: on; paper: off), except that the Clavet
-    /// solver, which meets walls through contact only, turns it off.
+    /// solver turns it off (it then meets walls through contact only; see
+    /// [`crate::solver::clavet`] for walls in its densities).
     pub fn wall_density(mut self, on: bool) -> Self {
         self.params.wall_density = on;
         self.walls_given = true;
@@ -514,15 +509,15 @@ mod tests {
     }
 
     /// The water preset is DFSPH with wall density; choosing Clavet without saying anything
-    /// about walls turns them off (Clavet refuses them), asking for both is refused, and an
-    /// explicit choice always holds. The paper preset stays WCSPH without wall density.
+    /// about walls turns them off, and an explicit choice always holds (Clavet with walls in
+    /// its densities since session 14). The paper preset stays WCSPH without wall density.
     #[test]
     fn wall_density_follows_the_preset_and_the_solver_unless_set() {
         let w = FluidParamsBuilder::water(0.05).build().unwrap();
         assert!(matches!(w.solver, Solver::Dfsph(_)) && w.wall_density);
         let c = FluidParamsBuilder::water(0.05).solver(Solver::clavet());
         assert!(!c.clone().build().unwrap().wall_density);
-        assert_eq!(field_of(c.wall_density(true).build()), "wall_density");
+        assert!(c.wall_density(true).build().unwrap().wall_density);
         let p = FluidParamsBuilder::water(0.05).solver(Solver::pbf());
         assert!(p.clone().build().unwrap().wall_density);
         assert!(!p.wall_density(false).build().unwrap().wall_density);

@@ -621,6 +621,19 @@ fn step_fluid(
                     position_based,
                 )
             });
+            if clavet_settings.is_some() {
+                timed(report, Stage::WallDensity, || {
+                    ws.wall.update_clavet(
+                        &ws.grid,
+                        positions,
+                        h,
+                        p.particle_spacing,
+                        colliders,
+                        bodies,
+                        coupling.as_deref(),
+                    )
+                });
+            }
             report.particles_near_walls += near;
         }
         _ => ws.wall.clear(),
@@ -638,6 +651,7 @@ fn step_fluid(
             &p,
             &clavet_settings.unwrap_or_default(),
             dt,
+            wall,
             ids,
             springs,
             positions,
@@ -728,8 +742,8 @@ fn step_fluid(
     //   minus the dynamic bodies' share of the hydrostatic wall term (when on), `m·h_c·dt`;
     // - PBF: `m·g_c·Σλ/(ρ0·dt)`, the wall's share of the position corrections over all
     //   iterations turned into velocity (`v = Δx/dt`).
-    // Clavet's relaxation has no wall term (walls act through contact, whose impulses reach
-    // the bodies for every solver).
+    // Clavet's wall term leaves dynamic bodies out (they meet its fluid through contact,
+    // whose impulses reach the bodies for every solver; see `WallWorkspace::update_clavet`).
     if let (Some(c), Some(w)) = (coupling.as_deref_mut(), wall)
         && w.coupled_any
         && clavet_settings.is_none()
@@ -1444,6 +1458,7 @@ fn step_clavet<S: Separation>(
     p: &crate::FluidParams,
     settings: &crate::solver::Clavet,
     dt: Real,
+    wall: Option<&crate::boundary::WallWorkspace>,
     ids: &[u32],
     springs: &mut crate::solver::springs::SpringSet,
     positions: &mut [Vector],
@@ -1463,6 +1478,7 @@ fn step_clavet<S: Separation>(
         spacing: p.particle_spacing,
         speed_of_sound: c,
         dt,
+        wall,
     };
     // Springs (if any) first, on the predicted positions (the paper's Alg. 1 order); timed
     // with the relaxation.

@@ -23,7 +23,8 @@ fn solver() -> impl Strategy<Value = Solver> {
     prop_oneof![
         Just(Solver::Wcsph),
         Just(Solver::dfsph()),
-        Just(Solver::pbf())
+        Just(Solver::pbf()),
+        Just(Solver::clavet())
     ]
 }
 

@@ -129,6 +129,15 @@ pub struct WallWorkspace {
     /// `û_i` the unit vector away from the walls (`−∇ρ_wall` normalised); the hydrostatic
     /// difference from their weighted centre back to the particle is part of `hydrostatic`.
     pub neighbour_pressure: bool,
+    /// Clavet's densities `Σ(1 − q)²` and `Σ(1 − q)³` (see [`crate::solver::clavet`]) the
+    /// walls add to each particle, from the static and kinematic colliders: the solid as the
+    /// rows of the fluid's lattice continued behind its surface, as for `density`. Dynamic
+    /// bodies meet a Clavet fluid through contact, whose impulses they receive. Filled by
+    /// [`Self::update_clavet`]; empty otherwise.
+    pub clavet: Vec<[Real; 2]>,
+    /// Gradients of the two densities of `clavet` at the particle (1/m; into the walls).
+    pub clavet_gradient: Vec<[Vector; 2]>,
+    clavet_tables: Option<(Real, Real, HalfSpaceTable, HalfSpaceTable)>,
     near: usize,
     /// See [`Self::pinch_fraction`].
     pinch_fraction: Real,
@@ -193,6 +202,8 @@ impl WallWorkspace {
         self.coupled_any = false;
         self.viscous.clear();
         self.viscous_velocity.clear();
+        self.clavet.clear();
+        self.clavet_gradient.clear();
     }
 
     fn tables(&mut self, density: KernelKind, force: KernelKind, h: Real, spacing: Real) {
@@ -330,30 +341,9 @@ impl WallWorkspace {
                                 Some(m) if m.moving => &m.start,
                                 _ => co.position(),
                             };
-                            let Some(proj) =
-                                co.shape().project_point_with_max_dist(pose, x, false, h)
-                            else {
+                            let Some((d, normal, point)) = surface_near(co, pose, x, h) else {
                                 continue;
                             };
-                            let offset = x - proj.point;
-                            let dist = offset.length();
-                            let normal = if dist > 1e-6 * h {
-                                if proj.is_inside {
-                                    -offset / dist
-                                } else {
-                                    offset / dist
-                                }
-                            } else {
-                                // On the surface: the feature's normal, if the shape has one.
-                                let local = pose.inverse_transform_point(x);
-                                let (_, feature) =
-                                    co.shape().project_local_point_and_get_feature(local);
-                                match co.shape().feature_normal_at_point(0, feature, local) {
-                                    Some(nl) => pose.rotation * nl,
-                                    None => continue,
-                                }
-                            };
-                            let d = if proj.is_inside { -dist } else { dist };
                             let (phi, _) = td.eval(d);
                             let (_, area) = tf.eval(d);
                             let a = (phi / full_d).min(1.0);
@@ -368,15 +358,15 @@ impl WallWorkspace {
                             // The wall's velocity at the closest point (static: none).
                             let wall_velocity = match entry {
                                 Some(mc) if mc.moving && predicted => {
-                                    Some(mc.velocity_at_stop(proj.point))
+                                    Some(mc.velocity_at_stop(point))
                                 }
-                                Some(mc) if mc.moving => Some(mc.velocity_at_start(proj.point)),
+                                Some(mc) if mc.moving => Some(mc.velocity_at_start(point)),
                                 Some(_) => None,
                                 None => co
                                     .parent()
                                     .and_then(|b| bodies.get(b))
                                     .filter(|b| !b.is_fixed())
-                                    .map(|b| b.velocity_at_point(proj.point)),
+                                    .map(|b| b.velocity_at_point(point)),
                             };
                             // ∇Φ = −A(d)·n (into the wall), in units of the whole kernel.
                             let ga = -normal * (area / full_f);
@@ -409,7 +399,7 @@ impl WallWorkspace {
                                     // without a gradient at the support's edge), then the one
                                     // with the largest gradient.
                                     if l > main.0 || main.1 == u32::MAX {
-                                        main = (l, e, proj.point);
+                                        main = (l, e, point);
                                     }
                                 }
                             }
@@ -468,6 +458,96 @@ impl WallWorkspace {
         near
     }
 
+    /// Clavet's wall densities ([`Self::clavet`], [`Self::clavet_gradient`]) of every particle
+    /// of `grid` at its (predicted) position in `positions`, with the colliders found by the
+    /// last [`Self::update`] on the same positions. Moving kinematic bodies stand at their pose
+    /// of the substep's end (the positions are predicted there); dynamic bodies are left to
+    /// contact.
+    #[allow(clippy::too_many_arguments)]
+    pub fn update_clavet(
+        &mut self,
+        grid: &NeighborGrid,
+        positions: &[Vector],
+        h: Real,
+        spacing: Real,
+        colliders: &ColliderSet,
+        bodies: &RigidBodySet,
+        coupling: Option<&super::Coupling>,
+    ) {
+        let n = positions.len();
+        let fresh = match &self.clavet_tables {
+            Some((th, ts, ..)) => *th != h || *ts != spacing,
+            None => true,
+        };
+        if fresh {
+            use crate::solver::clavet::{Cubic, Quadratic};
+            self.clavet_tables = Some((
+                h,
+                spacing,
+                HalfSpaceTable::new::<Quadratic>(h, spacing),
+                HalfSpaceTable::new::<Cubic>(h, spacing),
+            ));
+        }
+        self.clavet.resize(n, [0.0; 2]);
+        self.clavet_gradient.resize(n, [Vector::ZERO; 2]);
+        if !self.candidates.any() {
+            self.clavet.fill([0.0; 2]);
+            self.clavet_gradient.fill([Vector::ZERO; 2]);
+            return;
+        }
+        let Some((_, _, t2, t3)) = &self.clavet_tables else {
+            unreachable!("tables are made above")
+        };
+        // Number density of the lattice rows behind the wall.
+        let per_volume = 1.0 / (spacing * spacing * spacing);
+        let (full2, full3) = (t2.full(), t3.full());
+        let table = coupling.map_or(&[][..], |c| c.table());
+        let candidates = &self.candidates;
+        crate::par_chunks_mut!(self.clavet, CHUNK)
+            .zip(crate::par_chunks_mut!(self.clavet_gradient, CHUNK))
+            .enumerate()
+            .for_each(|(c, (dens, grad))| {
+                for k in 0..dens.len() {
+                    let i = c * CHUNK + k;
+                    let x = positions[i];
+                    // Union of half-spaces, per kernel, as in `update`.
+                    let (mut u, mut g) = ([0.0 as Real; 2], [Vector::ZERO; 2]);
+                    for &handle in candidates.of_cell(grid.cell_of(i)) {
+                        let Some(co) = colliders.get(handle) else {
+                            continue;
+                        };
+                        let found = super::bodies::entry_of(table, handle).map(|(_, m)| m);
+                        let dynamic = match found {
+                            Some(m) => m.dynamic,
+                            None => co
+                                .parent()
+                                .and_then(|b| bodies.get(b))
+                                .is_some_and(|b| b.is_dynamic()),
+                        };
+                        if dynamic {
+                            continue;
+                        }
+                        let pose = match found {
+                            Some(m) if m.moving => &m.stop,
+                            _ => co.position(),
+                        };
+                        let Some((d, normal, _)) = surface_near(co, pose, x, h) else {
+                            continue;
+                        };
+                        for (t, (table, full)) in [(t2, full2), (t3, full3)].into_iter().enumerate()
+                        {
+                            let (phi, area) = table.eval(d);
+                            let a = (phi / full).min(1.0);
+                            g[t] = g[t] * (1.0 - a) - normal * (area / full * (1.0 - u[t]));
+                            u[t] = 1.0 - (1.0 - u[t]) * (1.0 - a);
+                        }
+                    }
+                    dens[k] = [u[0] * full2 * per_volume, u[1] * full3 * per_volume];
+                    grad[k] = [g[0] * (full2 * per_volume), g[1] * (full3 * per_volume)];
+                }
+            });
+    }
+
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
         self.candidates.heap_bytes()
@@ -518,6 +598,35 @@ fn neighbour_centre(
         }
         if sw > 0.0 { sx / sw } else { Vector::ZERO }
     })
+}
+
+/// The surface of collider `co` (at `pose`) near `x`: the signed distance `d` to its closest
+/// point (negative inside the solid), the normal there pointing to the fluid side, and the
+/// point. `None` beyond `h`, or on the surface of a shape without a normal there.
+#[inline]
+fn surface_near(
+    co: &rapier3d::geometry::Collider,
+    pose: &crate::math::Pose,
+    x: Vector,
+    h: Real,
+) -> Option<(Real, Vector, Vector)> {
+    let proj = co.shape().project_point_with_max_dist(pose, x, false, h)?;
+    let offset = x - proj.point;
+    let dist = offset.length();
+    let normal = if dist > 1e-6 * h {
+        if proj.is_inside {
+            -offset / dist
+        } else {
+            offset / dist
+        }
+    } else {
+        // On the surface: the feature's normal, if the shape has one.
+        let local = pose.inverse_transform_point(x);
+        let (_, feature) = co.shape().project_local_point_and_get_feature(local);
+        pose.rotation * co.shape().feature_normal_at_point(0, feature, local)?
+    };
+    let d = if proj.is_inside { -dist } else { dist };
+    Some((d, normal, proj.point))
 }
 
 #[cfg(test)]
