@@ -105,8 +105,9 @@ pub struct FluidParams {
     /// Colliders near a particle add their volume's density to it and push with the
     /// particle's pressure (see [`crate::boundary::wall`]), so particles do not cling to or
     /// clump along walls. Water preset: on, except with the Clavet solver (which by default
-    /// meets walls through contact only: walls in its densities are perfectly wetting, see
-    /// [`crate::solver::clavet`]) unless asked for explicitly; paper preset: off (the paper's
+    /// meets walls through contact only: walls in its densities are perfectly wetting and suit
+    /// only a fluid without cohesion, see [`crate::solver::clavet`]) unless asked for
+    /// explicitly; paper preset: off (the paper's
     /// walls only reflect).
     pub wall_density: bool,
     /// Where the particles live: open space (default) or a periodic box (see

@@ -25,6 +25,10 @@
 //! ([`WallWorkspace::pinched`]): no motion of its own lowers its density, and the pressure
 //! solves leave it to contact and to its neighbours.
 //!
+//! Clavet's relaxation has two densities of its own kernels, `Σ(1 − q)²` and `Σ(1 − q)³`:
+//! [`WallWorkspace::update_clavet`] adds the walls to those the same way (see
+//! [`crate::solver::clavet`], "Walls").
+//!
 //! With [`crate::FluidParams::wall_viscosity`] `ε_w > 0` the solid volume also stands in for
 //! fluid moving with the wall in Müller's viscosity term: `Σ_j m/ρ_j ∇²W_ij (v_j − v_i)`
 //! gains `Σ_k L_k (v_k − v_i)`, `L_k` the viscosity Laplacian integrated over wall `k`'s
@@ -511,7 +515,7 @@ impl WallWorkspace {
                     let i = c * CHUNK + k;
                     let x = positions[i];
                     // Union of half-spaces, per kernel, as in `update`.
-                    let (mut u, mut g) = ([0.0 as Real; 2], [Vector::ZERO; 2]);
+                    let (mut u, mut g): ([Real; 2], [Vector; 2]) = ([0.0; 2], [Vector::ZERO; 2]);
                     for &handle in candidates.of_cell(grid.cell_of(i)) {
                         let Some(co) = colliders.get(handle) else {
                             continue;
