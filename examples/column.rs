@@ -59,6 +59,7 @@ fn main() {
     let mut radius: Option<Real> = None;
     let mut support: Option<Real> = None;
     let mut cohesion: Option<Real> = None;
+    let mut courant: Option<Real> = None;
     let mut validation: Vec<usize> = Vec::new();
     let mut trace = false;
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -76,6 +77,7 @@ fn main() {
             "--radius" => radius = Some(parse(&value, "--radius")),
             "--support" => support = Some(parse(&value, "--support")),
             "--cohesion" => cohesion = Some(parse(&value, "--cohesion")),
+            "--courant" => courant = Some(parse(&value, "--courant")),
             "--validation" => {
                 validation = value.split(',').map(|v| parse(v, "--validation")).collect()
             }
@@ -95,7 +97,7 @@ fn main() {
             }
             other => exit(&format!(
                 "unknown argument {other} (--n, --spacing, --seconds, --solver default|wcsph|wcsph-walls|dfsph|pbf|clavet|clavet-walls, \
-                 --warm-start, --[no-]hydrostatic-walls, --threads, --radius (fraction of the spacing), --support (h in spacings), --cohesion (Clavet), \
+                 --warm-start, --[no-]hydrostatic-walls, --threads, --radius (fraction of the spacing), --support (h in spacings), --cohesion (Clavet), --courant (adaptive substeps' Courant number, default 0.4), \
                  --trace)"
             )),
         }
@@ -191,6 +193,12 @@ fn main() {
         HydrostaticTank::new(params, [n, 2 * n, n]).unwrap_or_else(|e| exit(&e.to_string()));
     let frame = 1.0 / 60.0;
     tank.world.physics.integration_parameters.dt = frame;
+    if let Some(c) = courant {
+        tank.world.pipeline.time_stepping = rapier_sph::TimeStepping::Adaptive {
+            courant: c,
+            max_substeps: 4096,
+        };
+    }
     let g = tank.world.physics.gravity.length();
     let height = tank.fluid_height;
     let width = n as Real * s;

@@ -105,8 +105,8 @@ pub struct FluidParams {
     /// Colliders near a particle add their volume's density to it and push with the
     /// particle's pressure (see [`crate::boundary::wall`]), so particles do not cling to or
     /// clump along walls. Water preset: on, except with the Clavet solver (which by default
-    /// meets walls through contact only: walls in its densities are perfectly wetting and suit
-    /// only a fluid without cohesion, see [`crate::solver::clavet`]) unless asked for
+    /// meets walls through contact only: walls in its densities suit a fluid without
+    /// cohesion, see [`crate::solver::clavet`]) unless asked for
     /// explicitly; paper preset: off (the paper's
     /// walls only reflect).
     pub wall_density: bool,

@@ -484,8 +484,8 @@ fn heavy_body(solver: &Solver, size: SuiteSize, density: Real) -> Option<SphResu
 /// only) failed it at 9.3 × the initial energy: its acoustic substep was outside the
 /// relaxation's stability bound at 3 spacings; with the substep bound of session 11 it passes
 /// the verdict (0.82 ×), but its column is thrown up at the start (16 m/s peaks) before it
-/// settles: its cohesion pulls it off walls that do not count in its densities (docs/solvers.md,
-/// "Larger supports", session 14). WCSPH runs without wall
+/// settles: with its cohesion a lattice's faces are far from the relaxation's equilibrium
+/// (docs/solvers.md, "Larger supports", session 14). WCSPH runs without wall
 /// density here, as in every case of this suite, and passes.
 fn wide_support(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>> {
     Some((|| {

@@ -61,10 +61,14 @@
 //! a column at rest in a closed tank gained energy and never settled (no cohesion: still
 //! 1.0 m/s after 2 s at `h = 2s`, 5.3 m/s at `3s`), as WCSPH's walls did
 //! ([`crate::pressure::wcsph`]). Dynamic bodies are left to contact, whose impulses they
-//! receive (momentum stays exact). Walls counted this way are perfectly *wetting*: with any
-//! cohesion the liquid climbs them, violently (a column at rest in a closed tank, `h = 2s`:
-//! largest kinetic energy 0.27 of its potential energy at cohesion 0.1, 2.1 at the default
-//! 1, against 0.007 without cohesion; docs/solvers.md), so use them with `cohesion: 0.0`.
+//! receive (momentum stays exact). Walls counted this way are *neutral* for the cohesion
+//! (a contact angle of 90°: the liquid next to them lacks no density, so it has no surface
+//! energy there; contact-only walls are non-wetting, 180°). They do not remove what throws a
+//! cohesive fluid spawned on a lattice (its free surface is far from the relaxation's
+//! equilibrium, see "Cohesion"), and a thrown column that reaches the ceiling hangs there
+//! (a column at rest in a closed tank, `h = 2s`: largest kinetic energy 0.27 of its potential
+//! energy at cohesion 0.1, 2.1 at the default 1, against 0.007 without cohesion;
+//! docs/solvers.md), so they suit a fluid without cohesion (`cohesion: 0.0`).
 
 use crate::boundary::WallWorkspace;
 use crate::domain::{Open, Separation};
