@@ -81,8 +81,9 @@ pub struct FluidParams {
     /// solid volume acts as fluid moving with the wall in the viscosity term, so a particle
     /// next to a wall is dragged towards the wall's velocity (no-slip in the limit) and a
     /// moving body feels the fluid's shear stress (see [`crate::boundary::wall`]). Needs
-    /// [`Self::wall_density`] (the same half-space integrals). Both presets: 0 (free-slip
-    /// walls; the stage is skipped).
+    /// [`Self::wall_density`] (the same half-space integrals); not available with the Clavet
+    /// solver (its exchange with moving bodies drifted by 1.6 % of the momentum in a test).
+    /// Both presets: 0 (free-slip walls; the stage is skipped).
     #[cfg_attr(feature = "snapshot", serde(default))]
     pub wall_viscosity: Real,
     /// Kernel for density. Water preset: cubic spline. Paper preset: the paper's tuned poly6.
@@ -106,9 +107,8 @@ pub struct FluidParams {
     /// particle's pressure (see [`crate::boundary::wall`]), so particles do not cling to or
     /// clump along walls. Water preset: on, except with the Clavet solver (which by default
     /// meets walls through contact only: walls in its densities suit a fluid without
-    /// cohesion, see [`crate::solver::clavet`]) unless asked for
-    /// explicitly; paper preset: off (the paper's
-    /// walls only reflect).
+    /// cohesion, see [`crate::solver::clavet`]) unless asked for explicitly; paper preset:
+    /// off (the paper's walls only reflect).
     pub wall_density: bool,
     /// Where the particles live: open space (default) or a periodic box (see
     /// [`crate::domain`]). Both presets: open.
@@ -189,6 +189,17 @@ impl FluidParams {
                 field: "wall_viscosity",
                 value: self.wall_viscosity as f64,
                 reason: "needs wall_density (the walls' viscous term uses its half-space integrals)",
+            });
+        }
+        if self.wall_viscosity > 0.0 && matches!(self.solver, Solver::Clavet(_)) {
+            // Measured in session 14 (tests/moving_bodies.rs's sloshing box, Clavet without
+            // cohesion, walls in its densities, ε_w = 0.5): the momentum of fluid + bodies
+            // drifted by 1.6 % over 5 s (PBF with the same walls: 0.003 %); not understood.
+            return Err(SphError::InvalidParameter {
+                field: "wall_viscosity",
+                value: self.wall_viscosity as f64,
+                reason: "not available with the Clavet solver (its exchange with moving bodies \
+                         does not conserve momentum yet)",
             });
         }
         non_negative("restitution", self.restitution)?;
@@ -539,6 +550,12 @@ mod tests {
         );
         let no_walls = b().wall_density(false).wall_viscosity(0.5).build();
         assert_eq!(field_of(no_walls), "wall_viscosity");
+        let clavet = b().solver(Solver::clavet()).wall_density(true);
+        assert!(clavet.clone().build().is_ok());
+        assert_eq!(
+            field_of(clavet.wall_viscosity(0.5).build()),
+            "wall_viscosity"
+        );
     }
 
     #[test]

@@ -743,7 +743,8 @@ fn step_fluid(
     // - PBF: `m·g_c·Σλ/(ρ0·dt)`, the wall's share of the position corrections over all
     //   iterations turned into velocity (`v = Δx/dt`).
     // Clavet's wall term leaves dynamic bodies out (they meet its fluid through contact,
-    // whose impulses reach the bodies for every solver; see `WallWorkspace::update_clavet`).
+    // whose impulses reach the bodies for every solver; see `WallWorkspace::update_clavet`),
+    // and it has no wall viscosity (refused by `FluidParams::validate`).
     if let (Some(c), Some(w)) = (coupling.as_deref_mut(), wall)
         && w.coupled_any
         && clavet_settings.is_none()
