@@ -565,6 +565,8 @@ impl WallWorkspace {
                 + self.viscous_velocity.capacity())
                 * std::mem::size_of::<Vector>()
             + self.coupled.capacity() * std::mem::size_of::<Coupled>()
+            + self.clavet.capacity() * std::mem::size_of::<[Real; 2]>()
+            + self.clavet_gradient.capacity() * std::mem::size_of::<[Vector; 2]>()
     }
 }
 
