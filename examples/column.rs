@@ -35,6 +35,7 @@
 //! samples' instantaneous profiles (as the scene reports it) and of the time-averaged profile.
 //! `--solver wcsph-walls` is WCSPH with walls counting in the density (the buoyancy tests'
 //! setting); `--radius r` sets the contact radius to `r` spacings (the preset's is 0.5);
+//! `--solver pbf-hydrostatic` is PBF with hydrostatic walls;
 //! `--support r` the kernel support to `r` spacings (the presets' is 2); `--solver clavet`
 //! runs Clavet's relaxation (walls by contact only; `clavet-walls`: walls in its densities),
 //! `--cohesion k` sets its cohesion (default 1).
@@ -96,7 +97,7 @@ fn main() {
                 step = 1;
             }
             other => exit(&format!(
-                "unknown argument {other} (--n, --spacing, --seconds, --solver default|wcsph|wcsph-walls|dfsph|pbf|clavet|clavet-walls, \
+                "unknown argument {other} (--n, --spacing, --seconds, --solver default|wcsph|wcsph-walls|dfsph|pbf|pbf-hydrostatic|clavet|clavet-walls, \
                  --warm-start, --[no-]hydrostatic-walls, --threads, --radius (fraction of the spacing), --support (h in spacings), --cohesion (Clavet), --courant (adaptive substeps' Courant number, default 0.4), \
                  --trace)"
             )),
@@ -119,6 +120,14 @@ fn main() {
         "wcsph-walls" => b = b.solver(Solver::Wcsph).wall_density(true),
         "dfsph" => b = b.solver(Solver::dfsph()).wall_density(true),
         "pbf" => b = b.solver(Solver::pbf()).wall_density(true),
+        "pbf-hydrostatic" => {
+            b = b
+                .solver(Solver::Pbf(rapier_sph::solver::Pbf {
+                    hydrostatic_walls: true,
+                    ..Default::default()
+                }))
+                .wall_density(true)
+        }
         "clavet" | "clavet-walls" => {
             let mut c = rapier_sph::solver::Clavet::default();
             if let Some(k) = cohesion {

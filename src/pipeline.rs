@@ -610,9 +610,11 @@ fn step_fluid(
                     bodies,
                     p.collision_groups,
                     coupling.as_deref(),
-                    // The hydrostatic wall pressure is a DFSPH option (see `boundary::wall`).
+                    // The hydrostatic wall pressure is a DFSPH and PBF option (see
+                    // `boundary::wall`).
                     match p.solver {
                         Solver::Dfsph(d) if d.hydrostatic_walls => Some(gravity),
+                        Solver::Pbf(b) if b.hydrostatic_walls => Some(gravity),
                         _ => None,
                     },
                     p.wall_viscosity > 0.0,
@@ -740,8 +742,10 @@ fn step_fluid(
     //   0 otherwise), `Σπ` all the pressure values the divergence and density
     //   solves applied this substep (warm starts included: what `warm_*` hold now), plus
     //   minus the dynamic bodies' share of the hydrostatic wall term (when on), `m·h_c·dt`;
-    // - PBF: `m·g_c·Σλ/(ρ0·dt)`, the wall's share of the position corrections over all
-    //   iterations turned into velocity (`v = Δx/dt`).
+    // - PBF: `m·g_c·Σω·λ_w/(ρ0·dt)`, the wall's share of the position corrections over all
+    //   iterations turned into velocity (`v = Δx/dt`; `λ_w = λ`, with hydrostatic walls
+    //   `λ + λ̂`, and minus the hydrostatic part as for DFSPH). Until session 14 `Σλ` without
+    //   the relaxation `ω`: after a halving the bodies took up to 8× the particles' impulse.
     // Clavet's wall term leaves dynamic bodies out (they meet its fluid through contact,
     // whose impulses reach the bodies for every solver; see `WallWorkspace::update_clavet`),
     // and it has no wall viscosity (refused by `FluidParams::validate`).
@@ -782,7 +786,9 @@ fn step_fluid(
                         );
                         (w.mirror * total(i) + wall_pi) * m * dt
                     }
-                    Solver::Pbf(_) => -ws.pbf.lambda_sum[i] * m / (p.rest_density * dt),
+                    // The wall term's λ as applied (`PbfBuffers::wall_lambda_sum`: relaxation
+                    // included, and the neighbours' part with hydrostatic walls).
+                    Solver::Pbf(_) => -ws.pbf.wall_lambda_sum[i] * m / (p.rest_density * dt),
                     Solver::Clavet(_) => 0.0,
                 };
                 // The hydrostatic wall term (DFSPH; see `boundary::wall`) pushed the particle
@@ -1415,6 +1421,17 @@ fn step_pbf<S: Separation>(
 ) -> (usize, Real) {
     let h = p.smoothing_length;
     ws.pbf.relaxation_halvings = *solver_relaxation;
+    // Hydrostatic walls: the wall pressure's hydrostatic part moves the predicted positions by
+    // `a_h·dt²` (its acceleration over the substep), as DFSPH adds it to the velocities.
+    if let Some(w) = wall
+        && w.hydrostatic_on
+    {
+        timed(report, Stage::ExternalForces, || {
+            for (x, a) in positions.iter_mut().zip(&w.hydrostatic) {
+                *x += *a * (dt * dt);
+            }
+        });
+    }
     let ctx = crate::solver::pbf::PbfContext {
         neighbors: &ws.neighbors,
         wall,

@@ -389,6 +389,16 @@ fn momentum_is_conserved_for_every_solver() {
             0.0,
         ),
         ("PBF", Solver::Pbf(Default::default()), true, 0.0),
+        // The neighbours' λ and the hydrostatic part of the wall reach the bodies too.
+        (
+            "PBF, hydrostatic walls",
+            Solver::Pbf(rapier_sph::solver::Pbf {
+                hydrostatic_walls: true,
+                ..Default::default()
+            }),
+            true,
+            0.0,
+        ),
         ("Clavet", Solver::Clavet(Default::default()), false, 0.0),
         // Every collider here is dynamic, so its wall term is empty: measured (session 14)
         // the same run bit for bit as the same fluid with contact only (drift 0.3164 %; the

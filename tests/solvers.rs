@@ -675,6 +675,16 @@ fn pbf_column_with_a_wide_support_stays_at_rest() {
     column_with_a_wide_support_stays_at_rest(Solver::pbf(), Some(false));
 }
 
+/// PBF with hydrostatic walls (session 14): the same column and bounds; the safeguard may act.
+#[test]
+fn pbf_column_with_hydrostatic_walls_stays_at_rest() {
+    let pbf = Solver::Pbf(rapier_sph::solver::Pbf {
+        hydrostatic_walls: true,
+        ..Default::default()
+    });
+    column_stays_at_rest(pbf, None, None);
+}
+
 /// Clavet with walls in its densities (session 14) and no cohesion: the same column, the same
 /// tolerances (see [`column_with_a_wide_support_stays_at_rest`]). Measured (session 14):
 /// largest kinetic energy 0.67 % of the potential energy at 2 spacings, 0.30 % at 3. With

@@ -66,6 +66,16 @@ pub struct Pbf {
     /// `src/pipeline.rs`). Fixed time steps are not changed.
     #[cfg_attr(feature = "snapshot", serde(default = "default_max_density_error"))]
     pub max_density_error: Real,
+    /// Walls with hydrostatic pressure, as DFSPH's ([`super::Dfsph::hydrostatic_walls`];
+    /// default false, session 14): the wall's `λ` is the particle's own plus the average of its
+    /// fluid-side neighbours' (`λ_i + λ̂_i` in eq. 14's wall term), and the hydrostatic
+    /// difference `ρ0·g·(x_b − x_i)` moves the predicted position by `a_h·dt²`
+    /// ([`crate::boundary::WallWorkspace::hydrostatic`]). Measured in the hydrostatic scene
+    /// (`column --solver pbf-hydrostatic --validation 6,8,12`): bottom pressure −12.5 / −4.2 /
+    /// −1.6 % at N = 6 / 8 / 12 instead of +15.8 / +16.7 / +19.3 %, and no band of higher
+    /// pressure along the side walls; docs/solvers.md.
+    #[cfg_attr(feature = "snapshot", serde(default))]
+    pub hydrostatic_walls: bool,
 }
 
 #[cfg(feature = "snapshot")]
@@ -82,6 +92,7 @@ impl Default for Pbf {
             artificial_pressure_exponent: 4,
             artificial_pressure_distance: 0.2,
             max_density_error: 0.01,
+            hydrostatic_walls: false,
         }
     }
 }
@@ -99,6 +110,11 @@ pub struct PbfBuffers {
     pub wall_origin: Vec<Vector>,
     /// Per-chunk partial sums.
     pub partials: Vec<(f64, Real)>,
+    /// With walls: `Σ ω·λ_wall,i` over the iterations, the `λ` of the wall term (the
+    /// particle's own, plus its fluid-side neighbours' average with hydrostatic walls) as the
+    /// corrections applied it, relaxation `ω` included: the bodies' reaction. Empty without
+    /// walls.
+    pub wall_lambda_sum: Vec<Real>,
     /// The fluid's relaxation state for this solve (see [`MAX_RELAXATION_HALVINGS`]): the
     /// corrections are scaled by `0.5^relaxation_halvings`. Read and updated only by solves
     /// whose context sets [`PbfContext::safeguard`].
@@ -145,7 +161,7 @@ pub const DIVERGENCE_GROWTH: Real = 1.1;
 impl PbfBuffers {
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
-        (self.lambda.capacity() + self.lambda_sum.capacity()) * 4
+        (self.lambda.capacity() + self.lambda_sum.capacity() + self.wall_lambda_sum.capacity()) * 4
             + (self.correction.capacity() + self.wall_origin.capacity()) * 12
             + self.partials.capacity() * 16
     }
@@ -251,12 +267,19 @@ pub fn solve_in<K: Kernel, S: Separation>(
         correction,
         wall_origin,
         partials,
+        wall_lambda_sum,
         relaxation_halvings,
     } = buffers;
     lambda.resize(n, 0.0);
     lambda_sum.clear();
     lambda_sum.resize(n, 0.0);
     correction.resize(n, Vector::ZERO);
+    // The neighbours' part of the walls' λ (hydrostatic walls: `WallWorkspace::neighbour_pressure`).
+    let hydrostatic = ctx.wall.is_some_and(|w| w.neighbour_pressure);
+    wall_lambda_sum.clear();
+    if ctx.wall.is_some() {
+        wall_lambda_sum.resize(n, 0.0);
+    }
     partials.resize(n.div_ceil(CHUNK), (0.0, 0.0));
     if ctx.wall.is_some() {
         wall_origin.clear();
@@ -382,9 +405,18 @@ pub fn solve_in<K: Kernel, S: Separation>(
         {
             let positions: &[Vector] = positions;
             let lambda: &[Real] = lambda;
+            // Zipped with the chunks of `wall_lambda_sum`, which is empty without walls: an
+            // empty slice per chunk then.
+            let mut hat_chunks: Vec<&mut [Real]> = if ctx.wall.is_some() {
+                wall_lambda_sum.chunks_mut(CHUNK).collect()
+            } else {
+                Vec::new()
+            };
+            hat_chunks.resize_with(correction.len().div_ceil(CHUNK), Default::default);
             crate::par_chunks_mut!(correction, CHUNK)
+                .zip(crate::par_iter_mut!(hat_chunks))
                 .enumerate()
-                .for_each(|(c, out)| {
+                .for_each(|(c, (out, hat))| {
                     crate::par::wide(
                         #[inline(always)]
                         || {
@@ -396,9 +428,27 @@ pub fn solve_in<K: Kernel, S: Separation>(
                                 let nb = ctx.neighbors.of(i);
                                 let (mut fx, mut fy, mut fz) =
                                     ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+                                // Hydrostatic walls: the fluid-side neighbours' λ, weighted by
+                                // `max(0, ∇W_ij·û)`, `û` away from the walls (DFSPH's
+                                // `neighbour_average`, gathered in this pass).
+                                let hw = ctx
+                                    .wall
+                                    .filter(|w| hydrostatic && w.gradient[i] != Vector::ZERO);
+                                let away = hw.map_or(Vector::ZERO, |w| -w.gradient[i].normalize());
+                                let (mut sw, mut swl): (Real, Real) = (0.0, 0.0);
                                 let mut blocks = nb.chunks_exact(LANES);
                                 for block in &mut blocks {
                                     let b = gradient_block(&sep, &kernel, i, xi, positions, block);
+                                    if hw.is_some() {
+                                        for l in 0..LANES {
+                                            let wgt = (b.gx[l] * away.x
+                                                + b.gy[l] * away.y
+                                                + b.gz[l] * away.z)
+                                                .max(0.0);
+                                            sw += wgt;
+                                            swl += wgt * lambda[block[l] as usize];
+                                        }
+                                    }
                                     for l in 0..LANES {
                                         let s_corr = if s_k > 0.0 {
                                             -s_k * (kernel.w(b.d[l]) * inv_w_dq).powi(s_n)
@@ -420,10 +470,22 @@ pub fn solve_in<K: Kernel, S: Separation>(
                                         0.0
                                     };
                                     f += g * (li + lambda[j as usize] + s_corr);
+                                    if hw.is_some() {
+                                        let wgt = g.dot(away).max(0.0);
+                                        sw += wgt;
+                                        swl += wgt * lambda[j as usize];
+                                    }
                                 }
                                 let mut d = f * ctx.mass;
                                 if let Some(wall) = ctx.wall {
-                                    d += wall.gradient[i] * li;
+                                    let lw = if hydrostatic {
+                                        li + if sw > 0.0 { swl / sw } else { 0.0 }
+                                    } else {
+                                        li
+                                    };
+                                    // What the wall term applies, relaxation included.
+                                    hat[k] += lw * omega;
+                                    d += wall.gradient[i] * lw;
                                 }
                                 let d = d * (inv_rho0 * omega);
                                 let len = d.length();
