@@ -193,6 +193,9 @@ pub enum SolverDesc {
         /// Average compression the adaptive time step holds the solve to.
         #[serde(default)]
         max_density_error: Option<Positive>,
+        /// Walls with hydrostatic pressure ([`crate::solver::Pbf::hydrostatic_walls`]).
+        #[serde(default)]
+        hydrostatic_walls: Option<bool>,
     },
     /// Double-density relaxation ([`crate::solver::Clavet`]).
     Clavet {
@@ -263,6 +266,7 @@ impl SolverDesc {
                 artificial_pressure_exponent,
                 artificial_pressure_distance,
                 max_density_error,
+                hydrostatic_walls,
             } => {
                 let d = Pbf::default();
                 Solver::Pbf(Pbf {
@@ -274,6 +278,7 @@ impl SolverDesc {
                     artificial_pressure_distance: artificial_pressure_distance
                         .map_or(d.artificial_pressure_distance, |v| v.0),
                     max_density_error: max_density_error.map_or(d.max_density_error, |v| v.0),
+                    hydrostatic_walls: hydrostatic_walls.unwrap_or(d.hydrostatic_walls),
                 })
             }
             SolverDesc::Clavet {
