@@ -110,10 +110,9 @@ pub struct PbfBuffers {
     pub wall_origin: Vec<Vector>,
     /// Per-chunk partial sums.
     pub partials: Vec<(f64, Real)>,
-    /// With walls: `Σ ω·λ_wall,i` over the iterations, the `λ` of the wall term (the
-    /// particle's own, plus its fluid-side neighbours' average with hydrostatic walls) as the
-    /// corrections applied it, relaxation `ω` included: the bodies' reaction. Empty without
-    /// walls.
+    /// `Σ ω·λ_wall,i` over the iterations, the `λ` of the wall term (the particle's own, plus
+    /// its fluid-side neighbours' average with hydrostatic walls) as the corrections applied
+    /// it, relaxation `ω` included: the bodies' reaction. Zeros without walls.
     pub wall_lambda_sum: Vec<Real>,
     /// The fluid's relaxation state for this solve (see [`MAX_RELAXATION_HALVINGS`]): the
     /// corrections are scaled by `0.5^relaxation_halvings`. Read and updated only by solves
@@ -277,9 +276,7 @@ pub fn solve_in<K: Kernel, S: Separation>(
     // The neighbours' part of the walls' λ (hydrostatic walls: `WallWorkspace::neighbour_pressure`).
     let hydrostatic = ctx.wall.is_some_and(|w| w.neighbour_pressure);
     wall_lambda_sum.clear();
-    if ctx.wall.is_some() {
-        wall_lambda_sum.resize(n, 0.0);
-    }
+    wall_lambda_sum.resize(n, 0.0);
     partials.resize(n.div_ceil(CHUNK), (0.0, 0.0));
     if ctx.wall.is_some() {
         wall_origin.clear();
@@ -405,16 +402,8 @@ pub fn solve_in<K: Kernel, S: Separation>(
         {
             let positions: &[Vector] = positions;
             let lambda: &[Real] = lambda;
-            // Zipped with the chunks of `wall_lambda_sum`, which is empty without walls: an
-            // empty slice per chunk then.
-            let mut hat_chunks: Vec<&mut [Real]> = if ctx.wall.is_some() {
-                wall_lambda_sum.chunks_mut(CHUNK).collect()
-            } else {
-                Vec::new()
-            };
-            hat_chunks.resize_with(correction.len().div_ceil(CHUNK), Default::default);
             crate::par_chunks_mut!(correction, CHUNK)
-                .zip(crate::par_iter_mut!(hat_chunks))
+                .zip(crate::par_chunks_mut!(wall_lambda_sum, CHUNK))
                 .enumerate()
                 .for_each(|(c, (out, hat))| {
                     crate::par::wide(
