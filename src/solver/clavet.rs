@@ -213,16 +213,25 @@ pub fn lattice_rest_density(h: Real, s: Real) -> Real {
     rho
 }
 
-/// Clavet's density kernel `(1 − q)²` as a [`Kernel`] (not normalised: its sum over the
-/// neighbours is the method's density), for the walls' half-space tables
+/// Clavet's kernels `(1 − q)^P` as a [`Kernel`] (not normalised: their sums over the
+/// neighbours are the method's densities), for the walls' half-space tables
 /// ([`crate::boundary::WallWorkspace::update_clavet`]).
 #[derive(Copy, Clone, Debug)]
-pub(crate) struct Quadratic {
+pub(crate) struct Power<const P: i32> {
     h: Real,
 }
 
-impl Kernel for Quadratic {
-    const NAME: &'static str = "Clavet (1 - q)^2";
+/// The density kernel `(1 − q)²`.
+pub(crate) type Quadratic = Power<2>;
+/// The near-density kernel `(1 − q)³`.
+pub(crate) type Cubic = Power<3>;
+
+impl<const P: i32> Kernel for Power<P> {
+    const NAME: &'static str = if P == 2 {
+        "Clavet (1 - q)^2"
+    } else {
+        "Clavet (1 - q)^3"
+    };
     fn new(h: Real) -> Self {
         Self { h }
     }
@@ -230,35 +239,10 @@ impl Kernel for Quadratic {
         self.h
     }
     fn w(&self, d: Real) -> Real {
-        let a = (1.0 - d / self.h).max(0.0);
-        a * a
+        (1.0 - d / self.h).max(0.0).powi(P)
     }
     fn dw(&self, d: Real) -> Real {
-        -2.0 * (1.0 - d / self.h).max(0.0) / self.h
-    }
-}
-
-/// Clavet's near-density kernel `(1 − q)³` as a [`Kernel`] (see [`Quadratic`]).
-#[derive(Copy, Clone, Debug)]
-pub(crate) struct Cubic {
-    h: Real,
-}
-
-impl Kernel for Cubic {
-    const NAME: &'static str = "Clavet (1 - q)^3";
-    fn new(h: Real) -> Self {
-        Self { h }
-    }
-    fn support(&self) -> Real {
-        self.h
-    }
-    fn w(&self, d: Real) -> Real {
-        let a = (1.0 - d / self.h).max(0.0);
-        a * a * a
-    }
-    fn dw(&self, d: Real) -> Real {
-        let a = (1.0 - d / self.h).max(0.0);
-        -3.0 * a * a / self.h
+        -(P as Real) * (1.0 - d / self.h).max(0.0).powi(P - 1) / self.h
     }
 }
 
