@@ -466,7 +466,9 @@ impl WallWorkspace {
     /// of `grid` at its (predicted) position in `positions`, with the colliders found by the
     /// last [`Self::update`] on the same positions. Moving kinematic bodies stand at their pose
     /// of the substep's end (the positions are predicted there); dynamic bodies are left to
-    /// contact.
+    /// contact. It projects each particle near a wall onto the candidate colliders a second
+    /// time (the projections of `update` are not kept): the cost falls on Clavet fluids with
+    /// walls only, and `update`'s loop stays as the other solvers run it.
     #[allow(clippy::too_many_arguments)]
     pub fn update_clavet(
         &mut self,

@@ -110,9 +110,10 @@ pub struct PbfBuffers {
     pub wall_origin: Vec<Vector>,
     /// Per-chunk partial sums.
     pub partials: Vec<(f64, Real)>,
-    /// `Σ ω·λ_wall,i` over the iterations, the `λ` of the wall term (the particle's own, plus
-    /// its fluid-side neighbours' average with hydrostatic walls) as the corrections applied
-    /// it, relaxation `ω` included: the bodies' reaction. Zeros without walls.
+    /// With walls: `Σ ω·λ_wall,i` over the iterations, the `λ` of the wall term (the
+    /// particle's own, plus its fluid-side neighbours' average with hydrostatic walls) as the
+    /// corrections applied it, relaxation `ω` included: the bodies' reaction. Without walls
+    /// its values are stale (never read); it has the fluid's size so it zips by chunks.
     pub wall_lambda_sum: Vec<Real>,
     /// The fluid's relaxation state for this solve (see [`MAX_RELAXATION_HALVINGS`]): the
     /// corrections are scaled by `0.5^relaxation_halvings`. Read and updated only by solves
@@ -275,7 +276,8 @@ pub fn solve_in<K: Kernel, S: Separation>(
     correction.resize(n, Vector::ZERO);
     // The neighbours' part of the walls' λ (hydrostatic walls: `WallWorkspace::neighbour_pressure`).
     let hydrostatic = ctx.wall.is_some_and(|w| w.neighbour_pressure);
-    wall_lambda_sum.clear();
+    // Written (not read) by the first iteration's corrections where walls are: no O(n)
+    // zeroing per solve, and without walls it is never read.
     wall_lambda_sum.resize(n, 0.0);
     partials.resize(n.div_ceil(CHUNK), (0.0, 0.0));
     if ctx.wall.is_some() {
@@ -399,6 +401,7 @@ pub fn solve_in<K: Kernel, S: Separation>(
             1.0
         };
         // Pass 2: corrections (eqs. 12–14).
+        let first = stats.iterations == 0;
         {
             let positions: &[Vector] = positions;
             let lambda: &[Real] = lambda;
@@ -473,7 +476,11 @@ pub fn solve_in<K: Kernel, S: Separation>(
                                         li
                                     };
                                     // What the wall term applies, relaxation included.
-                                    hat[k] += lw * omega;
+                                    if first {
+                                        hat[k] = lw * omega;
+                                    } else {
+                                        hat[k] += lw * omega;
+                                    }
                                     d += wall.gradient[i] * lw;
                                 }
                                 let d = d * (inv_rho0 * omega);
