@@ -241,7 +241,8 @@ fn run(case: &Case, paper: bool) -> Measurement {
     }
     let wall = t0.elapsed().as_secs_f64();
     assert_eq!(w.fluids.num_particles(), n, "particle count changed");
-    let bytes = w.fluids.iter().map(|(_, f)| f.heap_bytes()).sum::<usize>();
+    let bytes =
+        w.fluids.iter().map(|(_, f)| f.heap_bytes()).sum::<usize>() + w.pipeline.heap_bytes();
     Measurement {
         n,
         wall,

@@ -393,7 +393,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("NaN/inf particles    {non_finite}");
     println!(
         "memory               {:.0} bytes/particle",
-        scene.world.fluids[scene.fluid].heap_bytes() as f64 / n as f64
+        (scene.world.fluids[scene.fluid].heap_bytes() + scene.world.pipeline.heap_bytes()) as f64
+            / n as f64
     );
     println!(
         "state hash           {:016x} (FNV-1a of ids, positions, velocities: equal hashes, bitwise equal runs)",

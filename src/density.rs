@@ -1,7 +1,7 @@
 //! Stage 2: density by kernel summation (Müller et al. 2003, eq. 3; the Unity paper's eq. 9):
 //! `ρ_i = Σ_j m·W(|x_i − x_j|, h)`, the particle itself included.
 
-use crate::domain::{Open, Separation};
+use crate::domain::Separation;
 use crate::kernel::Kernel;
 use crate::math::{Real, Vector};
 use crate::neighbors::NeighborLists;
@@ -9,6 +9,7 @@ use crate::par::{CHUNK, LANES, lane_sum};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
+#[cfg(test)]
 /// Computes `densities[i]` for every particle, plus `wall[i]` (the walls' density, see
 /// [`crate::boundary::wall`]) when given, and `inv_densities[i] = 1/ρ_i` (the force
 /// stages multiply by it instead of dividing once per pair).
@@ -21,7 +22,7 @@ pub fn compute<K: Kernel>(
     densities: &mut [Real],
     inv_densities: &mut [Real],
 ) {
-    compute_in::<K, Open>(
+    compute_in::<K, crate::domain::Open>(
         positions,
         neighbors,
         mass,
@@ -29,7 +30,7 @@ pub fn compute<K: Kernel>(
         wall,
         densities,
         inv_densities,
-        Open,
+        crate::domain::Open,
     );
 }
 

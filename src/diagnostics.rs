@@ -7,6 +7,9 @@ use std::time::Duration;
 /// The named stages of one step, in the order they run.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
 pub enum Stage {
+    /// Overlap relaxation of particles just added or pushed out of a solid (runs only then;
+    /// its neighbour searches and wall updates count under their own stages).
+    Relaxation,
     /// Sort particles by cell, build cells and neighbour lists.
     NeighbourSearch,
     /// Density and pressure-gradient contributions of nearby colliders (skipped when no
@@ -35,7 +38,8 @@ pub enum Stage {
 
 impl Stage {
     /// All stages in step order.
-    pub const ALL: [Stage; 11] = [
+    pub const ALL: [Stage; 12] = [
+        Stage::Relaxation,
         Stage::NeighbourSearch,
         Stage::WallDensity,
         Stage::Density,
@@ -52,6 +56,7 @@ impl Stage {
     /// The stage's name as printed in reports.
     pub fn name(self) -> &'static str {
         match self {
+            Stage::Relaxation => "overlap relaxation",
             Stage::NeighbourSearch => "neighbour search",
             Stage::WallDensity => "wall density",
             Stage::Density => "density",
@@ -117,7 +122,7 @@ pub struct StepReport {
     /// Largest particle speed after the update (m/s).
     pub max_speed: Real,
     /// Largest relative compression `max(ρ − ρ0, 0)/ρ0` over all particles and substeps
-    /// (under-density at a free surface is not an error; see [`crate::density::density_error`]).
+    /// (under-density at a free surface is not an error; see `density::density_error`).
     pub max_density_error: Real,
     /// Mean relative compression over all particles (each fluid weighted by its count),
     /// averaged over the substeps.
@@ -147,7 +152,7 @@ pub struct StepReport {
     /// [`crate::solver::pbf::MAX_RELAXATION_HALVINGS`]).
     pub solver_relaxation_halvings: u32,
     /// DFSPH with hydrostatic walls: solves that diverged and finished without the walls'
-    /// neighbour part (see [`crate::solver::dfsph::DfsphBuffers::applied_neighbour`]).
+    /// neighbour part (see `solver::dfsph::DfsphBuffers::applied_neighbour`).
     pub solver_wall_neighbour_dropped: u32,
     /// Particles with a collider within their kernel support (walls counting in density).
     pub particles_near_walls: usize,
@@ -174,7 +179,7 @@ pub struct StepReport {
     /// `true` when a fluid's capacity stopped its emitters during the step.
     pub capacity_reached: bool,
     /// Dynamic bodies that received impulses from the fluid (applied through rapier at the
-    /// end of the step; see [`crate::boundary::bodies`]).
+    /// end of the step; see `src/boundary/bodies.rs`).
     pub coupled_bodies: usize,
 }
 
@@ -192,5 +197,15 @@ impl fmt::Display for StageTimings {
             )?;
         }
         write!(f, "  {:<22} {:>10.3} ms", "total", total * 1e3)
+    }
+}
+
+impl StepReport {
+    /// Runs `f`, adding its wall time to `stage`.
+    pub(crate) fn timed<T>(&mut self, stage: Stage, f: impl FnOnce() -> T) -> T {
+        let t0 = std::time::Instant::now();
+        let out = f();
+        self.timings.add(stage, t0.elapsed());
+        out
     }
 }

@@ -38,7 +38,7 @@ pub enum SphError {
         /// Number of colliders in the `ColliderSet`.
         colliders: usize,
     },
-    /// Reference data of a validation scene could not be read (see [`crate::validation`]).
+    /// Reference data of a validation scene could not be read (the `validation` feature).
     ReferenceData {
         /// The file or folder.
         path: String,

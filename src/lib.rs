@@ -84,6 +84,7 @@
 //! | `surface` | no | `surface`: liquid surface meshes (splashsurf_lib) |
 //! | `viewer` | no | `examples/viewer.rs`: a kiss3d window for scene files |
 //! | `cli` | no | the `rapier-sph` binary: `run` and `validate` scene files (clap, indicatif) |
+//! | `validation` | no | `validation`, `stability`, `scenes`: the validation scenes, the stability suite and the reference scenes the crate's own tests, examples and benches use |
 //! | `report` | no | `examples/error_vs_runtime.rs`: the error-vs-run-time report's plots (plotters, resvg) and progress bar (indicatif) |
 //!
 //! None of the optional features changes the simulation; the default build pulls none of
@@ -102,15 +103,15 @@
 
 #![warn(missing_docs)]
 
-pub mod boundary;
-pub mod density;
+pub(crate) mod boundary;
+pub(crate) mod density;
 pub mod diagnostics;
 pub mod domain;
 pub mod emitter;
 pub mod error;
 pub mod fluid;
-pub mod forces;
-pub mod integrate;
+pub(crate) mod forces;
+pub(crate) mod integrate;
 #[cfg(feature = "io")]
 pub mod io;
 pub mod kernel;
@@ -118,22 +119,25 @@ pub mod math;
 #[cfg(any(feature = "io", feature = "render"))]
 pub mod mesh;
 pub mod neighbors;
-pub mod par;
+pub(crate) mod par;
 pub mod params;
 pub mod pipeline;
-pub mod pressure;
+pub(crate) mod pressure;
 pub mod query;
 #[cfg(feature = "render")]
 pub mod render;
 #[cfg(feature = "scene")]
 pub mod scene_file;
+#[cfg(feature = "validation")]
 pub mod scenes;
 #[cfg(feature = "snapshot")]
 pub mod snapshot;
 pub mod solver;
+#[cfg(feature = "validation")]
 pub mod stability;
 #[cfg(feature = "surface")]
 pub mod surface;
+#[cfg(feature = "validation")]
 pub mod validation;
 pub mod world;
 
@@ -146,7 +150,7 @@ pub use kernel::KernelKind;
 pub use params::{EquationOfState, FluidParams, FluidParamsBuilder};
 pub use pipeline::{FluidPipeline, TimeStepping};
 pub use query::{FluidAmount, FluidSampler, Region, RegionTracker};
-pub use solver::{Dfsph, Solver};
+pub use solver::{Clavet, Dfsph, Pbf, Solver, Springs};
 pub use world::FluidWorld;
 
 /// Re-export of the rapier version this crate is built on.
@@ -156,7 +160,9 @@ pub use rapier3d;
 pub mod prelude {
     pub use crate::math::{Pose, Real, Vector};
     pub use crate::{
-        EquationOfState, Fluid, FluidHandle, FluidParams, FluidParamsBuilder, FluidPipeline,
-        FluidSet, FluidWorld, KernelKind, SphError, Stage, StepReport,
+        Clavet, Dfsph, Domain, Emitter, EquationOfState, Fluid, FluidHandle, FluidParams,
+        FluidParamsBuilder, FluidPipeline, FluidSampler, FluidSet, FluidWorld, KernelKind, Nozzle,
+        Pbf, Region, RegionTracker, Sink, SinkRegion, Solver, SphError, SphResult, Springs, Stage,
+        StepReport, TimeStepping,
     };
 }

@@ -23,6 +23,7 @@ use crate::error::SphError;
 use crate::fluid::snapshot::FluidState;
 use crate::math::{Real, Vector};
 use crate::pipeline::{FluidPipeline, TimeStepping};
+use crate::solver::SolverMemory;
 use crate::world::FluidWorld;
 use rapier3d::pipeline::PhysicsWorld;
 use serde::{Deserialize, Serialize};
@@ -32,8 +33,9 @@ use std::path::{Path, PathBuf};
 const MAGIC: &[u8; 16] = b"rapier-sph snap\0";
 /// The snapshot format's version, stored in every file (3: fluids carry their emitters,
 /// sinks, emitted/drained counters and capacity; 4: the coupling's memory of the velocity
-/// each dynamic body was left with).
-pub const FORMAT_VERSION: u32 = 4;
+/// each dynamic body was left with; 5: per-particle attributes, and the solvers' memory
+/// beside the fluids).
+pub const FORMAT_VERSION: u32 = 5;
 
 /// A body handle's raw parts and a linear velocity.
 type BodyVelocity = ((u32, u32), [Real; 3]);
@@ -43,6 +45,7 @@ struct SnapshotRef<'a> {
     time_stepping: TimeStepping,
     coupling: Vec<BodyVelocity>,
     fluids: Vec<FluidState>,
+    solvers: Vec<SolverMemory>,
     physics: &'a PhysicsWorld,
 }
 
@@ -51,6 +54,7 @@ struct SnapshotOwned {
     time_stepping: TimeStepping,
     coupling: Vec<BodyVelocity>,
     fluids: Vec<FluidState>,
+    solvers: Vec<SolverMemory>,
     physics: PhysicsWorld,
 }
 
@@ -111,6 +115,11 @@ pub fn to_bytes(world: &FluidWorld) -> Result<Vec<u8>, SnapshotError> {
             .iter()
             .map(|(_, f)| FluidState::capture(f))
             .collect(),
+        solvers: world
+            .fluids
+            .iter()
+            .map(|(h, _)| world.pipeline.solver_memory(h))
+            .collect(),
         physics: &world.physics,
     };
     let mut out = MAGIC.to_vec();
@@ -146,10 +155,23 @@ pub fn from_bytes(bytes: &[u8]) -> Result<FluidWorld, SnapshotError> {
             })
             .collect(),
     );
-    for state in data.fluids {
+    if data.solvers.len() != data.fluids.len() {
+        return Err(SnapshotError::Encoding(
+            "solver states and fluids differ in number".into(),
+        ));
+    }
+    for (state, memory) in data.fluids.into_iter().zip(data.solvers) {
+        if !memory.springs.is_consistent() {
+            return Err(SnapshotError::Invalid(SphError::InvalidParticle {
+                index: 0,
+                reason: "snapshot springs are malformed",
+            }));
+        }
+        let fluid = state.restore().map_err(SnapshotError::Invalid)?;
+        let handle = world.fluids.insert(fluid);
         world
-            .fluids
-            .insert(state.restore().map_err(SnapshotError::Invalid)?);
+            .pipeline
+            .restore_solver_memory(handle, &world.fluids, memory);
     }
     Ok(world)
 }

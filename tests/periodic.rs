@@ -208,7 +208,7 @@ fn lattice_filling_the_box_has_uniform_density() {
         let f = &fluids[h];
         let d = f.params().domain.minimum_image().unwrap();
         let support = f.params().smoothing_length;
-        let nb = f.neighbor_lists();
+        let nb = pipeline.neighbor_lists(h).unwrap();
         let x = f.positions();
         let counts: Vec<usize> = (0..nb.len())
             .map(|i| {

@@ -385,7 +385,7 @@ fn clavet_springs_stay_paired_and_bounded() {
         scene.world.step().unwrap();
     }
     let f = &scene.world.fluids[scene.fluid];
-    let springs = f.springs();
+    let springs = scene.world.pipeline.springs(scene.fluid).unwrap();
     assert!(
         springs.len() > 10 * f.len(),
         "{} springs for {} particles",

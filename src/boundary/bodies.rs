@@ -360,11 +360,6 @@ impl Coupling {
         }
     }
 
-    /// Forgets the table (a fluid with no particle, or coupling off).
-    pub fn clear_table(&mut self) {
-        self.table.clear();
-    }
-
     /// The table of the current substep (sorted by handle).
     pub fn table(&self) -> &[MovingCollider] {
         &self.table
@@ -532,17 +527,6 @@ impl Coupling {
     pub fn set_left_velocities(&mut self, mut left: Vec<(RigidBodyHandle, Vector)>) {
         left.sort_by_key(|l| l.0.0);
         self.left = left;
-    }
-
-    /// The impulses gathered so far this frame: `(body, linear, angular)`.
-    pub fn pending(&self) -> impl Iterator<Item = (RigidBodyHandle, Vector, Vector)> + '_ {
-        self.impulses.iter().map(|(h, j, t)| {
-            (
-                *h,
-                Vector::new(j[0] as Real, j[1] as Real, j[2] as Real),
-                Vector::new(t[0] as Real, t[1] as Real, t[2] as Real),
-            )
-        })
     }
 }
 

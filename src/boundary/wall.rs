@@ -44,9 +44,28 @@ use crate::neighbors::{NeighborGrid, NeighborLists};
 use crate::par::CHUNK;
 use parry3d::partitioning::Bvh;
 use rapier3d::dynamics::RigidBodySet;
-use rapier3d::geometry::{ColliderSet, InteractionGroups};
+use rapier3d::geometry::ColliderSet;
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
+
+/// What the wall stage reads besides the particles: the fluid's parameters, what its solver
+/// asks for, and the rapier side.
+pub(crate) struct WallQuery<'a> {
+    /// The fluid's parameters (density kernel, support, spacing, rest density, groups).
+    pub params: &'a crate::params::FluidParams,
+    /// Kernel of the pressure-gradient table (the solver's force kernel).
+    pub force_kernel: KernelKind,
+    /// The broad-phase's tree, the colliders and the bodies.
+    pub scene: (&'a Bvh, &'a ColliderSet, &'a RigidBodySet),
+    /// The moving bodies of the substep, if any.
+    pub coupling: Option<&'a super::Coupling>,
+    /// Gravity, when the solver asks for the walls' hydrostatic pressure.
+    pub hydrostatic: Option<Vector>,
+    /// Whether to compute the walls' viscous sums.
+    pub viscous: bool,
+    /// The positions are predicted to the substep's end (moving bodies are taken there).
+    pub predicted: bool,
+}
 
 /// A particle's wall terms due to dynamic bodies (see [`WallWorkspace::coupled`]).
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -153,11 +172,6 @@ impl WallWorkspace {
         self.near > 0
     }
 
-    /// Particles with a wall within their support at the last update.
-    pub fn particles_near_walls(&self) -> usize {
-        self.near
-    }
-
     /// `true` when the walls and the particle's own share `self_density` (`m·W(0)`) alone
     /// bring particle `i` above [`Self::pinch_fraction`] of `rest_density`: it sits in a gap
     /// between solids narrower than the fluid can fill (a body landing on the floor squeezes
@@ -177,6 +191,7 @@ impl WallWorkspace {
                 .is_some_and(|&w| w + self_density >= self.pinch_fraction * rest_density)
     }
 
+    #[cfg(test)]
     /// The threshold of [`Self::pinched`], as a fraction of `ρ0`: halfway between the
     /// densest place a particle of a resting lattice can have next to walls and `ρ0`
     /// itself. That place is the tip of a right-angled corner, one contact radius (half a
@@ -240,26 +255,20 @@ impl WallWorkspace {
     /// (stiff: they cannot move out of the way) drove into growing oscillation (stability
     /// case 11: a 2000 kg/m³ box rocked and exploded after about 1 s; at the end pose it
     /// rests, KE ratio 0.015).
-    #[allow(clippy::too_many_arguments)]
-    pub fn update(
+    pub(crate) fn update(
         &mut self,
-        grid: &NeighborGrid,
-        neighbors: &NeighborLists,
+        search: &crate::neighbors::NeighbourSearch,
         positions: &[Vector],
-        density_kernel: KernelKind,
-        force_kernel: KernelKind,
-        h: Real,
-        spacing: Real,
-        rest_density: Real,
-        bvh: &Bvh,
-        colliders: &ColliderSet,
-        bodies: &RigidBodySet,
-        groups: InteractionGroups,
-        coupling: Option<&super::Coupling>,
-        hydrostatic: Option<Vector>,
-        viscous: bool,
-        predicted: bool,
+        query: &WallQuery<'_>,
     ) -> usize {
+        let (grid, neighbors) = (&search.grid, &search.lists);
+        let p = query.params;
+        let (density_kernel, force_kernel) = (p.density_kernel, query.force_kernel);
+        let (h, spacing, rest_density) = (p.smoothing_length, p.particle_spacing, p.rest_density);
+        let (bvh, colliders, bodies) = query.scene;
+        let groups = p.collision_groups;
+        let (coupling, hydrostatic) = (query.coupling, query.hydrostatic);
+        let (viscous, predicted) = (query.viscous, query.predicted);
         let n = positions.len();
         self.tables(density_kernel, force_kernel, h, spacing);
         self.candidates.gather(
@@ -469,17 +478,15 @@ impl WallWorkspace {
     /// contact. It projects each particle near a wall onto the candidate colliders a second
     /// time (the projections of `update` are not kept): the cost falls on Clavet fluids with
     /// walls only, and `update`'s loop stays as the other solvers run it.
-    #[allow(clippy::too_many_arguments)]
-    pub fn update_clavet(
+    pub(crate) fn update_clavet(
         &mut self,
         grid: &NeighborGrid,
         positions: &[Vector],
-        h: Real,
-        spacing: Real,
-        colliders: &ColliderSet,
-        bodies: &RigidBodySet,
-        coupling: Option<&super::Coupling>,
+        query: &WallQuery<'_>,
     ) {
+        let (h, spacing) = (query.params.smoothing_length, query.params.particle_spacing);
+        let (_, colliders, bodies) = query.scene;
+        let coupling = query.coupling;
         let n = positions.len();
         let fresh = match &self.clavet_tables {
             Some((th, ts, ..)) => *th != h || *ts != spacing,
@@ -552,6 +559,41 @@ impl WallWorkspace {
                     grad[k] = [g[0] * (full2 * per_volume), g[1] * (full3 * per_volume)];
                 }
             });
+    }
+
+    /// The impulse each particle's wall term gave the dynamic bodies this substep, recorded
+    /// for the body contributing most (`records`, in particle order): `g_c·scale(i) −
+    /// h_c·m·dt`, `g_c` the dynamic bodies' share of the wall density's gradient, `scale` the
+    /// solver's share (see `PressureSolver::wall_impulse_scale`), `h_c` their share of the
+    /// hydrostatic wall acceleration. With `added_mass` the particle moves with the body along
+    /// the gradient's direction in the exchange (as for contact).
+    pub(crate) fn reaction(
+        &self,
+        scale: impl Fn(usize) -> Real,
+        added_mass: bool,
+        mass_dt: Real,
+        records: &mut Vec<super::bodies::ImpulseRecord>,
+    ) {
+        for (i, cw) in self.coupled.iter().enumerate() {
+            if cw.entry == u32::MAX {
+                continue;
+            }
+            let gc = cw.gradient;
+            let impulse = gc * scale(i) - cw.hydrostatic * mass_dt;
+            if impulse != Vector::ZERO {
+                records.push(super::bodies::ImpulseRecord {
+                    entry: cw.entry,
+                    particle: i as u32,
+                    normal: if added_mass {
+                        gc.normalize_or_zero()
+                    } else {
+                        Vector::ZERO
+                    },
+                    impulse,
+                    point: cw.point,
+                });
+            }
+        }
     }
 
     /// Heap bytes held.

@@ -1,61 +1,28 @@
 //! Fluids: particles stored as structure of arrays, and the set that holds several fluids.
 
+mod attributes;
 mod fluid_set;
 #[cfg(feature = "snapshot")]
 pub(crate) mod snapshot;
 
+pub(crate) use attributes::Attributes;
+
 pub use fluid_set::{FluidHandle, FluidSet};
 
-use crate::boundary::{ContactWorkspace, WallWorkspace};
 use crate::error::{SphError, SphResult};
 use crate::math::{Real, Vector, is_finite};
-use crate::neighbors::{NeighborGrid, NeighborLists};
 use crate::params::FluidParams;
-use crate::solver::dfsph::DfsphBuffers;
 
-/// Scratch state a fluid keeps between steps so that the step never allocates once warm.
-#[derive(Clone, Debug, Default)]
-pub(crate) struct Workspace {
-    pub grid: NeighborGrid,
-    pub neighbors: NeighborLists,
-    pub contact: ContactWorkspace,
-    /// Impulses on dynamic bodies recorded by contact, one buffer per chunk of particles.
-    pub impulses: Vec<Vec<crate::boundary::bodies::ImpulseRecord>>,
-    /// Impulses on dynamic bodies from the walls' pressure force (WCSPH with wall density).
-    pub wall_impulses: Vec<Vec<crate::boundary::bodies::ImpulseRecord>>,
-    /// Impulses on dynamic bodies from the walls' viscosity (`wall_viscosity > 0`).
-    pub wall_viscous_impulses: Vec<crate::boundary::bodies::ImpulseRecord>,
-    /// Wall contributions to density (see [`crate::boundary::wall`]).
-    pub wall: WallWorkspace,
-    /// DFSPH factors and iteration buffers.
-    pub dfsph: DfsphBuffers,
-    /// Clavet relaxation buffers.
-    pub clavet: crate::solver::clavet::ClavetBuffers,
-    /// The stiffest rest mode of the Clavet relaxation (1/s²) and the parameters it was
-    /// computed for (support, spacing, speed of sound, settings); see
-    /// [`crate::solver::clavet::stiffest_rest_mode`].
-    pub clavet_stiffest: Option<(Real, Real, Real, crate::solver::Clavet, Real)>,
-    /// Scratch of the Clavet solver's springs.
-    pub springs: crate::solver::springs::SpringBuffers,
-    /// PBF iteration buffers.
-    pub pbf: crate::solver::pbf::PbfBuffers,
-    /// Kernel gradients of every neighbour pair (DFSPH computes them once per substep).
-    pub gradients: crate::solver::pairs::PairGradients,
-    pub scratch_reals: Vec<Real>,
-    /// Largest speed after the last substep (the adaptive time step's input).
-    pub max_speed: Real,
-    /// Particles that became non-finite during the last substep.
-    pub non_finite: usize,
-
-    /// Positions at the start of the current step (written by the particle update, swept
-    /// from by collider contact).
-    pub previous_positions: Vec<Vector>,
-    pub scratch_vectors: Vec<Vector>,
-    /// `1/ρ` of every particle, written by the density stage.
-    pub inv_densities: Vec<Real>,
-    pub scratch_ids: Vec<u32>,
-    /// Per-chunk partial sums for diagnostics (summed serially, so results are deterministic).
-    pub partials: Vec<(f64, Real)>,
+/// Mutable views of one fluid's particle arrays, borrowed together: the step's stages take
+/// the ones they use. Every array has one entry per particle, in the same order.
+pub(crate) struct ParticlesMut<'a> {
+    pub positions: &'a mut Vec<Vector>,
+    pub velocities: &'a mut Vec<Vector>,
+    pub accelerations: &'a mut Vec<Vector>,
+    pub densities: &'a mut Vec<Real>,
+    pub pressures: &'a mut Vec<Real>,
+    pub ids: &'a mut Vec<u32>,
+    pub attributes: &'a mut Attributes,
 }
 
 /// One fluid: its parameters and its particles, one `Vec` per attribute.
@@ -72,12 +39,9 @@ pub struct Fluid {
     pub(crate) densities: Vec<Real>,
     pub(crate) pressures: Vec<Real>,
     pub(crate) ids: Vec<u32>,
-    /// Pressure values `π = p/ρ²` of the last constant-density and divergence solves
-    /// (DFSPH warm start); they follow the particles through every re-sort.
-    pub(crate) warm_density: Vec<Real>,
-    pub(crate) warm_divergence: Vec<Real>,
-    /// Viscoelastic springs of the Clavet solver (empty otherwise); keyed by particle id.
-    pub(crate) springs: crate::solver::springs::SpringSet,
+    /// Named per-particle values kept by the stages (e.g. DFSPH's warm starts); they follow
+    /// the particles through every re-sort, removal and append.
+    pub(crate) attributes: Attributes,
     next_id: u32,
     quarantined: usize,
     /// Particles added by emitters / removed by sinks over the fluid's life.
@@ -93,11 +57,6 @@ pub struct Fluid {
     /// Set when an overlap relaxation was stopped by its round cap: the next substep goes on
     /// relaxing.
     pub(crate) relax_pending: bool,
-    /// How many times the solver's Jacobi relaxation was halved for this fluid (0: ω = 1; see
-    /// [`crate::solver::dfsph::MAX_RELAXATION_HALVINGS`] and
-    /// [`crate::solver::pbf::MAX_RELAXATION_HALVINGS`]).
-    pub(crate) solver_relaxation: u32,
-    pub(crate) workspace: Workspace,
 }
 
 impl Fluid {
@@ -112,9 +71,7 @@ impl Fluid {
             densities: Vec::new(),
             pressures: Vec::new(),
             ids: Vec::new(),
-            warm_density: Vec::new(),
-            warm_divergence: Vec::new(),
-            springs: Default::default(),
+            attributes: Attributes::default(),
             next_id: 0,
             quarantined: 0,
             emitted: 0,
@@ -123,8 +80,6 @@ impl Fluid {
             capacity: None,
             needs_depenetration: false,
             relax_pending: false,
-            solver_relaxation: 0,
-            workspace: Workspace::default(),
         })
     }
 
@@ -226,13 +181,12 @@ impl Fluid {
         self.accelerations.resize(n, Vector::ZERO);
         self.densities.resize(n, self.params.rest_density);
         self.pressures.resize(n, 0.0);
-        self.warm_density.resize(n, 0.0);
-        self.warm_divergence.resize(n, 0.0);
+        self.attributes.resize(n);
     }
 
     /// Sets the particle capacity (`None`: unbounded). With a capacity, every per-particle
-    /// array and the step's per-particle scratch are reserved for it once, so emitting up to
-    /// it never reallocates them; emitters pause when it is reached (the step report says so)
+    /// array is reserved for it once (the pipeline's scratch for the fluid at its next step),
+    /// so emitting up to it never reallocates them; emitters pause when it is reached (the step report says so)
     /// and [`Fluid::add_particles`] refuses to go beyond it. Refuses a capacity below the
     /// current particle count, or one whose memory cannot be reserved.
     pub fn set_capacity(&mut self, capacity: Option<usize>) -> SphResult<()> {
@@ -257,22 +211,9 @@ impl Fluid {
             self.densities.try_reserve_exact(extra).map_err(fail)?;
             self.pressures.try_reserve_exact(extra).map_err(fail)?;
             self.ids.try_reserve_exact(extra).map_err(fail)?;
-            self.warm_density.try_reserve_exact(extra).map_err(fail)?;
-            self.warm_divergence
-                .try_reserve_exact(extra)
-                .map_err(fail)?;
-            let ws = &mut self.workspace;
-            for v in [&mut ws.previous_positions, &mut ws.scratch_vectors] {
-                v.try_reserve_exact(cap.saturating_sub(v.len()))
-                    .map_err(fail)?;
+            for v in self.attributes.values_mut() {
+                v.try_reserve_exact(extra).map_err(fail)?;
             }
-            for v in [&mut ws.inv_densities, &mut ws.scratch_reals] {
-                v.try_reserve_exact(cap.saturating_sub(v.len()))
-                    .map_err(fail)?;
-            }
-            ws.scratch_ids
-                .try_reserve_exact(cap.saturating_sub(ws.scratch_ids.len()))
-                .map_err(fail)?;
         }
         self.capacity = capacity;
         Ok(())
@@ -338,8 +279,9 @@ impl Fluid {
                 self.accelerations[w] = self.accelerations[r];
                 self.densities[w] = self.densities[r];
                 self.pressures[w] = self.pressures[r];
-                self.warm_density[w] = self.warm_density[r];
-                self.warm_divergence[w] = self.warm_divergence[r];
+                for a in self.attributes.values_mut() {
+                    a[w] = a[r];
+                }
                 w += 1;
             }
         }
@@ -353,8 +295,9 @@ impl Fluid {
         self.ids.truncate(w);
         self.densities.truncate(w);
         self.pressures.truncate(w);
-        self.warm_density.truncate(w);
-        self.warm_divergence.truncate(w);
+        for a in self.attributes.values_mut() {
+            a.truncate(w);
+        }
         n - w
     }
 
@@ -371,6 +314,23 @@ impl Fluid {
     /// Particles removed over the fluid's life because they became non-finite.
     pub fn quarantined(&self) -> usize {
         self.quarantined
+    }
+
+    /// The parameters and the particle arrays, borrowed apart (the step reads the first and
+    /// writes the second).
+    pub(crate) fn split_mut(&mut self) -> (&FluidParams, ParticlesMut<'_>) {
+        (
+            &self.params,
+            ParticlesMut {
+                positions: &mut self.positions,
+                velocities: &mut self.velocities,
+                accelerations: &mut self.accelerations,
+                densities: &mut self.densities,
+                pressures: &mut self.pressures,
+                ids: &mut self.ids,
+                attributes: &mut self.attributes,
+            },
+        )
     }
 
     /// Number of particles.
@@ -418,17 +378,6 @@ impl Fluid {
         &self.ids
     }
 
-    /// The viscoelastic springs of the Clavet solver ([`crate::solver::Springs`]); empty for
-    /// other solvers or with springs off.
-    pub fn springs(&self) -> &crate::solver::springs::SpringSet {
-        &self.springs
-    }
-
-    /// Neighbour lists of the last step (indices into the current order).
-    pub fn neighbor_lists(&self) -> &NeighborLists {
-        &self.workspace.neighbors
-    }
-
     /// Total mass (kg): particle count times particle mass.
     pub fn total_mass(&self) -> Real {
         self.len() as Real * self.params.particle_mass
@@ -455,29 +404,14 @@ impl Fluid {
             .sum()
     }
 
-    /// Heap bytes held by the fluid's particle arrays and workspace.
+    /// Heap bytes held by the fluid's particle arrays (the step's scratch for the fluid is
+    /// the pipeline's: [`crate::FluidPipeline::heap_bytes`]).
     pub fn heap_bytes(&self) -> usize {
         let v = std::mem::size_of::<Vector>();
-        let ws = &self.workspace;
         (self.positions.capacity() + self.velocities.capacity() + self.accelerations.capacity()) * v
             + (self.densities.capacity() + self.pressures.capacity()) * 4
-            + (self.warm_density.capacity() + self.warm_divergence.capacity()) * 4
             + self.ids.capacity() * 4
-            + ws.wall.heap_bytes()
-            + ws.dfsph.heap_bytes()
-            + ws.gradients.heap_bytes()
-            + ws.pbf.heap_bytes()
-            + ws.clavet.heap_bytes()
-            + ws.springs.heap_bytes()
-            + self.springs.heap_bytes()
-            + ws.scratch_reals.capacity() * 4
-            + ws.grid.heap_bytes()
-            + ws.neighbors.heap_bytes()
-            + ws.contact.heap_bytes()
-            + (ws.previous_positions.capacity() + ws.scratch_vectors.capacity()) * v
-            + ws.scratch_ids.capacity() * 4
-            + ws.inv_densities.capacity() * 4
-            + ws.partials.capacity() * std::mem::size_of::<(f64, Real)>()
+            + self.attributes.heap_bytes()
     }
 }
 

@@ -2,7 +2,7 @@
 //! array and counter the step reads. The workspace (grid, neighbour lists, scratch) is
 //! rebuilt from the particles by the next step, so it is not stored.
 
-use super::{Fluid, Workspace};
+use super::{Attributes, Fluid};
 use crate::error::SphResult;
 use crate::math::{Real, Vector};
 use crate::params::FluidParams;
@@ -17,17 +17,12 @@ pub(crate) struct FluidState {
     densities: Vec<Real>,
     pressures: Vec<Real>,
     ids: Vec<u32>,
-    warm_density: Vec<Real>,
-    warm_divergence: Vec<Real>,
-    #[serde(default)]
-    springs: crate::solver::springs::SpringSet,
+    attributes: Attributes,
     next_id: u32,
     quarantined: usize,
     needs_depenetration: bool,
     #[serde(default)]
     relax_pending: bool,
-    #[serde(default)]
-    solver_relaxation: u32,
     emitted: usize,
     drained: usize,
     sources: crate::emitter::Sources,
@@ -44,14 +39,11 @@ impl FluidState {
             densities: f.densities.clone(),
             pressures: f.pressures.clone(),
             ids: f.ids.clone(),
-            warm_density: f.warm_density.clone(),
-            warm_divergence: f.warm_divergence.clone(),
-            springs: f.springs.clone(),
+            attributes: f.attributes.clone(),
             next_id: f.next_id,
             quarantined: f.quarantined,
             needs_depenetration: f.needs_depenetration,
             relax_pending: f.relax_pending,
-            solver_relaxation: f.solver_relaxation,
             emitted: f.emitted,
             drained: f.drained,
             sources: f.sources.clone(),
@@ -70,8 +62,6 @@ impl FluidState {
             self.densities.len(),
             self.pressures.len(),
             self.ids.len(),
-            self.warm_density.len(),
-            self.warm_divergence.len(),
         ];
         if lens.iter().any(|&l| l != n) {
             return Err(crate::SphError::InvalidParticle {
@@ -85,22 +75,17 @@ impl FluidState {
         f.densities = self.densities;
         f.pressures = self.pressures;
         f.ids = self.ids;
-        f.warm_density = self.warm_density;
-        f.warm_divergence = self.warm_divergence;
-        if !self.springs.is_consistent() {
+        if !self.attributes.is_consistent(n) {
             return Err(crate::SphError::InvalidParticle {
                 index: 0,
-                reason: "snapshot springs are malformed",
+                reason: "snapshot attributes differ in length from the particles",
             });
         }
-        f.springs = self.springs;
+        f.attributes = self.attributes;
         f.next_id = self.next_id;
         f.quarantined = self.quarantined;
         f.needs_depenetration = self.needs_depenetration;
         f.relax_pending = self.relax_pending;
-        f.solver_relaxation = self
-            .solver_relaxation
-            .min(crate::solver::MAX_RELAXATION_HALVINGS);
         f.emitted = self.emitted;
         f.drained = self.drained;
         for e in self.sources.emitters.iter() {
@@ -111,7 +96,6 @@ impl FluidState {
         }
         f.sources = self.sources;
         f.set_capacity(self.capacity)?;
-        f.workspace = Workspace::default();
         Ok(f)
     }
 }

@@ -3,3 +3,4 @@
 
 pub mod external;
 pub mod viscosity;
+pub(crate) mod wall_viscosity;

@@ -5,7 +5,7 @@
 //! Pair terms are antisymmetric, so linear momentum is conserved; the Laplacian is positive,
 //! so the force only damps relative motion.
 
-use crate::domain::{Open, Separation};
+use crate::domain::Separation;
 use crate::kernel::ViscosityLaplacian;
 use crate::math::{Real, Vector};
 use crate::neighbors::NeighborLists;
@@ -13,6 +13,7 @@ use crate::par::{CHUNK, LANES, lane_sum};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
+#[cfg(test)]
 /// Adds the viscous acceleration to `accelerations`.
 #[allow(clippy::too_many_arguments)]
 pub fn add_accelerations(
@@ -34,7 +35,7 @@ pub fn add_accelerations(
         viscosity,
         h,
         accelerations,
-        Open,
+        crate::domain::Open,
     );
 }
 

@@ -16,7 +16,7 @@ struct Chunk {
 /// Flat neighbour lists: for every particle, the indices of the other particles closer than
 /// `h`, in ascending order (the particle itself is not listed).
 ///
-/// Stored per chunk of [`CHUNK`] particles (one offset array and one index array each) so
+/// Stored per chunk of `CHUNK` particles (one offset array and one index array each) so
 /// the lists are built in parallel with no final copy and no allocation once warm.
 #[derive(Clone, Debug, Default)]
 pub struct NeighborLists {

@@ -20,3 +20,84 @@ pub mod oracle;
 
 pub use grid::NeighborGrid;
 pub use lists::NeighborLists;
+
+use crate::domain::MinimumImage;
+use crate::fluid::ParticlesMut;
+use crate::math::{Real, Vector};
+
+/// The neighbour search of one fluid: the grid, the lists, and the scratch the re-sort swaps
+/// arrays through (so a warm search allocates nothing).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct NeighbourSearch {
+    /// Cells and the particles' sort order.
+    pub grid: NeighborGrid,
+    /// Neighbour lists of the current positions.
+    pub lists: NeighborLists,
+    vectors: Vec<Vector>,
+    reals: Vec<Real>,
+    ids: Vec<u32>,
+}
+
+impl NeighbourSearch {
+    /// Sorts the particles by cell — positions, velocities, ids and every attribute follow
+    /// the permutation, and `previous` (the positions at the substep's start) when given; the
+    /// other arrays are rewritten by the stages before they are read — then builds the cells
+    /// and the lists (minimum-image distances in a periodic box).
+    pub fn search(
+        &mut self,
+        particles: &mut ParticlesMut<'_>,
+        previous: Option<&mut Vec<Vector>>,
+        h: Real,
+        domain: Option<MinimumImage>,
+    ) {
+        let reordered = match &domain {
+            None => self.grid.sort(particles.positions, h),
+            Some(d) => self.grid.sort_periodic(particles.positions, h, d),
+        };
+        if reordered {
+            let perm = self.grid.permutation();
+            crate::par::permute(particles.positions, &mut self.vectors, perm);
+            crate::par::permute(particles.velocities, &mut self.vectors, perm);
+            crate::par::permute(particles.ids, &mut self.ids, perm);
+            for values in particles.attributes.values_mut() {
+                crate::par::permute(values, &mut self.reals, perm);
+            }
+            if let Some(previous) = previous {
+                crate::par::permute(previous, &mut self.vectors, perm);
+            }
+        }
+        self.grid.build_cells();
+        self.build_lists(particles.positions, h, domain);
+    }
+
+    /// The neighbour lists over the current cells.
+    pub fn build_lists(&mut self, positions: &[Vector], h: Real, domain: Option<MinimumImage>) {
+        match domain {
+            None => self.lists.build(&self.grid, positions, h),
+            Some(d) => self.lists.build_periodic(&self.grid, positions, h, d),
+        }
+    }
+
+    /// Reserves the re-sort's scratch for `capacity` particles (a fluid with a capacity then
+    /// never reallocates it while it fills up). A failed reservation is left to the arrays'
+    /// own growth.
+    pub fn reserve(&mut self, capacity: usize) {
+        let _ = self
+            .vectors
+            .try_reserve_exact(capacity.saturating_sub(self.vectors.len()));
+        let _ = self
+            .reals
+            .try_reserve_exact(capacity.saturating_sub(self.reals.len()));
+        let _ = self
+            .ids
+            .try_reserve_exact(capacity.saturating_sub(self.ids.len()));
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        self.grid.heap_bytes()
+            + self.lists.heap_bytes()
+            + self.vectors.capacity() * std::mem::size_of::<Vector>()
+            + (self.reals.capacity() + self.ids.capacity()) * 4
+    }
+}

@@ -4,7 +4,7 @@
 //! The pair terms are antisymmetric (`m·a_i` from `j` is minus `m·a_j` from `i`), so the pressure
 //! force conserves linear momentum exactly up to round-off.
 
-use crate::domain::{Open, Separation};
+use crate::domain::Separation;
 use crate::kernel::Kernel;
 use crate::math::{Real, Vector};
 use crate::neighbors::NeighborLists;
@@ -12,6 +12,7 @@ use crate::par::{CHUNK, LANES, lane_sum};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
+#[cfg(test)]
 /// Overwrites `accelerations[i]` with the pressure acceleration of particle `i`.
 ///
 /// With `wall = Some(∇ρ_wall)` the walls push too, through their volume's density gradient
@@ -35,7 +36,7 @@ pub fn pressure_accelerations<K: Kernel>(
     wall: Option<&[Vector]>,
     accelerations: &mut [Vector],
 ) {
-    pressure_accelerations_in::<K, Open>(
+    pressure_accelerations_in::<K, crate::domain::Open>(
         positions,
         inv_densities,
         pressures,
@@ -44,7 +45,7 @@ pub fn pressure_accelerations<K: Kernel>(
         h,
         wall,
         accelerations,
-        Open,
+        crate::domain::Open,
     );
 }
 

@@ -96,7 +96,7 @@ pub(crate) fn reduce_partials(partials: &[(f64, Real)]) -> (f64, Real) {
 /// combined with a neighbour's velocity (also held 16 bytes wide during the solves) in
 /// three packed operations.
 #[derive(Clone, Debug, Default)]
-pub struct PairGradients {
+pub(crate) struct PairGradients {
     chunks: Vec<PairChunk>,
 }
 

@@ -33,7 +33,7 @@
 //! ratio. The defaults are a starting point (the paper gives no SI values), not a calibrated
 //! material.
 
-use crate::domain::{Open, Separation};
+use crate::domain::Separation;
 use crate::math::{Real, Vector};
 use crate::neighbors::NeighborLists;
 use crate::par::CHUNK;
@@ -125,7 +125,7 @@ const NONE: u32 = u32::MAX;
 
 /// Scratch of the spring stage (reused from step to step).
 #[derive(Clone, Debug, Default)]
-pub struct SpringBuffers {
+pub(crate) struct SpringBuffers {
     /// Row of the previous spring set by particle id (`NONE` elsewhere).
     row_of_id: Vec<u32>,
     /// Current particle index by id (`NONE` elsewhere).
@@ -161,7 +161,7 @@ impl SpringBuffers {
 }
 
 /// Inputs of one spring stage.
-pub struct SpringContext<'a> {
+pub(crate) struct SpringContext<'a> {
     /// Neighbour lists of the predicted positions.
     pub neighbors: &'a NeighborLists,
     /// Stable particle ids, in the current order.
@@ -176,20 +176,8 @@ pub struct SpringContext<'a> {
     pub dt: Real,
 }
 
-/// Updates the springs (Alg. 4) for the predicted `positions` and applies their displacements
-/// (Alg. 3). Returns the number of springs after the update.
-pub fn apply(
-    ctx: &SpringContext<'_>,
-    settings: &Springs,
-    springs: &mut SpringSet,
-    buffers: &mut SpringBuffers,
-    positions: &mut [Vector],
-) -> usize {
-    apply_in(ctx, settings, springs, buffers, positions, Open)
-}
-
 /// [`apply`] with the separations formed by `sep` (see [`crate::domain`]).
-pub fn apply_in<S: Separation>(
+pub(crate) fn apply_in<S: Separation>(
     ctx: &SpringContext<'_>,
     settings: &Springs,
     springs: &mut SpringSet,

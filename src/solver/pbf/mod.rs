@@ -36,7 +36,7 @@ use crate::par::{CHUNK, LANES, lane_sum};
 use rayon::prelude::*;
 
 use super::pairs::{gradient_block, gradient_one, reduce_partials};
-use crate::domain::{Open, Separation};
+use crate::domain::Separation;
 
 /// Settings of the PBF solver (defaults from Macklin & Müller 2013).
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -70,7 +70,7 @@ pub struct Pbf {
     /// default false, session 14): the wall's `λ` is the particle's own plus the average of its
     /// fluid-side neighbours' (`λ_i + λ̂_i` in eq. 14's wall term), and the hydrostatic
     /// difference `ρ0·g·(x_b − x_i)` moves the predicted position by `a_h·dt²`
-    /// ([`crate::boundary::WallWorkspace::hydrostatic`]). Measured in the hydrostatic scene
+    /// (`boundary::WallWorkspace::hydrostatic`). Measured in the hydrostatic scene
     /// (`column --solver pbf-hydrostatic --validation 6,8,12`): bottom pressure −12.5 / −4.2 /
     /// −1.6 % at N = 6 / 8 / 12 instead of +15.8 / +16.7 / +19.3 %, and no band of higher
     /// pressure along the side walls; docs/solvers.md.
@@ -99,7 +99,7 @@ impl Default for Pbf {
 
 /// Buffers of the PBF solver (indexed like the sorted particles).
 #[derive(Clone, Debug, Default)]
-pub struct PbfBuffers {
+pub(crate) struct PbfBuffers {
     /// `λ_i` of the current iteration.
     pub lambda: Vec<Real>,
     /// `Σ λ_i` over the iterations (for the reported pressure).
@@ -142,6 +142,9 @@ pub struct PbfBuffers {
 #[doc(inline)]
 pub use super::MAX_RELAXATION_HALVINGS;
 
+mod step;
+pub(crate) use step::PbfState;
+
 /// What reads as the iteration diverging: the average compression, already above this floor
 /// (a fraction of `ρ0`), grows from one iteration to the next by more than the factor
 /// [`DIVERGENCE_GROWTH`]. Smaller growths are not divergence. The constraint is unilateral,
@@ -169,7 +172,7 @@ impl PbfBuffers {
 
 /// What one PBF solve did.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
-pub struct PbfStats {
+pub(crate) struct PbfStats {
     /// Iterations run.
     pub iterations: u32,
     /// Average compression `max(ρ/ρ0 − 1, 0)` measured at the start of the last iteration
@@ -204,7 +207,7 @@ fn lattice_denominator<K: Kernel>(kernel: &K, mass: Real, s: Real) -> Real {
 }
 
 /// Inputs of a PBF solve.
-pub struct PbfContext<'a> {
+pub(crate) struct PbfContext<'a> {
     /// Neighbour lists of the predicted positions.
     pub neighbors: &'a NeighborLists,
     /// Walls counting in the density, evaluated at the predicted positions, if any.
@@ -228,29 +231,8 @@ pub struct PbfContext<'a> {
     pub safeguard: bool,
 }
 
-/// Corrects the predicted `positions` in `settings.iterations` Jacobi iterations. Writes the
-/// densities of the last iteration (and their inverses) and `Σ λ` into `buffers.lambda_sum`.
-pub fn solve<K: Kernel>(
-    ctx: &PbfContext<'_>,
-    settings: &Pbf,
-    buffers: &mut PbfBuffers,
-    positions: &mut [Vector],
-    densities: &mut [Real],
-    inv_densities: &mut [Real],
-) -> PbfStats {
-    solve_in::<K, Open>(
-        ctx,
-        settings,
-        buffers,
-        positions,
-        densities,
-        inv_densities,
-        Open,
-    )
-}
-
 /// [`solve`] with the separations formed by `sep` (see [`crate::domain`]).
-pub fn solve_in<K: Kernel, S: Separation>(
+pub(crate) fn solve_in<K: Kernel, S: Separation>(
     ctx: &PbfContext<'_>,
     settings: &Pbf,
     buffers: &mut PbfBuffers,

@@ -50,7 +50,7 @@
 //!
 //! **Walls.** By default walls take part through contact only. With
 //! [`crate::FluidParamsBuilder::wall_density`]`(true)` the static and kinematic colliders also
-//! count in both densities ([`crate::boundary::WallWorkspace::update_clavet`]: the solid as
+//! count in both densities (`boundary::WallWorkspace::update_clavet`: the solid as
 //! the fluid's lattice continued behind its surface, so a particle half a spacing from a flat
 //! wall in a resting lattice has `ρ0` again: 0.4 % short at `h = 2s`, 0.07 % at `3s`), and push
 //! with the energy-consistent weight. The relaxation is a gradient step on the potential
@@ -60,7 +60,7 @@
 //! the particle's pressures into the wall would give. Mirrored fully (tried in session 14),
 //! a column at rest in a closed tank gained energy and never settled (no cohesion: still
 //! 1.0 m/s after 2 s at `h = 2s`, 5.3 m/s at `3s`), as WCSPH's walls did
-//! ([`crate::pressure::wcsph`]). Dynamic bodies are left to contact, whose impulses they
+//! (`src/pressure/wcsph.rs`). Dynamic bodies are left to contact, whose impulses they
 //! receive (momentum stays exact). Walls counted this way are *neutral* for the cohesion
 //! (a contact angle of 90°: the liquid next to them lacks no density, so it has no surface
 //! energy there; contact-only walls are non-wetting, 180°). They do not remove what throws a
@@ -74,13 +74,16 @@
 //! understood yet.
 
 use crate::boundary::WallWorkspace;
-use crate::domain::{Open, Separation};
+use crate::domain::Separation;
 use crate::kernel::Kernel;
 use crate::math::{Real, Vector};
 use crate::neighbors::NeighborLists;
 use crate::par::CHUNK;
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
+
+mod step;
+pub(crate) use step::ClavetState;
 
 /// Settings of the double-density relaxation.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -176,7 +179,7 @@ pub fn surface_equilibrium_near_ratio(h: Real, s: Real) -> Real {
 
 /// Buffers of the relaxation (indexed like the sorted particles).
 #[derive(Clone, Debug, Default)]
-pub struct ClavetBuffers {
+pub(crate) struct ClavetBuffers {
     /// `(P_i, P_i^near)`.
     pub pressure: Vec<(Real, Real)>,
     /// Displacements.
@@ -247,7 +250,7 @@ impl<const P: i32> Kernel for Power<P> {
 }
 
 /// Inputs of one relaxation.
-pub struct ClavetContext<'a> {
+pub(crate) struct ClavetContext<'a> {
     /// Neighbour lists of the predicted positions.
     pub neighbors: &'a NeighborLists,
     /// Support radius.
@@ -263,21 +266,8 @@ pub struct ClavetContext<'a> {
     pub wall: Option<&'a WallWorkspace>,
 }
 
-/// One double-density relaxation of the predicted `positions` (Alg. 2). Writes
-/// `Σ(1 − q)²/ρ0` (the density relative to rest) into `relative_density`. Returns the average
-/// compression `max(ρ/ρ0 − 1, 0)` before the relaxation.
-pub fn relax(
-    ctx: &ClavetContext<'_>,
-    settings: &Clavet,
-    buffers: &mut ClavetBuffers,
-    positions: &mut [Vector],
-    relative_density: &mut [Real],
-) -> Real {
-    relax_in(ctx, settings, buffers, positions, relative_density, Open)
-}
-
 /// [`relax`] with the separations formed by `sep` (see [`crate::domain`]).
-pub fn relax_in<S: Separation>(
+pub(crate) fn relax_in<S: Separation>(
     ctx: &ClavetContext<'_>,
     settings: &Clavet,
     buffers: &mut ClavetBuffers,
@@ -398,7 +388,7 @@ const POWER_ITERATIONS: usize = 200;
 /// `pipeline::stable_time_step`).
 ///
 /// Found by power iteration on the linearised relaxation (finite differences of
-/// [`relax_in`] with `dt = 1`, which returns the displacement `a·dt²`) of a periodic lattice
+/// `relax_in` with `dt = 1`, which returns the displacement `a·dt²`) of a periodic lattice
 /// spanning at least `2h + 2s`, from a fixed start vector in which every wavelength is
 /// present; deterministic. It costs 200 relaxations of a lattice of `n³` particles, `n =
 /// max(8, ⌈2h/s⌉ + 2)` (512 particles up to h = 3s, 1,000 at 4s: tens of milliseconds; the cost

@@ -32,14 +32,14 @@
 //!
 //! A fluid that fills a periodic box (no free surface, no wall) is solved in the form of a
 //! periodic pressure Poisson problem: both conditions as equalities about the fluid's mean,
-//! zero-mean pressure (see [`SolveContext::closed`]).
+//! zero-mean pressure (see `SolveContext::closed`).
 //!
 //! The solver uses the fluid's *density* kernel for every gradient, so the factor is exact for
 //! the forces it predicts (the pressure-kernel setting is used by WCSPH only).
 
 use super::pairs::{PairGradients, gradient_block, gradient_one, reduce_partials};
 use crate::boundary::WallWorkspace;
-use crate::domain::{Open, Separation};
+use crate::domain::Separation;
 use crate::kernel::{Kernel, ViscosityLaplacian};
 use crate::math::{Real, Vector};
 use crate::neighbors::NeighborLists;
@@ -61,9 +61,9 @@ pub const WALL_MIRROR: Real = 1.0;
 /// Total weight of the wall's pressure with [`Dfsph::hydrostatic_walls`]: the wall
 /// "particle" term `π_i + π_b` with the wall's pressure `π_b` equal to the fluid's carried
 /// to the particle, plus the hydrostatic difference `ρ0·g·(x_b − x_i)` of Adami et al. (2012),
-/// applied with gravity ([`crate::boundary::WallWorkspace::hydrostatic`]). The particle's
+/// applied with gravity (`boundary::WallWorkspace::hydrostatic`). The particle's
 /// own value counts once ([`WALL_MIRROR`]); `π_b` is the average of its fluid-side
-/// neighbours' values carried back to it ([`crate::boundary::WallWorkspace::neighbour_pressure`]),
+/// neighbours' values carried back to it (`boundary::WallWorkspace::neighbour_pressure`),
 /// as Adami et al. take the wall's pressure from the fluid around it. In a linear
 /// hydrostatic field the two are equal (total weight 2): the zeroth-order term
 /// `2π_i Σ_j m∇W_ij` the missing neighbours leave next to a wall is cancelled, and the
@@ -118,7 +118,7 @@ pub struct Dfsph {
     /// column's bottom pressure within 2 % (−0.1 / +1.5 / +0.3 % at N = 6 / 8 / 12 in the
     /// validation scene; +14 to +16 % with `false`, where contact carries half the column's
     /// weight), no compressed layer above the floor. A solve that diverges finishes without
-    /// the neighbours' part (see [`DfsphBuffers::applied_neighbour`]). The cost: the density
+    /// the neighbours' part (see `DfsphBuffers::applied_neighbour`). The cost: the density
     /// solve iterates more (in the salva scene 9.7 iterations per step instead of 3.7, ending
     /// at a lower mean compression), and the wall stage scans the neighbours of the particles
     /// next to walls a second time. `false` is the cheaper choice where pressures are not
@@ -148,7 +148,7 @@ impl Default for Dfsph {
 
 /// What one solve did.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
-pub struct SolveStats {
+pub(crate) struct SolveStats {
     /// Iterations run.
     pub iterations: u32,
     /// Average error reached (density: fraction of `ρ0`; divergence: `|Dρ/Dt|·dt/ρ0`).
@@ -162,7 +162,7 @@ pub struct SolveStats {
 
 /// Arrays the solver needs during a step (indexed like the sorted particles).
 #[derive(Clone, Debug, Default)]
-pub struct DfsphBuffers {
+pub(crate) struct DfsphBuffers {
     /// DFSPH factor `α_i`.
     pub alpha: Vec<Real>,
     /// Pressure values `π_i` of the current iteration.
@@ -209,6 +209,9 @@ pub struct DfsphBuffers {
 /// the step report says when it did ([`crate::StepReport::solver_relaxation_halvings`]).
 #[doc(inline)]
 pub use super::MAX_RELAXATION_HALVINGS;
+
+mod step;
+pub(crate) use step::DfsphState;
 
 impl DfsphBuffers {
     /// Sizes every array for `n` particles (no allocation once warm).
@@ -270,7 +273,7 @@ fn to_vectors(x: &[Real; LANES], y: &[Real; LANES], z: &[Real; LANES], out: &mut
 /// the neighbours (it needs only the pairs' gradients, which that pass computes), which
 /// saves the solve one pass; see [`divergence_warm_start`].
 #[derive(Copy, Clone, Debug)]
-pub struct WarmPush<'a> {
+pub(crate) struct WarmPush<'a> {
     /// Pressure values `π` to apply (the previous step's divergence values, halved).
     pub pi: &'a [Real],
     /// Velocities before the push.
@@ -279,47 +282,9 @@ pub struct WarmPush<'a> {
     pub dt: Real,
 }
 
-/// Density (fluid sum plus walls), its inverse, and the DFSPH factor of every particle, in
-/// one pass over the neighbours, which also stores every pair's kernel gradient in `grads`
-/// for the solves (the positions do not move until the step's end), with
-/// `viscosity = Some(∇²W_v)` every pair's viscosity Laplacian for [`viscosity`], and with
-/// `push = Some(..)` the pushed velocities `v_i − dt·(Σ_j m (π_i + π_j) ∇W_ij + γ π_i ∇ρ_wall,i)`
-/// in `pushed` (as the solves' pressure pass; `pushed` is left alone without a push).
-#[allow(clippy::too_many_arguments)]
-pub fn density_and_factors<K: Kernel>(
-    positions: &[Vector],
-    neighbors: &NeighborLists,
-    mass: Real,
-    h: Real,
-    wall: Option<&WallWorkspace>,
-    viscosity: Option<ViscosityLaplacian>,
-    push: Option<WarmPush<'_>>,
-    densities: &mut [Real],
-    inv_densities: &mut [Real],
-    alpha: &mut [Real],
-    grads: &mut PairGradients,
-    pushed: &mut [Vec3A],
-) {
-    density_and_factors_in::<K, Open>(
-        positions,
-        neighbors,
-        mass,
-        h,
-        wall,
-        viscosity,
-        push,
-        densities,
-        inv_densities,
-        alpha,
-        grads,
-        pushed,
-        Open,
-    );
-}
-
 /// [`density_and_factors`] with the separations formed by `sep` (see [`crate::domain`]).
 #[allow(clippy::too_many_arguments)]
-pub fn density_and_factors_in<K: Kernel, S: Separation>(
+pub(crate) fn density_and_factors_in<K: Kernel, S: Separation>(
     positions: &[Vector],
     neighbors: &NeighborLists,
     mass: Real,
@@ -631,7 +596,7 @@ fn apply_pressure(
 /// densities, with no distance or kernel evaluated. `wide` is scratch for a 16-byte copy of
 /// the velocities.
 #[allow(clippy::too_many_arguments)]
-pub fn viscosity(
+pub(crate) fn viscosity(
     neighbors: &NeighborLists,
     pairs: &PairGradients,
     velocities: &[Vector],
@@ -683,7 +648,7 @@ pub fn viscosity(
 }
 
 /// Inputs shared by both solves.
-pub struct SolveContext<'a> {
+pub(crate) struct SolveContext<'a> {
     /// Sorted positions.
     pub positions: &'a [Vector],
     /// Neighbour lists of those positions.
@@ -696,8 +661,6 @@ pub struct SolveContext<'a> {
     pub densities: &'a [Real],
     /// Particle mass.
     pub mass: Real,
-    /// Support radius.
-    pub h: Real,
     /// Rest density.
     pub rest_density: Real,
     /// Time step.
@@ -738,7 +701,7 @@ pub struct SolveContext<'a> {
 /// is periodic, no wall term is present (`walls = false`), and the particles' rest volume
 /// `n·m/ρ0` is the box's volume to within `tolerance` (the density solve's own
 /// `max_density_error`). Such a fluid is enclosed by its own periodic images.
-pub fn fills_periodic_box(
+pub(crate) fn fills_periodic_box(
     domain: &crate::Domain,
     n: usize,
     mass: Real,
@@ -928,7 +891,7 @@ fn add_to(sum: &mut [Real], values: &[Real]) {
 /// warm start, section 4.4: its values are small and noisy), removes their mean in a fluid
 /// that fills a periodic box (`closed`, see [`SolveContext::closed`]), and says whether any
 /// is left to apply, i.e. whether [`density_and_factors`] should be given a [`WarmPush`].
-pub fn divergence_warm_start(warm: &mut [Real], closed: bool) -> bool {
+pub(crate) fn divergence_warm_start(warm: &mut [Real], closed: bool) -> bool {
     for w in warm.iter_mut() {
         *w *= 0.5;
     }
@@ -942,7 +905,7 @@ pub fn divergence_warm_start(warm: &mut [Real], closed: bool) -> bool {
 /// warm start on entry, already applied (see [`divergence_warm_start`]; `pushed` is its
 /// result, and then `buffers.velocities` holds the pushed velocities), and this step's sum
 /// on exit.
-pub fn divergence_solve(
+pub(crate) fn divergence_solve(
     ctx: &SolveContext<'_>,
     settings: &Dfsph,
     buffers: &mut DfsphBuffers,
@@ -990,7 +953,7 @@ pub fn divergence_solve(
 /// lead to after `dt` is `ρ0` on average to within `max_density_error`. `warm` holds the
 /// previous step's pressure values on entry (used at half weight) and this step's sum on exit
 /// (the pressure).
-pub fn density_solve(
+pub(crate) fn density_solve(
     ctx: &SolveContext<'_>,
     settings: &Dfsph,
     buffers: &mut DfsphBuffers,
@@ -1030,7 +993,7 @@ pub fn density_solve(
     )
 }
 
-/// Relaxation `ω` of the closed-box Jacobi update (see [`SolveContext::closed`]). With signed
+/// Relaxation `ω` of the closed-box Jacobi update (see `SolveContext::closed`). With signed
 /// increments plain Jacobi (`ω = 1`) diverges on this system (measured: the Taylor–Green vortex
 /// at N = 12 reached infinite energy in the second step); `ω = 0.5` is IISPH's relaxed Jacobi
 /// (Ihmsen et al., "Implicit Incompressible SPH", IEEE TVCG 2014), on the same diagonal.

@@ -1,0 +1,337 @@
+//! One frame of the fluid, divided into substeps (see [`TimeStepping`]), each the ordered list
+//! of named, timed stages of `substep.rs`:
+//!
+//! ```text
+//! particles ─▶ 0 overlap relaxation (only after particles were added) ─▶ 1 prediction (PBF, Clavet)
+//!   ─▶ 2 neighbour search ─▶ 3 wall density ─▶ 4 the solver: density, pressure, forces, update
+//!   ─▶ 5 wall viscosity ─▶ 6 wall reaction on bodies ─▶ 7 collider contact
+//! after the substeps: sinks, emitters, the impulses to rapier
+//! ```
+//!
+//! Each stage is timed into [`StepReport::timings`]. A stage a scene does not use is skipped,
+//! not run on zeros: no viscosity pass when ε = 0, no gravity pass when gravity is zero, no
+//! wall or contact work when no collider is near the fluid. ARCHITECTURE.md describes who
+//! owns which data and how to add a stage or a solver.
+
+mod relax;
+mod substep;
+mod time_stepping;
+mod workspace;
+
+pub use time_stepping::TimeStepping;
+
+use crate::boundary::Coupling;
+use crate::diagnostics::{Stage, StepReport};
+use crate::error::{SphError, SphResult};
+use crate::fluid::{FluidHandle, FluidSet};
+use crate::math::{Real, Vector};
+use crate::neighbors::NeighborLists;
+use parry3d::query::DefaultQueryDispatcher;
+use rapier3d::dynamics::{RigidBodyHandle, RigidBodySet};
+use rapier3d::geometry::{BroadPhaseBvh, ColliderSet};
+use rapier3d::pipeline::QueryFilter;
+use substep::{Scene, SubstepInput};
+use workspace::Runtimes;
+
+/// Steps fluids alongside a rapier world. Holds its time-stepping policy, the last report,
+/// and per fluid the solver's state and the step's scratch; the particles live in the
+/// [`FluidSet`] and the bodies in the rapier sets, passed explicitly as rapier's own
+/// `PhysicsPipeline` does.
+#[derive(Clone, Debug)]
+pub struct FluidPipeline {
+    /// How frames are divided into substeps (default: adaptive, Courant 0.4).
+    pub time_stepping: TimeStepping,
+    /// The substeps rapier takes per step (its `integration_parameters.num_solver_iterations`,
+    /// default 4): moving bodies are followed along the path rapier's substeps give them
+    /// (see `boundary::Coupling::begin_frame`). [`crate::FluidWorld`] keeps it in
+    /// sync; set it when you step rapier with other parameters.
+    pub rapier_substeps: usize,
+    report: StepReport,
+    coupling: Coupling,
+    runtimes: Runtimes,
+    /// Always empty: lets the broad-phase's BVH be borrowed without `bodies` (kept here so
+    /// the step does not allocate one).
+    no_bodies: RigidBodySet,
+}
+
+impl Default for FluidPipeline {
+    fn default() -> Self {
+        Self::with_time_stepping(TimeStepping::default())
+    }
+}
+
+impl FluidPipeline {
+    /// A new pipeline with adaptive time stepping.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// A new pipeline with the given time-stepping policy.
+    pub fn with_time_stepping(time_stepping: TimeStepping) -> Self {
+        Self {
+            time_stepping,
+            rapier_substeps: 4,
+            report: StepReport::default(),
+            coupling: Coupling::default(),
+            runtimes: Runtimes::default(),
+            no_bodies: RigidBodySet::new(),
+        }
+    }
+
+    /// The coupling's state kept from one frame to the next: the linear velocity each
+    /// dynamic body near a fluid was left with (saved in snapshots).
+    pub fn coupling_memory(&self) -> &[(RigidBodyHandle, Vector)] {
+        self.coupling.left_velocities()
+    }
+
+    /// Restores [`FluidPipeline::coupling_memory`] (snapshots).
+    pub fn set_coupling_memory(&mut self, memory: Vec<(RigidBodyHandle, Vector)>) {
+        self.coupling.set_left_velocities(memory);
+    }
+
+    /// The report of the last step.
+    pub fn report(&self) -> &StepReport {
+        &self.report
+    }
+
+    /// The neighbour lists of `fluid`'s last substep (indices into its current particle
+    /// order), if this pipeline stepped it.
+    pub fn neighbor_lists(&self, fluid: FluidHandle) -> Option<&NeighborLists> {
+        self.runtimes.get(fluid).map(|r| &r.ws.search.lists)
+    }
+
+    /// The viscoelastic springs of a Clavet fluid ([`crate::solver::Springs`]), if this
+    /// pipeline stepped it with springs on.
+    pub fn springs(&self, fluid: FluidHandle) -> Option<&crate::solver::springs::SpringSet> {
+        match &self.runtimes.get(fluid)?.solver {
+            crate::solver::SolverState::Clavet(c) => Some(&c.springs),
+            _ => None,
+        }
+    }
+
+    #[cfg_attr(not(feature = "snapshot"), allow(dead_code))]
+    /// What a snapshot keeps of `fluid`'s solver state (default when never stepped).
+    pub(crate) fn solver_memory(&self, fluid: FluidHandle) -> crate::solver::SolverMemory {
+        self.runtimes
+            .get(fluid)
+            .map_or_else(Default::default, |r| r.solver.memory())
+    }
+
+    /// Restores what [`FluidPipeline::solver_memory`] kept for `fluid` of `fluids`.
+    #[cfg_attr(not(feature = "snapshot"), allow(dead_code))]
+    pub(crate) fn restore_solver_memory(
+        &mut self,
+        fluid: FluidHandle,
+        fluids: &FluidSet,
+        memory: crate::solver::SolverMemory,
+    ) {
+        if let Some(rt) = self.runtimes.get_or_sync(fluid, fluids) {
+            rt.solver.restore(memory);
+        }
+    }
+
+    /// Heap bytes held for the fluids it steps: the solvers' states and the step's scratch
+    /// (the particle arrays are the fluids': [`crate::Fluid::heap_bytes`]).
+    pub fn heap_bytes(&self) -> usize {
+        self.runtimes.heap_bytes()
+    }
+
+    /// Advances every fluid of `fluids` by `dt` seconds under `gravity`, with contact against
+    /// the colliders of `colliders` found through `broad_phase` (rapier's BVH, filled by
+    /// rapier's own step: call this right after it). The frame is divided into substeps by
+    /// [`FluidPipeline::time_stepping`].
+    ///
+    /// # Errors
+    /// Bad input (a non-finite or non-positive `dt`, non-finite gravity, an invalid
+    /// [`TimeStepping`], `rapier_substeps` of 0, an empty broad-phase beside a non-empty
+    /// collider set) returns an error and changes nothing.
+    pub fn step(
+        &mut self,
+        gravity: Vector,
+        dt: Real,
+        fluids: &mut FluidSet,
+        bodies: &mut RigidBodySet,
+        colliders: &ColliderSet,
+        broad_phase: &BroadPhaseBvh,
+    ) -> SphResult<&StepReport> {
+        self.validate(gravity, dt)?;
+        // The BVH is the broad-phase's own tree; an empty body set keeps it from borrowing
+        // `bodies`, which the coupling writes impulses into at the end of the step.
+        let query = broad_phase.as_query_pipeline(
+            &DefaultQueryDispatcher,
+            &self.no_bodies,
+            colliders,
+            QueryFilter::default(),
+        );
+        let bvh = query.bvh;
+        if !colliders.is_empty() && bvh.is_empty() {
+            return Err(SphError::BroadPhaseNotUpdated {
+                colliders: colliders.len(),
+            });
+        }
+        let has_colliders = !bvh.is_empty();
+        self.runtimes.sync(fluids);
+        self.coupling.begin_frame(
+            dt,
+            self.rapier_substeps,
+            if has_colliders {
+                bodies
+            } else {
+                &self.no_bodies
+            },
+            colliders,
+        );
+        let mut frame = Frame {
+            gravity,
+            dt,
+            policy: self.time_stepping,
+            scene: has_colliders.then_some(Scene {
+                bvh,
+                colliders,
+                bodies,
+            }),
+            colliders,
+            fluids,
+            runtimes: &mut self.runtimes,
+            coupling: &mut self.coupling,
+            report: StepReport::default(),
+        };
+        // Called from outside rayon's pool, every parallel stage would hand its work to the
+        // pool and wait for a worker to wake up: tens of microseconds per stage, more than a
+        // small fluid's whole step. Entering the pool once per step avoids that.
+        #[cfg(feature = "parallel")]
+        if rayon::current_thread_index().is_none() {
+            rayon::scope(|_| frame.run());
+        } else {
+            frame.run();
+        }
+        #[cfg(not(feature = "parallel"))]
+        frame.run();
+        let mut report = frame.report;
+        report.coupled_bodies = self.coupling.apply(bodies);
+        self.report = report;
+        Ok(&self.report)
+    }
+
+    /// The checks of [`FluidPipeline::step`]'s arguments and of the pipeline's settings.
+    fn validate(&self, gravity: Vector, dt: Real) -> SphResult<()> {
+        if !dt.is_finite() || dt <= 0.0 {
+            return Err(SphError::InvalidTimeStep { dt: dt as f64 });
+        }
+        self.time_stepping.validate()?;
+        if self.rapier_substeps == 0 {
+            return Err(SphError::InvalidParameter {
+                field: "rapier_substeps",
+                value: 0.0,
+                reason: "rapier takes at least one substep per step",
+            });
+        }
+        if !crate::math::is_finite(gravity) {
+            return Err(SphError::InvalidParameter {
+                field: "gravity",
+                value: gravity.length() as f64,
+                reason: "must be finite",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// One frame in progress: what every substep shares.
+struct Frame<'a> {
+    gravity: Vector,
+    dt: Real,
+    policy: TimeStepping,
+    scene: Option<Scene<'a>>,
+    colliders: &'a ColliderSet,
+    fluids: &'a mut FluidSet,
+    runtimes: &'a mut Runtimes,
+    coupling: &'a mut Coupling,
+    report: StepReport,
+}
+
+impl Frame<'_> {
+    /// Quarantine, the substeps, the emitters.
+    fn run(&mut self) {
+        self.quarantine();
+        let (mut elapsed, mut weighted_error, mut counted) = (0.0, 0.0f64, 0usize);
+        self.report.min_substep = Real::MAX;
+        loop {
+            let remaining = self.dt - elapsed;
+            let fluids = self.fluids.iter().map(|(_, f)| f);
+            let (h, last, cap_hit) = time_stepping::next_substep(
+                self.policy,
+                remaining,
+                self.report.substeps,
+                fluids.zip(self.runtimes.iter_mut()),
+                self.gravity,
+            );
+            self.report.substep_cap_hit |= cap_hit;
+            self.report.substeps += 1;
+            self.report.min_substep = self.report.min_substep.min(h);
+            self.report.max_substep = self.report.max_substep.max(h);
+            let back = (remaining, if last { 0.0 } else { remaining - h });
+            self.substep(h, back, (&mut weighted_error, &mut counted));
+            elapsed += h;
+            if last {
+                break;
+            }
+        }
+        self.emit();
+        self.report.particles = self.fluids.num_particles();
+        if counted > 0 {
+            self.report.mean_density_error = (weighted_error / counted as f64) as Real;
+        }
+    }
+
+    /// Removes what the caller may have broken since the last frame (a NaN written through
+    /// `velocities_mut`), and measures the speeds the first substep starts from.
+    fn quarantine(&mut self) {
+        for ((_, fluid), rt) in self.fluids.iter_mut().zip(self.runtimes.iter_mut()) {
+            // The scan (parallel) counts them and skips them in the maximum speed; the serial
+            // removal runs only when there is something to remove.
+            let (bad, vmax) = self.report.timed(Stage::ParticleUpdate, || {
+                crate::integrate::scan(fluid.positions(), fluid.velocities())
+            });
+            if bad > 0 {
+                self.report.quarantined += fluid.quarantine_non_finite();
+            }
+            rt.ws.max_speed = vmax;
+            if let Some(capacity) = fluid.capacity() {
+                rt.ws.reserve(capacity);
+            }
+        }
+    }
+
+    /// One substep of every fluid, then their sinks; adds the density error summed over the
+    /// particles and their count to `error`.
+    fn substep(&mut self, dt: Real, back: (Real, Real), error: (&mut f64, &mut usize)) {
+        let input = SubstepInput {
+            gravity: self.gravity,
+            dt,
+            scene: self.scene,
+            back,
+        };
+        for ((_, fluid), rt) in self.fluids.iter_mut().zip(self.runtimes.iter_mut()) {
+            let n = fluid.len();
+            let result = substep::substep(fluid, rt, &input, self.coupling, &mut self.report);
+            *error.0 += result.mean_error as f64 * n as f64;
+            *error.1 += n;
+            if result.non_finite > 0 {
+                self.report.quarantined += fluid.quarantine_non_finite();
+            }
+            self.report.drained += fluid.drain_sinks(self.colliders);
+        }
+    }
+
+    /// Emitters: the particles due during the frame, where they are at its end.
+    fn emit(&mut self) {
+        let bvh = self.scene.map(|s| s.bvh);
+        for (_, fluid) in self.fluids.iter_mut() {
+            let e = fluid.run_emitters(self.dt, bvh, self.colliders);
+            self.report.emitted += e.emitted;
+            self.report.emitter_blocked += e.blocked;
+            self.report.capacity_reached |= e.capacity_reached;
+        }
+    }
+}

@@ -1,0 +1,411 @@
+//! One substep of one fluid: the ordered list of stages (ARCHITECTURE.md). Each stage is a
+//! call into the module that owns it, timed into the report under its [`Stage`]; a stage the
+//! scene does not use is skipped by one check.
+
+use super::workspace::{FluidRuntime, Workspace};
+use crate::boundary::Coupling;
+use crate::boundary::bodies::ImpulseRecord;
+use crate::boundary::contact::{self, ContactResponse, Movers};
+use crate::boundary::wall::WallQuery;
+use crate::diagnostics::{Stage, StepReport};
+use crate::fluid::{Fluid, ParticlesMut};
+use crate::math::{Real, Vector};
+use crate::params::FluidParams;
+use crate::solver::context::StepContext;
+use crate::solver::{SolverState, WallReaction};
+use crate::{density, forces, integrate};
+use parry3d::partitioning::Bvh;
+use rapier3d::dynamics::RigidBodySet;
+use rapier3d::geometry::ColliderSet;
+
+/// The rapier side a substep sees: the broad-phase's tree, the colliders and the bodies.
+#[derive(Copy, Clone)]
+pub(crate) struct Scene<'a> {
+    pub bvh: &'a Bvh,
+    pub colliders: &'a ColliderSet,
+    pub bodies: &'a RigidBodySet,
+}
+
+/// What the frame hands each substep.
+#[derive(Copy, Clone)]
+pub(crate) struct SubstepInput<'a> {
+    /// Gravity (m/s²).
+    pub gravity: Vector,
+    /// The substep (s).
+    pub dt: Real,
+    /// The colliders, when the scene has any.
+    pub scene: Option<Scene<'a>>,
+    /// Seconds from the substep's start and end to the frame's end (moving bodies stand at
+    /// their end-of-frame poses; see `boundary::bodies`).
+    pub back: (Real, Real),
+}
+
+/// What a substep measured.
+#[derive(Copy, Clone, Debug, Default)]
+pub(crate) struct SubstepResult {
+    /// Mean relative density error.
+    pub mean_error: Real,
+    /// Particles that became non-finite (quarantined by the frame).
+    pub non_finite: usize,
+}
+
+/// One substep of one fluid.
+pub(crate) fn substep(
+    fluid: &mut Fluid,
+    rt: &mut FluidRuntime,
+    input: &SubstepInput<'_>,
+    coupling: &mut Coupling,
+    report: &mut StepReport,
+) -> SubstepResult {
+    if fluid.is_empty() {
+        return SubstepResult::default();
+    }
+    wrap_periodic(fluid, report);
+    if fluid.needs_depenetration || fluid.relax_pending {
+        fluid.relax_pending = !super::relax::relax_overlaps(fluid, &mut rt.ws, input.scene, report);
+        report.relax_unfinished |= fluid.relax_pending;
+    }
+    let mut coupling = begin_coupling(fluid, &rt.ws, input, coupling, report);
+    let depenetrate = fluid.needs_depenetration;
+    let (params, mut particles) = fluid.split_mut();
+    let ws = &mut rt.ws;
+    if rt.solver.predicts_positions() {
+        predict(&mut particles, ws, input.gravity, input.dt, report);
+    }
+    let previous = rt
+        .solver
+        .predicts_positions()
+        .then_some(&mut ws.previous_positions);
+    report.timed(Stage::NeighbourSearch, || {
+        ws.search.search(
+            &mut particles,
+            previous,
+            params.smoothing_length,
+            params.domain.minimum_image(),
+        )
+    });
+    report.neighbour_pairs += ws.search.lists.total_pairs();
+    walls(
+        params,
+        &particles,
+        ws,
+        &rt.solver,
+        input,
+        coupling.as_deref(),
+        report,
+    );
+    let (outcome, mean_error) = solve(
+        params,
+        particles,
+        rt,
+        input,
+        coupling.as_deref_mut(),
+        report,
+    );
+    let depenetrated = collider_contact(
+        fluid,
+        &mut rt.ws,
+        input.scene,
+        depenetrate,
+        coupling.as_deref_mut(),
+        report,
+    );
+    // Particles pushed out of a solid land on its surface, on top of each other: the next
+    // substep relaxes them (and checks for more) before giving them dynamics.
+    fluid.needs_depenetration = depenetrated > 0;
+    wrap_periodic(fluid, report);
+    rt.ws.max_speed = outcome.max_speed;
+    report.non_finite += outcome.non_finite;
+    report.max_speed = report.max_speed.max(outcome.max_speed);
+    SubstepResult {
+        mean_error,
+        non_finite: outcome.non_finite,
+    }
+}
+
+/// Periodic box: particles outside it (added there, or moved there by the caller or the
+/// substep) re-enter through the opposite face.
+fn wrap_periodic(fluid: &mut Fluid, report: &mut StepReport) {
+    if let Some(d) = fluid.params().domain.minimum_image() {
+        report.timed(Stage::ParticleUpdate, || {
+            integrate::wrap_positions(&d, &mut fluid.positions)
+        });
+    }
+}
+
+/// The moving bodies near this fluid during this substep (`None`: no moving body in the
+/// scene, nothing more is done for them).
+fn begin_coupling<'c>(
+    fluid: &Fluid,
+    ws: &Workspace,
+    input: &SubstepInput<'_>,
+    coupling: &'c mut Coupling,
+    report: &mut StepReport,
+) -> Option<&'c mut Coupling> {
+    let scene = input.scene?;
+    if coupling.is_off() {
+        return None;
+    }
+    let (dt, back) = (input.dt, input.back);
+    let v = ws.max_speed + input.gravity.length() * dt;
+    report.timed(Stage::Contact, || {
+        let p = fluid.params();
+        let (lo, hi) = integrate::bounds(fluid.positions());
+        let margin = p.smoothing_length + p.particle_radius + 2.0 * v * dt;
+        let fluid_box = parry3d::bounding_volume::Aabb::new(lo, hi);
+        coupling.begin_substep(scene.colliders, &fluid_box, margin, back.0, back.1);
+    });
+    Some(coupling)
+}
+
+/// Position-based solvers (PBF, Clavet) first add gravity and predict the positions, then
+/// search neighbours at the predicted positions (Macklin & Müller 2013, Alg. 1 lines 2–4;
+/// Clavet et al. 2005, Alg. 1).
+fn predict(
+    particles: &mut ParticlesMut<'_>,
+    ws: &mut Workspace,
+    gravity: Vector,
+    dt: Real,
+    report: &mut StepReport,
+) {
+    ws.previous_positions
+        .resize(particles.positions.len(), Vector::ZERO);
+    if gravity != Vector::ZERO {
+        report.timed(Stage::ExternalForces, || {
+            particles.accelerations.fill(gravity);
+            integrate::add_accelerations(dt, particles.accelerations, particles.velocities);
+        });
+    }
+    report.timed(Stage::ParticleUpdate, || {
+        integrate::predict_positions(
+            dt,
+            particles.velocities,
+            particles.positions,
+            &mut ws.previous_positions,
+        )
+    });
+}
+
+/// The walls' density and pressure-gradient tables (when walls count in the density and a
+/// collider is near), as the solver asks for them.
+fn walls(
+    params: &FluidParams,
+    particles: &ParticlesMut<'_>,
+    ws: &mut Workspace,
+    solver: &SolverState,
+    input: &SubstepInput<'_>,
+    coupling: Option<&Coupling>,
+    report: &mut StepReport,
+) {
+    let Some(scene) = input.scene.filter(|_| params.wall_density) else {
+        ws.wall.clear();
+        return;
+    };
+    let request = solver.walls(params);
+    let query = WallQuery {
+        params,
+        force_kernel: request.force_kernel,
+        scene: (scene.bvh, scene.colliders, scene.bodies),
+        coupling,
+        hydrostatic: request.hydrostatic.then_some(input.gravity),
+        viscous: params.wall_viscosity > 0.0,
+        // Position-based solvers predicted the positions to the substep's end: the moving
+        // bodies are taken there too.
+        predicted: solver.predicts_positions(),
+    };
+    let positions = &particles.positions[..];
+    let near = report.timed(Stage::WallDensity, || {
+        ws.wall.update(&ws.search, positions, &query)
+    });
+    if request.double_density {
+        report.timed(Stage::WallDensity, || {
+            ws.wall.update_clavet(&ws.search.grid, positions, &query)
+        });
+    }
+    report.particles_near_walls += near;
+}
+
+/// The solver's substep on the step context, then the walls' viscosity and their reaction
+/// on dynamic bodies, then the report's density error. Returns the solver's outcome and the
+/// mean density error.
+fn solve(
+    params: &FluidParams,
+    particles: ParticlesMut<'_>,
+    rt: &mut FluidRuntime,
+    input: &SubstepInput<'_>,
+    coupling: Option<&mut Coupling>,
+    report: &mut StepReport,
+) -> (crate::solver::context::Outcome, Real) {
+    let n = particles.positions.len();
+    let ws = &mut rt.ws;
+    // Taken out of the workspace for the solver stages (a move, no copy), put back below.
+    let wall_ws = std::mem::take(&mut ws.wall);
+    ws.inv_densities.resize(n, 0.0);
+    ws.previous_positions.resize(n, Vector::ZERO);
+    let mut ctx = StepContext {
+        params,
+        gravity: input.gravity,
+        dt: input.dt,
+        positions: particles.positions,
+        velocities: particles.velocities,
+        accelerations: particles.accelerations,
+        densities: particles.densities,
+        pressures: particles.pressures,
+        ids: particles.ids,
+        attributes: particles.attributes,
+        inv_densities: &mut ws.inv_densities,
+        previous_positions: &mut ws.previous_positions,
+        neighbors: &ws.search.lists,
+        wall: wall_ws.any().then_some(&wall_ws),
+        report,
+    };
+    let outcome = rt.solver.step(&mut ctx);
+    let mut viscous = std::mem::take(&mut ws.wall_viscous_impulses);
+    viscous.clear();
+    wall_viscosity(&mut ctx, &mut viscous);
+    if let Some(c) = coupling {
+        wall_reaction(&mut ctx, &rt.solver, &mut ws.wall_impulses, &mut viscous, c);
+    }
+    let (_, mean_error) = measure_density_error(&mut ctx, &mut ws.partials);
+    ws.wall_viscous_impulses = viscous;
+    ws.wall = wall_ws;
+    (outcome, mean_error)
+}
+
+/// The walls' viscosity (`wall_viscosity` > 0), after the solver, on the velocities it left.
+fn wall_viscosity(ctx: &mut StepContext<'_>, records: &mut Vec<ImpulseRecord>) {
+    let p = ctx.params;
+    let Some(w) = ctx.wall.filter(|_| p.wall_viscosity > 0.0) else {
+        return;
+    };
+    if w.viscous.len() != ctx.velocities.len() {
+        return;
+    }
+    ctx.report.timed(Stage::ViscosityForce, || {
+        forces::wall_viscosity::apply(
+            forces::wall_viscosity::WallViscosity {
+                epsilon: p.wall_viscosity,
+                mass: p.particle_mass,
+                dt: ctx.dt,
+                wall: w,
+            },
+            ctx.positions,
+            ctx.inv_densities,
+            ctx.velocities,
+            records,
+        )
+    });
+}
+
+/// Fluid → body through the walls: each particle's wall term from dynamic bodies pushes those
+/// bodies back (Newton's third law; see `boundary::bodies`), with the solver's share of the
+/// impulse its wall term gave the particle; the walls' viscous impulses go with them.
+fn wall_reaction(
+    ctx: &mut StepContext<'_>,
+    solver: &SolverState,
+    records: &mut Vec<Vec<ImpulseRecord>>,
+    viscous: &mut Vec<ImpulseRecord>,
+    coupling: &mut Coupling,
+) {
+    let WallReaction::Impulse { added_mass } = solver.wall_reaction() else {
+        return;
+    };
+    let Some(w) = ctx.wall.filter(|w| w.coupled_any) else {
+        return;
+    };
+    let t0 = std::time::Instant::now();
+    let (m, dt) = (ctx.params.particle_mass, ctx.dt);
+    records.resize_with(1, Vec::new);
+    records[0].clear();
+    let scale = |i| solver.wall_impulse_scale(ctx, i);
+    w.reaction(scale, added_mass, m * dt, &mut records[0]);
+    records[0].append(viscous);
+    coupling.exchange(records, ctx.velocities, m);
+    ctx.report.timings.add(Stage::Contact, t0.elapsed());
+}
+
+/// The report's density error (counted with the density stage, whose output it reads).
+fn measure_density_error(
+    ctx: &mut StepContext<'_>,
+    partials: &mut Vec<(f64, Real)>,
+) -> (Real, Real) {
+    let rest = ctx.params.rest_density;
+    let densities = &*ctx.densities;
+    let (max_err, mean_err) = ctx.report.timed(Stage::Density, || {
+        density::density_error(densities, rest, partials)
+    });
+    ctx.report.max_density_error = ctx.report.max_density_error.max(max_err);
+    (max_err, mean_err)
+}
+
+/// Collider contact of every particle, swept from the positions at the substep's start to
+/// the current ones; the impulses it recorded on dynamic bodies go to them. Returns the
+/// number of particles pushed out of a solid.
+pub(super) fn collider_contact(
+    fluid: &mut Fluid,
+    ws: &mut Workspace,
+    scene: Option<Scene<'_>>,
+    depenetrate: bool,
+    coupling: Option<&mut Coupling>,
+    report: &mut StepReport,
+) -> usize {
+    let Some(scene) = scene else {
+        ws.contact.clear();
+        return 0;
+    };
+    let (p, particles) = fluid.split_mut();
+    let Workspace {
+        search,
+        contact,
+        impulses,
+        previous_positions,
+        ..
+    } = ws;
+    let (positions, velocities) = (particles.positions, particles.velocities);
+    let counts = report.timed(Stage::Contact, || {
+        contact.gather(
+            &search.grid,
+            previous_positions,
+            positions,
+            p.particle_radius,
+            scene.bvh,
+            scene.colliders,
+            p.collision_groups,
+            coupling.as_deref(),
+        );
+        if !contact.any() {
+            return contact::ContactCounts::default();
+        }
+        let response = ContactResponse {
+            radius: p.particle_radius,
+            restitution: p.restitution,
+            friction: p.friction,
+        };
+        contact::resolve(
+            &search.grid,
+            contact,
+            scene.colliders,
+            response,
+            depenetrate,
+            previous_positions,
+            positions,
+            velocities,
+            coupling.as_deref().map(|c| Movers {
+                table: c.table(),
+                mass: p.particle_mass,
+                records: impulses,
+            }),
+        )
+    });
+    if let Some(c) = coupling
+        && !c.table().is_empty()
+    {
+        report.timed(Stage::Contact, || {
+            c.exchange(impulses, velocities, p.particle_mass)
+        });
+    }
+    report.contacts += counts.contacts;
+    report.contact_fallbacks += counts.fallbacks;
+    report.depenetrated += counts.depenetrated;
+    counts.depenetrated
+}

@@ -1,0 +1,138 @@
+//! How a frame is divided into substeps: the policy ([`TimeStepping`]) and the stability
+//! limits every solver shares (CFL, explicit viscosity); each solver adds its own
+//! (`PressureSolver::time_step_limit`).
+
+use super::workspace::FluidRuntime;
+use crate::error::{SphError, SphResult};
+use crate::fluid::Fluid;
+use crate::math::{Real, Vector};
+
+/// How [`crate::FluidPipeline::step`] divides the caller's frame into substeps.
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub enum TimeStepping {
+    /// One substep of exactly the frame's `dt`: the caller is responsible for stability
+    /// (benchmarks and convergence studies use this).
+    Fixed,
+    /// Substeps from the CFL condition, recomputed before each substep from the fluids'
+    /// current maximum speed:
+    ///
+    /// - every solver: `dt ≤ courant · spacing / (v_max + |g|·dt)` (a particle moves at
+    ///   most `courant` spacings per substep), and the explicit viscosity limit
+    ///   `dt ≤ ρ0·h²/(30·ε)`;
+    /// - WCSPH also the acoustic limit `dt ≤ courant · h / (c + v_max)`, Clavet the same with
+    ///   `c·√k` (its stiffness `k` is in units of `c²/(h·ρ0)`, its springs' in `c²/(h²·N)`);
+    /// - DFSPH under gravity also `g·dt² ≤ 5·max_density_error·spacing`: gravity's
+    ///   compression within one substep stays a few times the solve's error target.
+    ///
+    /// The frame is split into equal substeps that meet the limits; at most `max_substeps`
+    /// of them. When the cap binds the substeps are longer than the limits ask and the report
+    /// says so (`substep_cap_hit`); contact still keeps every particle out of every solid.
+    Adaptive {
+        /// Courant number (default 0.4).
+        courant: Real,
+        /// Cap on substeps per frame (default 256).
+        max_substeps: u32,
+    },
+}
+
+impl Default for TimeStepping {
+    fn default() -> Self {
+        TimeStepping::Adaptive {
+            courant: 0.4,
+            max_substeps: 256,
+        }
+    }
+}
+
+impl TimeStepping {
+    /// Checks the policy: a positive finite Courant number, at least one substep.
+    ///
+    /// # Errors
+    /// [`SphError::InvalidParameter`] naming `courant` or `max_substeps`.
+    pub fn validate(&self) -> SphResult<()> {
+        if let TimeStepping::Adaptive {
+            courant,
+            max_substeps,
+        } = *self
+        {
+            if !(courant.is_finite() && courant > 0.0) {
+                return Err(SphError::InvalidParameter {
+                    field: "courant",
+                    value: courant as f64,
+                    reason: "must be positive and finite",
+                });
+            }
+            if max_substeps == 0 {
+                return Err(SphError::InvalidParameter {
+                    field: "max_substeps",
+                    value: 0.0,
+                    reason: "must be at least 1",
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The next substep of a frame with `remaining` seconds left after `taken` substeps:
+/// `(length, last, cap_hit)`.
+pub(super) fn next_substep<'a>(
+    policy: TimeStepping,
+    remaining: Real,
+    taken: u32,
+    fluids: impl Iterator<Item = (&'a Fluid, &'a mut FluidRuntime)>,
+    gravity: Vector,
+) -> (Real, bool, bool) {
+    let TimeStepping::Adaptive {
+        courant,
+        max_substeps,
+    } = policy
+    else {
+        return (remaining, true, false);
+    };
+    let limit = fluids
+        .map(|(f, rt)| stable_time_step(f, rt, gravity, courant, remaining))
+        .fold(Real::MAX, Real::min);
+    let left = max_substeps.saturating_sub(taken).max(1);
+    let needed = (remaining / limit).ceil().max(1.0);
+    let cap_hit = needed > left as Real;
+    let count = needed.min(left as Real);
+    if count <= 1.0 {
+        (remaining, true, cap_hit)
+    } else {
+        (remaining / count, false, cap_hit)
+    }
+}
+
+/// The longest stable substep for `fluid` (see [`TimeStepping::Adaptive`]), at most
+/// `remaining`.
+fn stable_time_step(
+    fluid: &Fluid,
+    rt: &mut FluidRuntime,
+    gravity: Vector,
+    courant: Real,
+    remaining: Real,
+) -> Real {
+    if fluid.is_empty() {
+        return remaining;
+    }
+    let p = fluid.params();
+    let v = rt.ws.max_speed;
+    let g = gravity.length();
+    // courant·s = v·dt + g·dt², solved for dt.
+    let cs = courant * p.particle_spacing;
+    let mut limit = if g > 0.0 {
+        2.0 * cs / (v + (v * v + 4.0 * g * cs).sqrt())
+    } else if v > 0.0 {
+        cs / v
+    } else {
+        remaining
+    };
+    if p.viscosity > 0.0 {
+        let h = p.smoothing_length;
+        limit = limit.min(p.rest_density * h * h / (30.0 * p.viscosity));
+    }
+    limit = limit.min(rt.solver.time_step_limit(p, v, gravity, courant));
+    limit.min(remaining)
+}

@@ -1,0 +1,156 @@
+//! The step's per-fluid scratch, and the per-fluid state the pipeline keeps between frames:
+//! the solver's state. Held by [`super::FluidPipeline`], one entry per fluid of the set it
+//! steps, matched by handle.
+
+use crate::boundary::bodies::ImpulseRecord;
+use crate::boundary::{ContactWorkspace, WallWorkspace};
+use crate::fluid::{FluidHandle, FluidSet};
+use crate::math::{Real, Vector};
+use crate::neighbors::NeighbourSearch;
+use crate::solver::SolverState;
+use crate::solver::pbf::PbfBuffers;
+
+/// Scratch one fluid's substep reuses, so that a warm step never allocates.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Workspace {
+    /// Grid, neighbour lists and the re-sort's scratch.
+    pub search: NeighbourSearch,
+    /// Colliders near each cell (collider contact's candidates).
+    pub contact: ContactWorkspace,
+    /// Impulses on dynamic bodies recorded by contact, one buffer per chunk of particles.
+    pub impulses: Vec<Vec<ImpulseRecord>>,
+    /// Impulses on dynamic bodies from the walls' pressure term (one buffer).
+    pub wall_impulses: Vec<Vec<ImpulseRecord>>,
+    /// Impulses on dynamic bodies from the walls' viscosity.
+    pub wall_viscous_impulses: Vec<ImpulseRecord>,
+    /// Wall contributions to density (see [`crate::boundary::wall`]).
+    pub wall: WallWorkspace,
+    /// Buffers of the overlap relaxation (a PBF projection; see `pipeline::relax`).
+    pub relax: PbfBuffers,
+    /// Positions at the start of the current substep (written by the particle update, swept
+    /// from by collider contact).
+    pub previous_positions: Vec<Vector>,
+    /// `1/ρ` of every particle, written by the density stage.
+    pub inv_densities: Vec<Real>,
+    /// Per-chunk partial sums for diagnostics (summed serially, so results are deterministic).
+    pub partials: Vec<(f64, Real)>,
+    /// Largest speed after the last substep (the adaptive time step's input).
+    pub max_speed: Real,
+}
+
+impl Workspace {
+    /// Reserves the per-particle scratch for `capacity` particles (see
+    /// [`crate::Fluid::set_capacity`]): a fluid filling up to its capacity then never
+    /// reallocates it. Costs a length check once reserved.
+    pub fn reserve(&mut self, capacity: usize) {
+        self.search.reserve(capacity);
+        let extra = |len: usize| capacity.saturating_sub(len);
+        let _ = self
+            .previous_positions
+            .try_reserve_exact(extra(self.previous_positions.len()));
+        let _ = self
+            .inv_densities
+            .try_reserve_exact(extra(self.inv_densities.len()));
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        let v = std::mem::size_of::<Vector>();
+        let records = |r: &Vec<Vec<ImpulseRecord>>| {
+            r.iter().map(|c| c.capacity()).sum::<usize>() * std::mem::size_of::<ImpulseRecord>()
+        };
+        self.search.heap_bytes()
+            + self.contact.heap_bytes()
+            + self.wall.heap_bytes()
+            + self.relax.heap_bytes()
+            + records(&self.impulses)
+            + records(&self.wall_impulses)
+            + self.wall_viscous_impulses.capacity() * std::mem::size_of::<ImpulseRecord>()
+            + self.previous_positions.capacity() * v
+            + self.inv_densities.capacity() * 4
+            + self.partials.capacity() * std::mem::size_of::<(f64, Real)>()
+    }
+}
+
+/// What the pipeline keeps for one fluid: its solver's state and the step's scratch.
+#[derive(Clone, Debug)]
+pub(crate) struct FluidRuntime {
+    /// The fluid this belongs to.
+    pub handle: FluidHandle,
+    /// The solver's state (rebuilt when the fluid's parameters change solver).
+    pub solver: SolverState,
+    /// Scratch.
+    pub ws: Workspace,
+}
+
+/// One [`FluidRuntime`] per fluid of the set last stepped, in the set's order.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Runtimes {
+    entries: Vec<FluidRuntime>,
+}
+
+impl Runtimes {
+    /// Matches the entries to `fluids` (same handles, same order; a new fluid gets a fresh
+    /// entry, a removed one's entry is dropped, a fluid whose parameters changed solver gets a
+    /// fresh solver state). Allocates nothing when nothing changed.
+    pub fn sync(&mut self, fluids: &FluidSet) {
+        let same = self.entries.len() == fluids.len()
+            && self
+                .entries
+                .iter()
+                .zip(fluids.iter())
+                .all(|(e, (h, f))| e.handle == h && e.solver.is_for(&f.params().solver));
+        if same {
+            return;
+        }
+        let mut old = std::mem::take(&mut self.entries);
+        for (handle, fluid) in fluids.iter() {
+            let solver = &fluid.params().solver;
+            let entry = match old.iter().position(|e| e.handle == handle) {
+                Some(k) => {
+                    let mut e = old.swap_remove(k);
+                    if !e.solver.is_for(solver) {
+                        e.solver = SolverState::new(solver);
+                    }
+                    e
+                }
+                None => FluidRuntime {
+                    handle,
+                    solver: SolverState::new(solver),
+                    ws: Workspace::default(),
+                },
+            };
+            self.entries.push(entry);
+        }
+    }
+
+    /// The entries, in the set's order.
+    pub fn iter_mut(&mut self) -> std::slice::IterMut<'_, FluidRuntime> {
+        self.entries.iter_mut()
+    }
+
+    /// The entry of `handle`.
+    pub fn get(&self, handle: FluidHandle) -> Option<&FluidRuntime> {
+        self.entries.iter().find(|e| e.handle == handle)
+    }
+
+    /// The entry of `handle`, made for `fluids` if it does not exist yet.
+    #[cfg_attr(not(feature = "snapshot"), allow(dead_code))]
+    pub fn get_or_sync(
+        &mut self,
+        handle: FluidHandle,
+        fluids: &FluidSet,
+    ) -> Option<&mut FluidRuntime> {
+        self.sync(fluids);
+        self.entries.iter_mut().find(|e| e.handle == handle)
+    }
+
+    /// Heap bytes held by every entry.
+    pub fn heap_bytes(&self) -> usize {
+        self.entries
+            .iter()
+            .map(|e| e.ws.heap_bytes() + e.solver.heap_bytes())
+            .sum::<usize>()
+            + self.entries.capacity() * std::mem::size_of::<FluidRuntime>()
+    }
+}

@@ -1,0 +1,110 @@
+//! Weakly-compressible SPH, the Unity paper's method (Müller et al. 2003): pressure from the
+//! equation of state, Müller's symmetric pressure force, viscosity, gravity, symplectic
+//! Euler. Its stages are the paper's Tables 1–2: density, pressure calculation, pressure
+//! force, viscosity force, external forces, particle update.
+
+use super::context::{Outcome, StepContext};
+use super::{PressureSolver, WallReaction, WallRequest};
+use crate::diagnostics::Stage;
+use crate::domain::Separation;
+use crate::math::{Real, Vector};
+use crate::params::FluidParams;
+use crate::{density, forces, integrate, pressure};
+
+/// WCSPH keeps no state between substeps.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct WcsphState;
+
+impl PressureSolver for WcsphState {
+    type Settings = ();
+    const PREDICTS_POSITIONS: bool = false;
+    const WALL_REACTION: WallReaction = WallReaction::Impulse { added_mass: true };
+
+    fn walls(_: &(), params: &FluidParams) -> WallRequest {
+        WallRequest {
+            force_kernel: params.pressure_kernel,
+            hydrostatic: false,
+            double_density: false,
+        }
+    }
+
+    fn step<S: Separation>(&mut self, _: &(), ctx: &mut StepContext<'_>, sep: S) -> Outcome {
+        let p = ctx.params;
+        let h = p.smoothing_length;
+        let wall = ctx.wall;
+        ctx.report.timed(Stage::Density, || {
+            crate::with_kernel!(p.density_kernel, K => density::compute_in::<K, S>(
+                ctx.positions, ctx.neighbors, p.particle_mass, h,
+                wall.map(|w| &w.density[..]), ctx.densities, ctx.inv_densities, sep));
+        });
+        ctx.report.timed(Stage::Pressure, || {
+            pressure::eos::compute(
+                ctx.densities,
+                p.equation_of_state,
+                p.rest_density,
+                p.clamp_negative_pressure,
+                ctx.pressures,
+            );
+        });
+        // Overwrites the accelerations.
+        ctx.report.timed(Stage::PressureForce, || {
+            crate::with_kernel!(p.pressure_kernel, K => pressure::wcsph::pressure_accelerations_in::<K, S>(
+                ctx.positions, ctx.inv_densities, ctx.pressures, ctx.neighbors, p.particle_mass,
+                h, wall.map(|w| &w.gradient[..]), ctx.accelerations, sep));
+        });
+        if p.viscosity > 0.0 {
+            ctx.report.timed(Stage::ViscosityForce, || {
+                forces::viscosity::add_accelerations_in(
+                    ctx.positions,
+                    ctx.velocities,
+                    ctx.inv_densities,
+                    ctx.neighbors,
+                    p.particle_mass,
+                    p.viscosity,
+                    h,
+                    ctx.accelerations,
+                    sep,
+                );
+            });
+        }
+        if ctx.gravity != Vector::ZERO {
+            ctx.report.timed(Stage::ExternalForces, || {
+                forces::external::add_gravity(ctx.gravity, ctx.accelerations)
+            });
+        }
+        ctx.report
+            .timed(Stage::ParticleUpdate, || {
+                integrate::symplectic_euler(
+                    ctx.dt,
+                    ctx.accelerations,
+                    ctx.velocities,
+                    ctx.positions,
+                    ctx.previous_positions,
+                )
+            })
+            .into()
+    }
+
+    /// The wall pressure force `−m·g_c·p/(2ρ²)` over the substep.
+    fn wall_impulse_scale(&self, _: &(), ctx: &StepContext<'_>, i: usize) -> Real {
+        let inv = ctx.inv_densities[i];
+        0.5 * ctx.pressures[i] * inv * inv * ctx.params.particle_mass * ctx.dt
+    }
+
+    /// The acoustic limit `dt ≤ courant · h / (c + v)`.
+    fn time_step_limit(
+        &mut self,
+        _: &(),
+        params: &FluidParams,
+        speed: Real,
+        _: Vector,
+        courant: Real,
+    ) -> Real {
+        let c = params.equation_of_state.speed_of_sound();
+        courant * params.smoothing_length / (c + speed)
+    }
+
+    fn heap_bytes(&self) -> usize {
+        0
+    }
+}
