@@ -10,7 +10,7 @@
 use crate::error::{SphError, SphResult};
 use crate::kernel::KernelKind;
 use crate::math::Real;
-use crate::solver::Solver;
+use crate::solver::settings::Solver;
 use rapier3d::geometry::InteractionGroups;
 
 /// The equation of state: how pressure follows from density.

@@ -13,6 +13,7 @@
 //! wall or contact work when no collider is near the fluid. ARCHITECTURE.md describes who
 //! owns which data and how to add a stage or a solver.
 
+mod contact;
 mod relax;
 mod substep;
 mod time_stepping;
@@ -26,11 +27,12 @@ use crate::error::{SphError, SphResult};
 use crate::fluid::{FluidHandle, FluidSet};
 use crate::math::{Real, Vector};
 use crate::neighbors::NeighborLists;
+use contact::Scene;
 use parry3d::query::DefaultQueryDispatcher;
 use rapier3d::dynamics::{RigidBodyHandle, RigidBodySet};
 use rapier3d::geometry::{BroadPhaseBvh, ColliderSet};
 use rapier3d::pipeline::QueryFilter;
-use substep::{Scene, SubstepInput};
+use substep::SubstepInput;
 use workspace::Runtimes;
 
 /// Steps fluids alongside a rapier world. Holds its time-stepping policy, the last report,

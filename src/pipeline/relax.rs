@@ -10,7 +10,7 @@
 //! (or an earlier relaxation was stopped by [`RELAX_ROUNDS`]); otherwise it costs one flag
 //! check. Its time is reported as [`Stage::Relaxation`].
 
-use super::substep::{Scene, collider_contact};
+use super::contact::{Scene, collider_contact};
 use super::workspace::Workspace;
 use crate::boundary::wall::WallQuery;
 use crate::diagnostics::{Stage, StepReport};

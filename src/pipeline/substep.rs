@@ -2,10 +2,10 @@
 //! call into the module that owns it, timed into the report under its [`Stage`]; a stage the
 //! scene does not use is skipped by one check.
 
+use super::contact::{Scene, collider_contact};
 use super::workspace::{FluidRuntime, Workspace};
 use crate::boundary::Coupling;
 use crate::boundary::bodies::ImpulseRecord;
-use crate::boundary::contact::{self, ContactResponse, Movers};
 use crate::boundary::wall::WallQuery;
 use crate::diagnostics::{Stage, StepReport};
 use crate::fluid::{Fluid, ParticlesMut};
@@ -14,17 +14,6 @@ use crate::params::FluidParams;
 use crate::solver::context::StepContext;
 use crate::solver::{SolverState, WallReaction};
 use crate::{density, forces, integrate};
-use parry3d::partitioning::Bvh;
-use rapier3d::dynamics::RigidBodySet;
-use rapier3d::geometry::ColliderSet;
-
-/// The rapier side a substep sees: the broad-phase's tree, the colliders and the bodies.
-#[derive(Copy, Clone)]
-pub(crate) struct Scene<'a> {
-    pub bvh: &'a Bvh,
-    pub colliders: &'a ColliderSet,
-    pub bodies: &'a RigidBodySet,
-}
 
 /// What the frame hands each substep.
 #[derive(Copy, Clone)]
@@ -336,76 +325,4 @@ fn measure_density_error(
     });
     ctx.report.max_density_error = ctx.report.max_density_error.max(max_err);
     (max_err, mean_err)
-}
-
-/// Collider contact of every particle, swept from the positions at the substep's start to
-/// the current ones; the impulses it recorded on dynamic bodies go to them. Returns the
-/// number of particles pushed out of a solid.
-pub(super) fn collider_contact(
-    fluid: &mut Fluid,
-    ws: &mut Workspace,
-    scene: Option<Scene<'_>>,
-    depenetrate: bool,
-    coupling: Option<&mut Coupling>,
-    report: &mut StepReport,
-) -> usize {
-    let Some(scene) = scene else {
-        ws.contact.clear();
-        return 0;
-    };
-    let (p, particles) = fluid.split_mut();
-    let Workspace {
-        search,
-        contact,
-        impulses,
-        previous_positions,
-        ..
-    } = ws;
-    let (positions, velocities) = (particles.positions, particles.velocities);
-    let counts = report.timed(Stage::Contact, || {
-        contact.gather(
-            &search.grid,
-            previous_positions,
-            positions,
-            p.particle_radius,
-            scene.bvh,
-            scene.colliders,
-            p.collision_groups,
-            coupling.as_deref(),
-        );
-        if !contact.any() {
-            return contact::ContactCounts::default();
-        }
-        let response = ContactResponse {
-            radius: p.particle_radius,
-            restitution: p.restitution,
-            friction: p.friction,
-        };
-        contact::resolve(
-            &search.grid,
-            contact,
-            scene.colliders,
-            response,
-            depenetrate,
-            previous_positions,
-            positions,
-            velocities,
-            coupling.as_deref().map(|c| Movers {
-                table: c.table(),
-                mass: p.particle_mass,
-                records: impulses,
-            }),
-        )
-    });
-    if let Some(c) = coupling
-        && !c.table().is_empty()
-    {
-        report.timed(Stage::Contact, || {
-            c.exchange(impulses, velocities, p.particle_mass)
-        });
-    }
-    report.contacts += counts.contacts;
-    report.contact_fallbacks += counts.fallbacks;
-    report.depenetrated += counts.depenetrated;
-    counts.depenetrated
 }

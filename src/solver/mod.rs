@@ -25,10 +25,9 @@ pub(crate) mod context;
 pub mod dfsph;
 pub(crate) mod pairs;
 pub mod pbf;
+pub(crate) mod settings;
 pub mod springs;
 mod wcsph;
-
-pub use clavet::Clavet;
 
 use crate::domain::Separation;
 use crate::kernel::KernelKind;
@@ -47,52 +46,8 @@ pub const MAX_RELAXATION_HALVINGS: u32 = 3;
 pub(crate) fn relaxation(halvings: u32) -> Real {
     Real::powi(0.5, halvings as i32)
 }
-pub use dfsph::{Dfsph, HYDROSTATIC_WALL_MIRROR, WALL_MIRROR};
-pub use pbf::Pbf;
-pub use springs::Springs;
-
-/// Which pressure solver a fluid uses.
-#[derive(Copy, Clone, Debug, PartialEq)]
-#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
-pub enum Solver {
-    /// Weakly-compressible SPH: pressure from the fluid's equation of state, symplectic Euler.
-    /// The Unity paper's method.
-    Wcsph,
-    /// Divergence-free SPH with the given settings.
-    Dfsph(Dfsph),
-    /// Position-based fluids with the given settings.
-    Pbf(Pbf),
-    /// Clavet et al.'s double-density relaxation with the given settings.
-    Clavet(Clavet),
-}
-
-impl Solver {
-    /// The solver's short name, as printed in reports.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Solver::Wcsph => "WCSPH",
-            Solver::Dfsph(_) => "DFSPH",
-            Solver::Pbf(_) => "PBF",
-            Solver::Clavet(_) => "Clavet",
-        }
-    }
-
-    /// DFSPH with default settings (0.1 % density error, 1 % divergence error).
-    pub fn dfsph() -> Self {
-        Solver::Dfsph(Dfsph::default())
-    }
-
-    /// PBF with default settings (4 iterations, artificial pressure k = 0.1, n = 4, Δq = 0.2h).
-    pub fn pbf() -> Self {
-        Solver::Pbf(Pbf::default())
-    }
-
-    /// Double-density relaxation with default settings (stiffness 1 in units of `c²/(h·ρ0)`,
-    /// near stiffness balancing a flat free surface).
-    pub fn clavet() -> Self {
-        Solver::Clavet(Clavet::default())
-    }
-}
+pub use dfsph::{HYDROSTATIC_WALL_MIRROR, WALL_MIRROR};
+pub use settings::{Clavet, Dfsph, Pbf, Solver, Springs};
 
 /// What a solver asks of the wall stage (`boundary::wall`).
 #[derive(Copy, Clone, Debug)]

@@ -33,36 +33,13 @@
 //! ratio. The defaults are a starting point (the paper gives no SI values), not a calibrated
 //! material.
 
+pub use super::clavet::Springs;
 use crate::domain::Separation;
 use crate::math::{Real, Vector};
 use crate::neighbors::NeighborLists;
 use crate::par::CHUNK;
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
-
-/// Settings of the viscoelastic springs ([`super::Clavet::springs`]).
-#[derive(Copy, Clone, Debug, PartialEq)]
-#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
-pub struct Springs {
-    /// Spring stiffness `k`, as a multiple of `c²/(h²·N)` (see the module docs; default 0.3).
-    pub stiffness: Real,
-    /// Yield ratio `γ`: the relative deformation a spring takes before its rest length starts
-    /// to flow (default 0.1).
-    pub yield_ratio: Real,
-    /// Plasticity `α` (1/s): how fast a rest length flows once past the yield band (default
-    /// 5/s: a deformation is forgotten in about 0.2 s).
-    pub plasticity: Real,
-}
-
-impl Default for Springs {
-    fn default() -> Self {
-        Self {
-            stiffness: 0.3,
-            yield_ratio: 0.1,
-            plasticity: 5.0,
-        }
-    }
-}
 
 /// The springs of a fluid, row by row: row `r` belongs to the particle with id `owners[r]`
 /// and holds `(partner id, rest length)` pairs at `offsets[r]..offsets[r + 1]`, sorted by

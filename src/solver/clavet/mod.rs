@@ -82,48 +82,10 @@ use crate::par::CHUNK;
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
+pub(crate) mod settings;
 mod step;
+pub use settings::{Clavet, Springs};
 pub(crate) use step::ClavetState;
-
-/// Settings of the double-density relaxation.
-#[derive(Copy, Clone, Debug, PartialEq)]
-#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
-pub struct Clavet {
-    /// Stiffness `k`, as a multiple of `c²/(h·ρ0)` (default 1).
-    pub stiffness: Real,
-    /// Cohesion `k_c`: the stiffness of the pressure where the fluid is below its rest density
-    /// (negative: it pulls particles together; the method's surface tension), same units
-    /// (default 1, the default stiffness; the module's "Cohesion" says why it is not
-    /// `stiffness`). Setting it equal to `stiffness` gives the paper's relaxation.
-    #[cfg_attr(feature = "snapshot", serde(default = "default_cohesion"))]
-    pub cohesion: Real,
-    /// Near stiffness `k_near`, same units. `None` (default): the value that makes a flat
-    /// free surface of the rest lattice an equilibrium against the cohesion (see
-    /// [`surface_equilibrium_near_ratio`]; about 1.07·k_c at `h = 2s`), so a resting pool
-    /// neither boils off its top layer (near pressure too strong: the paper's ratio 2.5 did,
-    /// the fluid expanded at once) nor pulls it in.
-    pub near_stiffness: Option<Real>,
-    /// Viscoelastic springs between neighbours (section 5 of the paper; see
-    /// [`super::springs`]). `None` (default): a plain liquid, and the spring stage is skipped.
-    #[cfg_attr(feature = "snapshot", serde(default))]
-    pub springs: Option<super::Springs>,
-}
-
-#[cfg(feature = "snapshot")]
-fn default_cohesion() -> Real {
-    1.0
-}
-
-impl Default for Clavet {
-    fn default() -> Self {
-        Self {
-            stiffness: 1.0,
-            cohesion: 1.0,
-            near_stiffness: None,
-            springs: None,
-        }
-    }
-}
 
 /// Densities `(Σ(1 − q)², Σ(1 − q)³)` of a lattice particle `depth` layers below a flat free
 /// surface (`depth ≥ h/s`: the interior value).

@@ -79,73 +79,6 @@ pub const HYDROSTATIC_WALL_MIRROR: Real = 2.0;
 /// as `(a0 + a1) + (a2 + a3)`: independent add chains, and a fixed order.
 const ACC: usize = 4;
 
-/// Settings of the DFSPH solver. Defaults follow Bender & Koschier (2017): 0.1 % average
-/// density error, 1 % divergence error.
-#[derive(Copy, Clone, Debug, PartialEq)]
-#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
-pub struct Dfsph {
-    /// Largest accepted average density error after the constant-density solve, as a fraction
-    /// of `ρ0` (default 0.001, i.e. 0.1 %).
-    pub max_density_error: Real,
-    /// Largest accepted average divergence error, `|Dρ/Dt|·dt/ρ0` averaged (default 0.01).
-    pub max_divergence_error: Real,
-    /// Iterations always run by the constant-density solve (default 2, as in Bender &
-    /// Koschier's reference implementation, SPlisHSPlasH).
-    pub min_iterations: u32,
-    /// Iterations always run by the divergence solve (default 1, as in SPlisHSPlasH: the
-    /// divergence solve only keeps the velocity field from drifting, its error target is
-    /// usually met by the warm start and one correction).
-    pub min_divergence_iterations: u32,
-    /// Iteration cap of each solve (default 100). When it binds, the step report's
-    /// `solver_capped` count says so.
-    pub max_iterations: u32,
-    /// Run the divergence solve (default true). Off gives "constant-density only" SPH, cheaper
-    /// and less stable.
-    pub divergence_solve: bool,
-    /// Warm start of the constant-density solve: the fraction of the previous step's
-    /// pressure applied before iterating (default 0.75), and only to particles whose density
-    /// is predicted to exceed `ρ0` (the rest are separating: pressure carried over there
-    /// would push fluid that is already coming apart, and the solve's increments, never
-    /// negative, could not take it back). Higher values need fewer iterations, since the
-    /// solve only rebuilds the remaining fraction each step; see docs/solvers.md for the measured
-    /// trade-off (at 1.0 a column at rest in a closed tank kept jittering).
-    #[cfg_attr(feature = "snapshot", serde(default = "default_warm_start"))]
-    pub warm_start: Real,
-    /// Walls with hydrostatic pressure (default true since session 12): the wall's pressure
-    /// is the fluid's around the particle carried to the wall, `ρ0·g·(x_b − x_i)` included
-    /// (see [`HYDROSTATIC_WALL_MIRROR`]), instead of the particle's own weighted by
-    /// [`WALL_MIRROR`]. The pressure next to walls then comes out hydrostatic: a settled
-    /// column's bottom pressure within 2 % (−0.1 / +1.5 / +0.3 % at N = 6 / 8 / 12 in the
-    /// validation scene; +14 to +16 % with `false`, where contact carries half the column's
-    /// weight), no compressed layer above the floor. A solve that diverges finishes without
-    /// the neighbours' part (see `DfsphBuffers::applied_neighbour`). The cost: the density
-    /// solve iterates more (in the salva scene 9.7 iterations per step instead of 3.7, ending
-    /// at a lower mean compression), and the wall stage scans the neighbours of the particles
-    /// next to walls a second time. `false` is the cheaper choice where pressures are not
-    /// read (docs/solvers.md has the measurements).
-    pub hydrostatic_walls: bool,
-}
-
-#[cfg(feature = "snapshot")]
-fn default_warm_start() -> Real {
-    Dfsph::default().warm_start
-}
-
-impl Default for Dfsph {
-    fn default() -> Self {
-        Self {
-            max_density_error: 0.001,
-            max_divergence_error: 0.01,
-            min_iterations: 2,
-            min_divergence_iterations: 1,
-            max_iterations: 100,
-            divergence_solve: true,
-            warm_start: 0.75,
-            hydrostatic_walls: true,
-        }
-    }
-}
-
 /// What one solve did.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub(crate) struct SolveStats {
@@ -210,7 +143,9 @@ pub(crate) struct DfsphBuffers {
 #[doc(inline)]
 pub use super::MAX_RELAXATION_HALVINGS;
 
+pub(crate) mod settings;
 mod step;
+pub use settings::Dfsph;
 pub(crate) use step::DfsphState;
 
 impl DfsphBuffers {

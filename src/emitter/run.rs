@@ -1,0 +1,245 @@
+//! The emitters' and sinks' stages, and their storage on the fluid: a fluid's emitters add the
+//! particles due in a frame (after its substeps), its sinks remove the particles inside them
+//! (after every substep). See the module docs of [`crate::emitter`].
+
+use super::{Emitter, EmitterHandle, Sink, SinkHandle, SinkRegion};
+use crate::error::SphResult;
+use crate::fluid::Fluid;
+use crate::math::{Real, Vector};
+use parry3d::bounding_volume::{Aabb, BoundingVolume};
+use parry3d::partitioning::{Bvh, BvhNode};
+use parry3d::query::Ray;
+use rapier3d::geometry::{ColliderHandle, ColliderSet};
+
+/// What the emitters of one fluid did during one frame.
+#[derive(Copy, Clone, Debug, Default)]
+pub(crate) struct EmitCounts {
+    pub emitted: usize,
+    pub blocked: usize,
+    pub capacity_reached: bool,
+}
+
+impl Fluid {
+    /// Adds an emitter (validated) to this fluid.
+    pub fn add_emitter(&mut self, emitter: Emitter) -> SphResult<EmitterHandle> {
+        emitter.validate()?;
+        let (index, generation) = self.sources.emitters.insert(emitter);
+        Ok(EmitterHandle { index, generation })
+    }
+
+    /// Removes an emitter, returning it.
+    pub fn remove_emitter(&mut self, handle: EmitterHandle) -> Option<Emitter> {
+        self.sources
+            .emitters
+            .remove(handle.index, handle.generation)
+    }
+
+    /// The emitter named by `handle`.
+    pub fn emitter(&self, handle: EmitterHandle) -> Option<&Emitter> {
+        self.sources.emitters.get(handle.index, handle.generation)
+    }
+
+    /// The emitter named by `handle`, mutably (its setters validate).
+    pub fn emitter_mut(&mut self, handle: EmitterHandle) -> Option<&mut Emitter> {
+        self.sources
+            .emitters
+            .get_mut(handle.index, handle.generation)
+    }
+
+    /// Iterates over `(handle, emitter)`.
+    pub fn emitters(&self) -> impl Iterator<Item = (EmitterHandle, &Emitter)> {
+        self.sources
+            .emitters
+            .iter()
+            .map(|((index, generation), e)| (EmitterHandle { index, generation }, e))
+    }
+
+    /// Adds a sink (validated) to this fluid.
+    pub fn add_sink(&mut self, sink: Sink) -> SphResult<SinkHandle> {
+        sink.validate()?;
+        let (index, generation) = self.sources.sinks.insert(sink);
+        Ok(SinkHandle { index, generation })
+    }
+
+    /// Removes a sink, returning it.
+    pub fn remove_sink(&mut self, handle: SinkHandle) -> Option<Sink> {
+        self.sources.sinks.remove(handle.index, handle.generation)
+    }
+
+    /// The sink named by `handle`.
+    pub fn sink(&self, handle: SinkHandle) -> Option<&Sink> {
+        self.sources.sinks.get(handle.index, handle.generation)
+    }
+
+    /// Iterates over `(handle, sink)`.
+    pub fn sinks(&self) -> impl Iterator<Item = (SinkHandle, &Sink)> {
+        self.sources
+            .sinks
+            .iter()
+            .map(|((index, generation), s)| (SinkHandle { index, generation }, s))
+    }
+
+    /// The sink named by `handle`, mutably.
+    pub fn sink_mut(&mut self, handle: SinkHandle) -> Option<&mut Sink> {
+        self.sources.sinks.get_mut(handle.index, handle.generation)
+    }
+
+    /// Removes the particles inside the fluid's sinks. Returns how many.
+    pub(crate) fn drain_sinks(&mut self, colliders: &ColliderSet) -> usize {
+        if self.sources.sinks.is_empty() {
+            return 0;
+        }
+        let spacing = self.params().particle_spacing;
+        let mut sinks = std::mem::take(&mut self.sources.sinks);
+        let mut total = 0;
+        for sink in sinks.iter_mut() {
+            if !sink.enabled {
+                continue;
+            }
+            let removed = match sink.region {
+                SinkRegion::Aabb { min, max } => {
+                    self.remove_particles_where(|x, _, _| x.cmpge(min).all() && x.cmple(max).all())
+                }
+                SinkRegion::Ball { centre, radius } => {
+                    let r2 = radius * radius;
+                    self.remove_particles_where(|x, _, _| (x - centre).length_squared() <= r2)
+                }
+                SinkRegion::Collider { handle, reach } => {
+                    let Some(co) = colliders.get(handle) else {
+                        continue;
+                    };
+                    let reach = reach.unwrap_or(spacing);
+                    let aabb = co.compute_aabb().loosened(reach);
+                    let (shape, pose) = (co.shape(), co.position());
+                    self.remove_particles_where(|x, _, _| {
+                        aabb.contains_local_point(x)
+                            && shape
+                                .project_point_with_max_dist(pose, x, true, reach)
+                                .is_some()
+                    })
+                }
+            };
+            sink.drained += removed as u64;
+            total += removed;
+        }
+        self.sources.sinks = sinks;
+        self.drained += total;
+        total
+    }
+
+    /// Runs the fluid's emitters over a frame of `dt` seconds that ends now: places the
+    /// particles due during the frame where they are at its end (see the [module
+    /// docs](crate::emitter)).
+    pub(crate) fn run_emitters(
+        &mut self,
+        dt: Real,
+        bvh: Option<&Bvh>,
+        colliders: &ColliderSet,
+    ) -> EmitCounts {
+        let mut counts = EmitCounts::default();
+        if self.sources.emitters.is_empty() {
+            return counts;
+        }
+        let p = self.params().clone();
+        let (s, r) = (p.particle_spacing, p.particle_radius);
+        let min_d2 = (0.9 * s) * (0.9 * s);
+        let mut emitters = std::mem::take(&mut self.sources.emitters);
+        let mut new_x: Vec<Vector> = Vec::new();
+        let mut new_v: Vec<Vector> = Vec::new();
+        for e in emitters.iter_mut() {
+            let c0 = e.clock;
+            e.clock += dt as f64;
+            let c1 = e.clock;
+            let (start, rate) = (e.start as f64, e.rate as f64);
+            let at = |k: u64| start + k as f64 / rate;
+            // Instants before this frame that were not emitted (the emitter was off or
+            // paused) are skipped: a paused stream does not build up.
+            if at(e.due) < c0 {
+                e.due = ((c0 - start) * rate).ceil().max(0.0) as u64;
+            }
+            if !e.enabled {
+                continue;
+            }
+            if at(e.due) > c1 || at(e.due) > e.stop as f64 {
+                continue;
+            }
+            let slots = e.slot_offsets(s);
+            let travel = e.speed * dt;
+            let reach = e.reach() + travel + s;
+            // Particles near the nozzle (old ones; new ones are added to `near` as placed).
+            let mut near: Vec<Vector> = self
+                .positions
+                .iter()
+                .copied()
+                .filter(|x| (*x - e.position).length_squared() <= reach * reach)
+                .collect();
+            // Colliders near the nozzle, from rapier's broad-phase.
+            let mut solids: Vec<ColliderHandle> = Vec::new();
+            if let Some(bvh) = bvh {
+                let aabb = Aabb::new(
+                    e.position - Vector::splat(reach),
+                    e.position + Vector::splat(reach),
+                );
+                for leaf in bvh.leaves(|node: &BvhNode| node.aabb().intersects(&aabb)) {
+                    if let Some((co, h)) = colliders.get_unknown_gen(leaf)
+                        && co.is_enabled()
+                        && !co.is_sensor()
+                        && p.collision_groups.test(co.collision_groups())
+                    {
+                        solids.push(h);
+                    }
+                }
+            }
+            let placeable = |x: Vector, from: Vector, near: &[Vector]| -> bool {
+                if near.iter().any(|q| (*q - x).length_squared() < min_d2) {
+                    return false;
+                }
+                let motion = x - from;
+                let ray = Ray::new(from, motion);
+                solids.iter().all(|&h| {
+                    let co = &colliders[h];
+                    let (shape, pose) = (co.shape(), co.position());
+                    !shape.contains_point(pose, from)
+                        && shape
+                            .project_point_with_max_dist(pose, x, true, r)
+                            .is_none()
+                        && (motion == Vector::ZERO
+                            || shape.cast_ray(pose, &ray, 1.0, true).is_none())
+                })
+            };
+            while at(e.due) <= c1 && at(e.due) <= e.stop as f64 {
+                if e.budget.is_some_and(|b| e.emitted >= b) {
+                    break;
+                }
+                if self
+                    .capacity
+                    .is_some_and(|cap| self.positions.len() + new_x.len() >= cap)
+                {
+                    counts.capacity_reached = true;
+                    break;
+                }
+                let age = (c1 - at(e.due)) as Real;
+                let (offset, dir) = slots[e.next_slot % slots.len()];
+                let from = e.position + offset;
+                let x = from + dir * (e.speed * age);
+                e.due += 1;
+                e.next_slot = (e.next_slot + 1) % slots.len();
+                if placeable(x, from, &near) {
+                    near.push(x);
+                    new_x.push(x);
+                    new_v.push(dir * e.speed);
+                    e.emitted += 1;
+                    counts.emitted += 1;
+                } else {
+                    counts.blocked += 1;
+                }
+            }
+        }
+        self.sources.emitters = emitters;
+        if !new_x.is_empty() {
+            self.append_unchecked(&new_x, &new_v);
+            self.emitted += new_x.len();
+        }
+        counts
+    }
+}

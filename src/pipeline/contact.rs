@@ -1,0 +1,92 @@
+//! The contact stage of a substep: every particle's motion swept against the colliders near
+//! it (`boundary::contact`), and the impulses it recorded on dynamic bodies handed to them
+//! (`boundary::bodies`).
+
+use super::workspace::Workspace;
+use crate::boundary::Coupling;
+use crate::boundary::contact::{self, ContactResponse, Movers};
+use crate::diagnostics::{Stage, StepReport};
+use crate::fluid::Fluid;
+use parry3d::partitioning::Bvh;
+use rapier3d::dynamics::RigidBodySet;
+use rapier3d::geometry::ColliderSet;
+
+/// The rapier side a substep sees: the broad-phase's tree, the colliders and the bodies.
+#[derive(Copy, Clone)]
+pub(crate) struct Scene<'a> {
+    pub bvh: &'a Bvh,
+    pub colliders: &'a ColliderSet,
+    pub bodies: &'a RigidBodySet,
+}
+
+/// Collider contact of every particle, swept from the positions at the substep's start to
+/// the current ones; the impulses it recorded on dynamic bodies go to them. Returns the
+/// number of particles pushed out of a solid.
+pub(super) fn collider_contact(
+    fluid: &mut Fluid,
+    ws: &mut Workspace,
+    scene: Option<Scene<'_>>,
+    depenetrate: bool,
+    coupling: Option<&mut Coupling>,
+    report: &mut StepReport,
+) -> usize {
+    let Some(scene) = scene else {
+        ws.contact.clear();
+        return 0;
+    };
+    let (p, particles) = fluid.split_mut();
+    let Workspace {
+        search,
+        contact,
+        impulses,
+        previous_positions,
+        ..
+    } = ws;
+    let (positions, velocities) = (particles.positions, particles.velocities);
+    let counts = report.timed(Stage::Contact, || {
+        contact.gather(
+            &search.grid,
+            previous_positions,
+            positions,
+            p.particle_radius,
+            scene.bvh,
+            scene.colliders,
+            p.collision_groups,
+            coupling.as_deref(),
+        );
+        if !contact.any() {
+            return contact::ContactCounts::default();
+        }
+        let response = ContactResponse {
+            radius: p.particle_radius,
+            restitution: p.restitution,
+            friction: p.friction,
+        };
+        contact::resolve(
+            &search.grid,
+            contact,
+            scene.colliders,
+            response,
+            depenetrate,
+            previous_positions,
+            positions,
+            velocities,
+            coupling.as_deref().map(|c| Movers {
+                table: c.table(),
+                mass: p.particle_mass,
+                records: impulses,
+            }),
+        )
+    });
+    if let Some(c) = coupling
+        && !c.table().is_empty()
+    {
+        report.timed(Stage::Contact, || {
+            c.exchange(impulses, velocities, p.particle_mass)
+        });
+    }
+    report.contacts += counts.contacts;
+    report.contact_fallbacks += counts.fallbacks;
+    report.depenetrated += counts.depenetrated;
+    counts.depenetrated
+}

@@ -1,0 +1,68 @@
+//! The double-density relaxation's settings and its springs': what the game sets (a variant of [`crate::Solver`] carries it). Plain data with
+//! defaults; the algorithm is the folder's other files.
+
+use crate::math::Real;
+
+/// Settings of the double-density relaxation.
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub struct Clavet {
+    /// Stiffness `k`, as a multiple of `c²/(h·ρ0)` (default 1).
+    pub stiffness: Real,
+    /// Cohesion `k_c`: the stiffness of the pressure where the fluid is below its rest density
+    /// (negative: it pulls particles together; the method's surface tension), same units
+    /// (default 1, the default stiffness; the module's "Cohesion" says why it is not
+    /// `stiffness`). Setting it equal to `stiffness` gives the paper's relaxation.
+    #[cfg_attr(feature = "snapshot", serde(default = "default_cohesion"))]
+    pub cohesion: Real,
+    /// Near stiffness `k_near`, same units. `None` (default): the value that makes a flat
+    /// free surface of the rest lattice an equilibrium against the cohesion (see
+    /// [`super::surface_equilibrium_near_ratio`]; about 1.07·k_c at `h = 2s`), so a resting pool
+    /// neither boils off its top layer (near pressure too strong: the paper's ratio 2.5 did,
+    /// the fluid expanded at once) nor pulls it in.
+    pub near_stiffness: Option<Real>,
+    /// Viscoelastic springs between neighbours (section 5 of the paper; see
+    /// `solver/springs.rs`). `None` (default): a plain liquid, and the spring stage is skipped.
+    #[cfg_attr(feature = "snapshot", serde(default))]
+    pub springs: Option<Springs>,
+}
+
+impl Default for Clavet {
+    fn default() -> Self {
+        Self {
+            stiffness: 1.0,
+            cohesion: 1.0,
+            near_stiffness: None,
+            springs: None,
+        }
+    }
+}
+
+#[cfg(feature = "snapshot")]
+fn default_cohesion() -> Real {
+    1.0
+}
+
+/// Settings of the viscoelastic springs ([`super::Clavet::springs`]).
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub struct Springs {
+    /// Spring stiffness `k`, as a multiple of `c²/(h²·N)` (see the module docs; default 0.3).
+    pub stiffness: Real,
+    /// Yield ratio `γ`: the relative deformation a spring takes before its rest length starts
+    /// to flow (default 0.1).
+    pub yield_ratio: Real,
+    /// Plasticity `α` (1/s): how fast a rest length flows once past the yield band (default
+    /// 5/s: a deformation is forgotten in about 0.2 s).
+    pub plasticity: Real,
+}
+
+impl Default for Springs {
+    fn default() -> Self {
+        Self {
+            stiffness: 0.3,
+            yield_ratio: 0.1,
+            plasticity: 5.0,
+        }
+    }
+}

@@ -1,0 +1,58 @@
+//! PBF's settings: what the game sets (a variant of [`crate::Solver`] carries it). Plain data with
+//! defaults; the algorithm is the folder's other files.
+
+use crate::math::Real;
+
+/// Settings of the PBF solver (defaults from Macklin & Müller 2013).
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub struct Pbf {
+    /// Jacobi iterations per step (default 4; the paper uses 2–4).
+    pub iterations: u32,
+    /// Constraint relaxation `ε` of eq. 11, as a fraction of the denominator
+    /// `Σ_k |∇_k C_i|²` of a particle inside a full lattice (default 0.01). Larger values
+    /// soften the fluid and damp the corrections.
+    pub relaxation: Real,
+    /// Artificial-pressure strength `k` of eq. 13 (default 0.1; 0 switches it off), relative to
+    /// the `λ` of a lattice particle compressed by 100 % (λ has units here; the paper's `k`
+    /// is in its own unit system).
+    pub artificial_pressure: Real,
+    /// Artificial-pressure exponent `n` (default 4).
+    pub artificial_pressure_exponent: i32,
+    /// Artificial-pressure reference distance `Δq` as a fraction of the support radius
+    /// (default 0.2; the paper suggests 0.1–0.3).
+    pub artificial_pressure_distance: Real,
+    /// Average compression (fraction of ρ0) the adaptive time step aims the solve at (default
+    /// 0.01, 1 %; `INFINITY` switches the limit off). A fixed number of Jacobi iterations
+    /// leaves a compression that grows with gravity's displacement per substep `g·dt²` (a
+    /// 1 m column left at 1/60 s substeps compresses by several per cent, then throws itself
+    /// up when its bottom layers are corrected); with [`crate::TimeStepping::Adaptive`] the
+    /// substep keeps `g·dt²` within `max_density_error` spacings (see `stable_time_step` in
+    /// `src/pipeline.rs`). Fixed time steps are not changed.
+    #[cfg_attr(feature = "snapshot", serde(default = "default_max_density_error"))]
+    pub max_density_error: Real,
+    /// Walls with hydrostatic pressure, as DFSPH's ([`super::Dfsph::hydrostatic_walls`];
+    /// default false, session 14): the wall's `λ` is the particle's own plus the average of its
+    /// fluid-side neighbours' (`λ_i + λ̂_i` in eq. 14's wall term), and the hydrostatic
+    /// difference `ρ0·g·(x_b − x_i)` moves the predicted position by `a_h·dt²`
+    /// (`boundary::WallWorkspace::hydrostatic`). Measured in the hydrostatic scene
+    /// (`column --solver pbf-hydrostatic --validation 6,8,12`): bottom pressure −12.5 / −4.2 /
+    /// −1.6 % at N = 6 / 8 / 12 instead of +15.8 / +16.7 / +19.3 %, and no band of higher
+    /// pressure along the side walls; docs/solvers.md.
+    #[cfg_attr(feature = "snapshot", serde(default))]
+    pub hydrostatic_walls: bool,
+}
+
+impl Default for Pbf {
+    fn default() -> Self {
+        Self {
+            iterations: 4,
+            relaxation: 0.01,
+            artificial_pressure: 0.1,
+            artificial_pressure_exponent: 4,
+            artificial_pressure_distance: 0.2,
+            max_density_error: 0.01,
+            hydrostatic_walls: false,
+        }
+    }
+}
