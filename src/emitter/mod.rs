@@ -1,6 +1,6 @@
 //! Emitters (nozzles that add particles) and sinks (regions that remove them).
 //!
-//! Both belong to one [`Fluid`] and are stored in it, in small sets with generational
+//! Both belong to one [`Fluid`](crate::Fluid) and are stored in it, in small sets with generational
 //! handles in rapier's style ([`EmitterHandle`], [`SinkHandle`]); the pipeline's step reaches
 //! them through the fluid, so there are no globals. A fluid with neither pays one emptiness
 //! check per substep.
@@ -23,7 +23,7 @@
 //! A due particle that cannot be placed is not emitted (the nozzle is blocked: counted in
 //! [`crate::StepReport::emitter_blocked`]); emitting faster than `speed·slots/spacing` always
 //! blocks some, since the previous layer has not moved one spacing away yet
-//! ([`Emitter::max_rate`]). When the fluid reaches its capacity ([`Fluid::set_capacity`])
+//! ([`Emitter::max_rate`]). When the fluid reaches its capacity ([`Fluid::set_capacity`](crate::Fluid::set_capacity))
 //! emitters pause and the report says so (`capacity_reached`).
 //!
 //! ## Sinks
@@ -63,7 +63,7 @@ pub enum Nozzle {
 }
 
 /// A nozzle that adds particles to its fluid. Build it with [`Emitter::new`] and the setters,
-/// add it with [`Fluid::add_emitter`] (which validates it).
+/// add it with [`Fluid::add_emitter`](crate::Fluid::add_emitter) (which validates it).
 #[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub struct Emitter {

@@ -37,8 +37,8 @@ pub struct Dfsph {
     pub warm_start: Real,
     /// Walls with hydrostatic pressure (default true since session 12): the wall's pressure
     /// is the fluid's around the particle carried to the wall, `ρ0·g·(x_b − x_i)` included
-    /// (see [`HYDROSTATIC_WALL_MIRROR`]), instead of the particle's own weighted by
-    /// [`WALL_MIRROR`]. The pressure next to walls then comes out hydrostatic: a settled
+    /// (see [`HYDROSTATIC_WALL_MIRROR`](crate::solver::HYDROSTATIC_WALL_MIRROR)), instead of the particle's own weighted by
+    /// [`WALL_MIRROR`](crate::solver::WALL_MIRROR). The pressure next to walls then comes out hydrostatic: a settled
     /// column's bottom pressure within 2 % (−0.1 / +1.5 / +0.3 % at N = 6 / 8 / 12 in the
     /// validation scene; +14 to +16 % with `false`, where contact carries half the column's
     /// weight), no compressed layer above the floor. A solve that diverges finishes without

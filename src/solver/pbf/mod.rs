@@ -38,11 +38,6 @@ use rayon::prelude::*;
 use super::pairs::{gradient_block, gradient_one, reduce_partials};
 use crate::domain::Separation;
 
-#[cfg(feature = "snapshot")]
-fn default_max_density_error() -> Real {
-    Pbf::default().max_density_error
-}
-
 /// Buffers of the PBF solver (indexed like the sorted particles).
 #[derive(Clone, Debug, Default)]
 pub(crate) struct PbfBuffers {
