@@ -10,7 +10,7 @@
 //! cargo bench --bench step -- --salva      # only the peer-comparison scene below
 //! ```
 //!
-//! The peer-comparison scene (issue 3's speed target, salva3d's own benchmark): DFSPH with walls
+//! The peer-comparison scene (salva3d's own benchmark): DFSPH with walls
 //! counting in the density, spacing 0.05 m, h = 0.1 m, fixed dt = 0.005 s, the dam break's
 //! first simulated second, reported as wall seconds per simulated second, with the solver's
 //! iterations and density error and the particles that left the tank.

@@ -5,8 +5,8 @@
 //! cargo run --release --example buoyancy -- --solver pbf --spacing 0.03 --seconds 5
 //! cargo run --release --example buoyancy -- --solver dfsph-hw   # DFSPH, hydrostatic walls
 //! cargo run --release --example buoyancy -- --solver dfsph --density 250 --trace 10  # a line every 10 frames
-//! cargo run --release --example buoyancy -- --solver pbf --cubes   # the ignored test's scene: 16 cm cubes, 2.5 cm, 4 s
-//! cargo run --release --example buoyancy -- --cubes --depth 0.2     # the same in the shallower water it had before session 8
+//! cargo run --release --example buoyancy -- --solver pbf --cubes   # the cubes test's scene: 16 cm cubes, 2.5 cm, 4 s
+//! cargo run --release --example buoyancy -- --cubes --depth 0.2     # the same in shallower water (0.2 m)
 //! cargo run --release --example buoyancy --features render -- --render out/  # PNG + GIF per box
 //! ```
 //!
@@ -33,7 +33,7 @@ fn main() {
     while i < args.len() {
         let value = args.get(i + 1).cloned().unwrap_or_default();
         if args[i] == "--cubes" {
-            // tests/buoyancy.rs's ignored scene (a 0.5 m tank, 0.3 m of water, 16 cm cubes):
+            // tests/buoyancy.rs's cubes scene (a 0.5 m tank, 0.3 m of water, 16 cm cubes):
             // its defaults, which later flags may still override.
             (cubes, s, seconds) = (true, 0.025, 4.0);
             i += 1;

@@ -1,4 +1,4 @@
-//! The obstacle course (issue 5): water from an emitter runs down a ramp, through pegs, a
+//! The obstacle course: water from an emitter runs down a ramp, through pegs, a
 //! funnel, over heightfield terrain under a rotating paddle wheel, around a compound
 //! obstacle and floating crates, into a bucket whose fill is read through the fluid query.
 //! The scene is `rapier_sph::scenes::obstacle_course`, shared with the tests.

@@ -192,9 +192,9 @@ impl FluidParams {
             });
         }
         if self.wall_viscosity > 0.0 && matches!(self.solver, Solver::Clavet(_)) {
-            // Measured in session 14 (tests/moving_bodies.rs's sloshing box, Clavet without
-            // cohesion, walls in its densities, ε_w = 0.5): the momentum of fluid + bodies
-            // drifted by 1.6 % over 5 s (PBF with the same walls: 0.003 %); not understood.
+            // Measured in tests/moving_bodies.rs's sloshing box (Clavet without cohesion,
+            // walls in its densities, ε_w = 0.5): the momentum of fluid + bodies drifted by
+            // 1.6 % over 5 s (PBF with the same walls: 0.003 %); not understood.
             return Err(SphError::InvalidParameter {
                 field: "wall_viscosity",
                 value: self.wall_viscosity as f64,
@@ -521,8 +521,8 @@ mod tests {
     }
 
     /// The water preset is DFSPH with wall density; choosing Clavet without saying anything
-    /// about walls turns them off, and an explicit choice always holds (Clavet with walls in
-    /// its densities since session 14). The paper preset stays WCSPH without wall density.
+    /// about walls turns them off, and an explicit choice always holds (Clavet can count walls
+    /// in its densities). The paper preset stays WCSPH without wall density.
     #[test]
     fn wall_density_follows_the_preset_and_the_solver_unless_set() {
         let w = FluidParamsBuilder::water(0.05).build().unwrap();

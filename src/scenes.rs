@@ -315,7 +315,7 @@ impl HydrostaticTank {
     }
 }
 
-/// The obstacle course of issue 5: water from an [`Emitter`](crate::Emitter) runs down a
+/// The obstacle course: water from an [`Emitter`](crate::Emitter) runs down a
 /// ramp (cuboid), through a row of pegs (balls and capsules), into a funnel (open triangle
 /// mesh), onto a stretch of heightfield terrain between two side walls, under a rotating
 /// kinematic paddle wheel, around a compound obstacle, past floating dynamic crates, and into

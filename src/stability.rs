@@ -17,15 +17,14 @@
 //! - and a solver with an error target met it: DFSPH ended no solve at its iteration cap.
 //!   (WCSPH, PBF and Clavet have no density target; their density error is reported only.)
 //!
-//! Cases (the numbering): 1 the paper's stiffness sweep, 2 the paper's rest-density
-//! change, 3 particle counts, 4 whole frames at the stiffest settings, 5 very high viscosity,
-//! 6 overlapping spawns, 7 a body immersed at start, 8 a 30 m/s jet into a 2 mm plate and into
-//! a zero-thickness triangle mesh, 9 a fluid 10 km from the origin and one spread over a square
-//! kilometre, 10 the same column in tanks of several lengths; and one beyond the issue's
-//! list, 11 a dynamic body twice as dense as water sinking onto the floor and resting there
-//! (the energy then counts the bodies' kinetic and potential energy too), and 12 a column at
-//! rest with a kernel support of 3 spacings instead of 2 (full suite only; a known failure of
-//! PBF with walls and of Clavet, kept visible until fixed).
+//! Cases: 1 the paper's stiffness sweep, 2 the paper's rest-density change, 3 particle
+//! counts, 4 whole frames at the stiffest settings, 5 very high viscosity, 6 overlapping
+//! spawns, 7 a body immersed at start, 8 a 30 m/s jet into a 2 mm plate and into a
+//! zero-thickness triangle mesh, 9 a fluid 10 km from the origin and one spread over a square
+//! kilometre, 10 the same column in tanks of several lengths, 11 dynamic bodies denser than
+//! water sinking onto the floor and resting there (the energy then counts the bodies' kinetic
+//! and potential energy too), and 12 a column at rest with a kernel support of 3 spacings
+//! instead of 2 (full suite only). docs/stability.md has the results.
 
 use crate::math::{Real, Vector};
 use crate::params::{FluidParams, FluidParamsBuilder};
@@ -42,7 +41,7 @@ use std::time::Instant;
 pub enum SuiteSize {
     /// A few hundred to a few thousand particles, short runs: the subset `cargo test` runs.
     Quick,
-    /// The sizes (4,000, 20,000 and 100,000 particles, whole seconds).
+    /// Full sizes (4,000, 20,000 and 100,000 particles, whole seconds).
     Full,
 }
 
@@ -477,16 +476,15 @@ fn heavy_body(solver: &Solver, size: SuiteSize, density: Real) -> Option<SphResu
 
 /// Case 12: a column 8 × 16 × 8 at rest in a closed tank ([`crate::scenes::HydrostaticTank`],
 /// spacing 1.25 cm) with a kernel support of 3 spacings instead of the presets' 2, for 2 s in
-/// 1/60 s frames. Found in session 10: DFSPH and PBF with walls that count in the density
-/// threw the column within a frame (see docs/solvers.md, "Larger supports"); DFSPH passes since
-/// its relaxation safeguard ([`crate::solver::dfsph::MAX_RELAXATION_HALVINGS`]), PBF since
-/// session 11's ([`crate::solver::pbf::MAX_RELAXATION_HALVINGS`]). Clavet (walls by contact
-/// only) failed it at 9.3 × the initial energy: its acoustic substep was outside the
-/// relaxation's stability bound at 3 spacings; with the substep bound of session 11 it passes
-/// the verdict (0.82 ×), but its column is thrown up at the start (16 m/s peaks) before it
-/// settles: with its cohesion a lattice's faces are far from the relaxation's equilibrium
-/// (docs/solvers.md, "Larger supports", session 14). WCSPH runs without wall
-/// density here, as in every case of this suite, and passes.
+/// 1/60 s frames. Without their relaxation safeguards, DFSPH and PBF with walls that count in
+/// the density throw this column within a frame (their Jacobi iterations diverge; see
+/// docs/solvers.md, "Larger kernel supports"); with them they pass
+/// ([`crate::solver::dfsph::MAX_RELAXATION_HALVINGS`],
+/// [`crate::solver::pbf::MAX_RELAXATION_HALVINGS`]). Clavet (walls by contact only) passes the
+/// verdict (0.82 ×) thanks to its substep bound on the relaxation's stiffest mode, but its
+/// column is thrown up at the start (16 m/s peaks) before it settles: with its cohesion a
+/// lattice's faces are far from the relaxation's equilibrium (docs/solvers.md). WCSPH runs
+/// without wall density here, as in every case of this suite, and passes.
 fn wide_support(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>> {
     Some((|| {
         let s = 0.0125;

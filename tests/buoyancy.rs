@@ -1,12 +1,13 @@
-//! Buoyancy (issue 5): boxes of density 250, 500 and 750 kg/m³ float in water with 25 %,
+//! Buoyancy: boxes of density 250, 500 and 750 kg/m³ float in water with 25 %,
 //! 50 % and 75 % of their height submerged (within 5 % of the height once settled), without
 //! jitter; a box of 2000 kg/m³ sinks and rests on the floor.
 //!
 //! Walls count in the density (`wall_density(true)`; WCSPH and DFSPH, the water preset's
 //! default), so the water's pressure pushes the body (contact alone transmits too little: the
-//! boxes float 5–12 % too deep). Measured (session 8, 4 cm, the 3rd second): WCSPH 0.241 /
-//! 0.515 / 0.753, corners 0.163 / 0.126 / 0.110 g; DFSPH 0.240 / 0.499 / 0.722, 0.114 / 0.040
-//! / 0.030 g; the 2000 kg/m³ box's lowest corner 0.040 m (WCSPH) and 0.002 m (DFSPH) up.
+//! boxes float 5–12 % too deep). Measured (4 cm, the 3rd second): WCSPH 0.241 / 0.515 /
+//! 0.753, corners 0.163 / 0.126 / 0.110 g; DFSPH (hydrostatic walls) 0.233 / 0.502 / 0.730,
+//! 0.162 / 0.076 / 0.075 g; the 2000 kg/m³ box's lowest corner 0.040 m up (WCSPH: it rests on
+//! the last particle layer) and at the floor (DFSPH, −0.002 m).
 //!
 //! The suite's test is lean (4 cm particles, a box 5 particles tall, ~1 800 particles, a few
 //! seconds each). The boxes are 1.5 times as wide as they are tall: such a box floats upright
@@ -19,14 +20,13 @@
 //! fraction within 5 % of itself) for PBF at 2.5 cm, the solver whose boxes float closest.
 //!
 //! `cubes_float_at_the_right_depth`, about two minutes: the finer measurement with 16 cm cubes
-//! (2.5 cm particles) in 0.3 m of water (ignored until session 8). Session 8 deepened its water from 0.2 m: the tilted
-//! 750 kg/m³ cube's lowest edge floats 0.146 m deep, and with 5.4 cm left under it the floor's
-//! wall term reached it (it sank to 0.855). Measured in 0.3 m: 0.219 / 0.478 / 0.728 for
-//! 250 / 500 / 750 kg/m³ (`cargo run --release --example buoyancy -- --cubes --depth 0.3`).
-//! `dense_boxes_land_and_rest_without_gaining_energy` (session 9, ~15 s): boxes of 5,000 and
-//! 7,850 kg/m³ land on the floor and rest, with WCSPH, DFSPH and PBF, the total energy never
-//! above its start (they were thrown when they landed before pinched particles were left
-//! out of the solves).
+//! (2.5 cm particles) in 0.3 m of water: the tilted 750 kg/m³ cube's lowest edge floats
+//! 0.146 m deep, so shallower water would leave it within the floor's kernel reach. Measured:
+//! 0.219 / 0.478 / 0.728 for 250 / 500 / 750 kg/m³ (`cargo run --release --example buoyancy
+//! -- --cubes`).
+//! `dense_boxes_land_and_rest_without_gaining_energy` (~15 s): boxes of 5,000 and 7,850 kg/m³
+//! land on the floor and rest, with WCSPH, DFSPH and PBF, the total energy never above its
+//! start (pinched particles are left out of the solves).
 //! `cargo test --release --test buoyancy -- --nocapture` prints every figure
 //! (docs/coupling.md).
 
@@ -151,16 +151,14 @@ fn boxes_float(solver: rapier_sph::Solver, failures: &mut Vec<String>) {
 
 /// The issue's criterion read strictly: the submerged *fraction* within 5 % of its own value
 /// (Archimedes: density / 1000), at 2.5 cm (the box 8 particles tall), with PBF, whose
-/// boxes float closest (docs/coupling.md: WCSPH and DFSPH float them a few % too
-/// high, the 250 kg/m³ box with DFSPH by 30 %). Same jitter and energy bounds as above,
-/// measured over the 5th second: "once settled". The box is placed at its expected depth in
-/// a lattice cut out around it, and the start excites a slosh of the whole tank (period
-/// about 1 s) that the light box rides: its sway decays from 0.05 m/s at 0.7 s to 0.02 at
-/// 2.5 s and 0.003 at 5.5 s (session 8). Over the 3rd second the 250 box still swayed at
-/// 0.0399 m/s against the water's 0.0321 (after the bodies were made to count in PBF's
-/// density at the substep's end pose, which calmed the water next to it), a start-up
-/// transient the relative-speed bound was not meant to judge. About two minutes on two
-/// cores.
+/// boxes float closest (WCSPH and DFSPH float the light box a few % too high, see
+/// docs/coupling.md). Same jitter and energy bounds as above, measured over the 5th second:
+/// "once settled". The box is placed at its expected depth in a lattice cut out around it,
+/// and the start excites a slosh of the whole tank (period about 1 s) that the light box
+/// rides: its sway decays from 0.05 m/s at 0.7 s to 0.02 at 2.5 s and 0.003 at 5.5 s. Over
+/// the 3rd second the 250 box still sways at 0.0399 m/s against the water's 0.0321, a
+/// start-up transient the relative-speed bound is not meant to judge. About two minutes on
+/// two cores.
 #[test]
 fn pbf_boxes_float_within_5_percent_of_archimedes() {
     let s = 0.025;
@@ -200,8 +198,8 @@ fn pbf_boxes_float_within_5_percent_of_archimedes() {
     assert!(failures.is_empty(), "{failures:?}");
 }
 
-/// About two minutes on two cores (measured in session 8: 0.219 / 0.478 / 0.728 for 250 /
-/// 500 / 750 kg/m³, 129 s with the machine shared).
+/// About two minutes on two cores (measured: 0.219 / 0.478 / 0.728 for 250 / 500 /
+/// 750 kg/m³).
 #[test]
 fn cubes_float_at_the_right_depth() {
     // Cubes of 16 cm at 2.5 cm resolution in a 0.5 m tank holding 0.3 m of water. Cubes of
@@ -209,7 +207,8 @@ fn cubes_float_at_the_right_depth() {
     // the volume, whatever the tilt (Archimedes). Tilted, the 750 kg/m³ cube reaches deep: edge
     // down at 45°, its lowest edge floats a·√2 − a/2 = 0.146 m under the surface (a = 0.16),
     // so the water must be deep enough to leave more than the kernel's reach (h = 5 cm) under
-    // it; in 0.2 m it was 5.4 cm, and the floor's wall term held the cube (it sank to 0.855).
+    // it; in 0.2 m it would be 5.4 cm, and the floor's wall term holds the cube (measured:
+    // it sinks to 0.855).
     let s = 0.025;
     let mut failures = Vec::new();
     for density in [250.0, 500.0, 750.0] {
@@ -245,12 +244,12 @@ fn cubes_float_at_the_right_depth() {
 /// the box together never gain energy on the way (mechanical energy, kinetic plus potential
 /// from the floor, against its value at the start).
 ///
-/// Until session 9 a landing box squeezed a layer of particles thinner than the fluid's
-/// spacing against the floor; DFSPH and PBF raised those particles' pressure without bound
-/// (no motion of theirs could lower their density) and the pressure threw the box: a
-/// 5,000 kg/m³ box reached 100 m (DFSPH; PBF from 3,000 kg/m³), total energy 339 J →
-/// 263,000 J in one frame. Such particles are now left out of the solves
-/// (`WallWorkspace::pinched`). Measured after: see the eprintln lines (`-- --nocapture`).
+/// A landing box squeezes a layer of particles thinner than the fluid's spacing against the
+/// floor. If DFSPH and PBF raised those particles' pressure without bound (no motion of theirs
+/// can lower their density), the pressure would throw the box: a 5,000 kg/m³ box reached
+/// 100 m (DFSPH; PBF from 3,000 kg/m³), total energy 339 J → 263,000 J in one frame. Such
+/// particles are left out of the solves (`WallWorkspace::pinched`). Figures: the eprintln
+/// lines (`-- --nocapture`).
 #[test]
 fn dense_boxes_land_and_rest_without_gaining_energy() {
     let s = 0.04;

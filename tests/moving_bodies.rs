@@ -400,8 +400,8 @@ fn momentum_is_conserved_for_every_solver() {
             0.0,
         ),
         ("Clavet", Solver::Clavet(Default::default()), false, 0.0),
-        // Every collider here is dynamic, so its wall term is empty: measured (session 14)
-        // the same run bit for bit as the same fluid with contact only (drift 0.3164 %; the
+        // Every collider here is dynamic, so its wall term is empty: measured, the same run
+        // bit for bit as the same fluid with contact only (drift 0.3164 %; the
         // default cohesion's 0.018 % differs by the fluid, not the walls).
         (
             "Clavet without cohesion, walls in its densities",

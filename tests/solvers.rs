@@ -592,19 +592,18 @@ fn pbf_adaptive_substeps_hold_the_density_error_target() {
 }
 
 /// A column at rest with walls counting in the density stays at rest with a kernel support of
-/// 3 spacings (presets: 2), with DFSPH and with PBF. Before the Jacobi relaxation safeguards
-/// (`dfsph::MAX_RELAXATION_HALVINGS`, session 10; `pbf::MAX_RELAXATION_HALVINGS`, session 11)
-/// this column was thrown: DFSPH within its first two frames (kinetic energy 0.27 J, then
-/// 2.6 J), PBF within its first frames (2.9 J): the unrelaxed iterations diverge at this
-/// support. Tolerances, against the column's potential energy over the floor (`M·g·H/2`,
+/// 3 spacings (presets: 2), with DFSPH and with PBF. Without the Jacobi relaxation safeguards
+/// (`dfsph::MAX_RELAXATION_HALVINGS`, `pbf::MAX_RELAXATION_HALVINGS`) this column is thrown:
+/// DFSPH within its first two frames (kinetic energy 0.27 J, then 2.6 J), PBF within its
+/// first frames (2.9 J): the unrelaxed iterations diverge at this support. Tolerances, against the column's potential energy over the floor (`M·g·H/2`,
 /// about 2 J): the kinetic energy stays within 5 % of it in every frame (no blow-up: the
 /// unrelaxed runs reached 14 % and then 130 % with DFSPH, 148 % with PBF; the relaxed PBF's
 /// start-up slosh peaks at 1.6 %), and averages at most 0.5 % over the last 10 of the 60
 /// frames (settled: the lattice start's own settling peaks at 0.3–0.5 % at 2 spacings; the
 /// unrelaxed DFSPH was still at 1.6 % after 60 frames). At 3 spacings the safeguard must
 /// have acted (it is what holds the column). At 2 spacings, `preset_relaxes` says whether it
-/// may act: PBF's must not (its preset results stay as they were before the safeguard);
-/// DFSPH's hydrostatic walls (the default since session 12) need one halving in this column,
+/// may act: PBF's must not (its preset results do not depend on the safeguard); DFSPH's
+/// hydrostatic walls (its default) need one halving in this column,
 /// which the energy bounds above cover (measured: largest kinetic energy 1.3e-3 J, 0.06 % of
 /// the potential energy; 5.1e-4 J over the last 10 frames).
 fn column_with_a_wide_support_stays_at_rest(solver: Solver, preset_relaxes: Option<bool>) {
@@ -675,7 +674,7 @@ fn pbf_column_with_a_wide_support_stays_at_rest() {
     column_with_a_wide_support_stays_at_rest(Solver::pbf(), Some(false));
 }
 
-/// PBF with hydrostatic walls (session 14): the same column and bounds; the safeguard may act.
+/// PBF with hydrostatic walls (opt-in): the same column and bounds; the safeguard may act.
 #[test]
 fn pbf_column_with_hydrostatic_walls_stays_at_rest() {
     let pbf = Solver::Pbf(rapier_sph::solver::Pbf {
@@ -685,14 +684,14 @@ fn pbf_column_with_hydrostatic_walls_stays_at_rest() {
     column_stays_at_rest(pbf, None, None);
 }
 
-/// Clavet with walls in its densities (session 14) and no cohesion: the same column, the same
-/// tolerances (see [`column_with_a_wide_support_stays_at_rest`]). Measured (session 14):
-/// largest kinetic energy 0.67 % of the potential energy at 2 spacings, 0.30 % at 3. With
+/// Clavet with walls in its densities (opt-in) and no cohesion: the same column, the same
+/// tolerances (see [`column_with_a_wide_support_stays_at_rest`]). Measured: largest kinetic energy 0.67 % of the potential energy at 2 spacings, 0.30 % at 3. With
 /// walls by contact only the same fluid releases 7.3 % and 16 % (the column sinks to make up
 /// its bottom layer's missing density) and fails the 5 % bound; mirroring the pressures fully
 /// into the walls instead of the energy-consistent half never settled (1.0 and 5.3 m/s after
-/// 2 s). The default cohesion is left out on purpose: walls in the densities are perfectly
-/// wetting, and a cohesive liquid climbs them (docs/solvers.md).
+/// 2 s). The default cohesion is left out on purpose: with it, the spawn lattice's free surface
+/// is far from the relaxation's equilibrium and the column is thrown up before it settles,
+/// walls in the densities or not (docs/solvers.md).
 #[test]
 fn clavet_column_with_walls_in_its_densities_stays_at_rest() {
     let clavet = Solver::Clavet(rapier_sph::solver::Clavet {

@@ -94,9 +94,8 @@ fn assert_conserved(r: &RunRecord) {
 }
 
 /// Hydrostatic tank, default solver, default resolution: the bottom layer's pressure within
-/// 2 % of `ρ0·g·depth` once settled. Met since session 12, when DFSPH's hydrostatic walls
-/// became its default (measured +1.5 % at N = 8; the walls that mirror the particle's own
-/// pressure read +16 %).
+/// 2 % of `ρ0·g·depth` once settled. Met by DFSPH with its hydrostatic walls (its default;
+/// measured +1.5 % at N = 8; the walls that mirror the particle's own pressure read +16 %).
 ///
 /// Tolerance (the issue's): at rest the weakly-compressible density error is `(v/c)² ≈ 0`,
 /// and the bottom layer's depth is known to a quarter of a spacing of the 16-layer column
@@ -117,7 +116,7 @@ fn hydrostatic_bottom_pressure_within_2_percent() {
     assert!(e.abs() <= 0.02, "bottom pressure error {e:+.4}");
 }
 
-/// PBF with hydrostatic walls (opt-in, session 14), the same scene at N = 8 and 12: the bottom
+/// PBF with hydrostatic walls (opt-in), the same scene at N = 8 and 12: the bottom
 /// pressure within 5 % of `ρ0·g·depth` (measured −4.2 % and −1.6 %; PBF with its default
 /// walls reads +16.7 % and +19.3 %).
 ///
@@ -193,8 +192,7 @@ fn dam_break_front_within_10_percent_of_martin_moyce_for_recommended_solvers() {
 /// smallest error the data's own transcription carries: below that the two runs cannot be
 /// ranked against these data.
 ///
-/// Measured (DFSPH with its hydrostatic walls, the default since session 12; session 14):
-/// 0.043 → 0.031 (`cargo test --release --test validation dam_break_front -- --nocapture`).
+/// Measured (DFSPH with its hydrostatic walls, its default): 0.043 → 0.031 (`cargo test --release --test validation dam_break_front -- --nocapture`).
 /// With the mirrored walls it was not met (0.018 → 0.062): the square column's front, like
 /// the n² = 2 column's, converges to the model's answer ahead of the experiment (see the n² = 2
 /// test), so this test can fail at finer spacings than the two it runs.
@@ -215,7 +213,7 @@ fn dam_break_front_error_does_not_grow_when_spacing_halves() {
 /// solution of the same model (`dam_break_front_error_against_the_mps_solution_does_not_grow_...`);
 /// see docs/validation.md.
 #[test]
-#[ignore = "not met for the default solver DFSPH (session 14: n2 = 2 column 0.037 -> 0.059 from N = 8 to 16): its front converges to one ~0.2 in T ahead of the experiment; see the doc comment and docs/validation.md"]
+#[ignore = "not met for the default solver DFSPH (n2 = 2 column 0.037 -> 0.059 from N = 8 to 16): its front converges to one ~0.2 in T ahead of the experiment; see the doc comment and docs/validation.md"]
 fn dam_break_front_error_does_not_grow_when_spacing_halves_n2_column() {
     front_error_does_not_grow(dam_break::Case::martin_moyce_n2().unwrap());
 }

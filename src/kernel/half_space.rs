@@ -37,10 +37,9 @@
 //! average: for the cubic spline at `h = 2s`, half a spacing from the wall, its density is
 //! 0.21 % lower and its gradient 2.0 % higher than the table's, the same 2.0 % by which the
 //! lattice's own first moment exceeds the identity (1.020; tested below, and printed for
-//! every kernel by `examples/wall_calibration.rs`). Aligned tables were tried (session 7,
-//! DFSPH with hydrostatic walls, `column --validation 6,8,12`): bottom pressure −0.4 / −3.4 /
-//! −2.8 % instead of −3.8 / −3.4 / −3.9 %, no consistent change; the average is kept, as it
-//! is the one right for a fluid that is not a lattice.
+//! every kernel by `examples/wall_calibration.rs`). Aligned tables measured no consistent
+//! difference in the hydrostatic scene's bottom pressure, so the average is used: it is the
+//! one right for a fluid that is not a lattice.
 //!
 //! Both `Φ_s` and `−dΦ_s/dd` are tabulated once per kernel, support radius and spacing (512
 //! intervals over `d ∈ [−h, h]`, linear interpolation; the integrals use Simpson's rule in
