@@ -336,6 +336,7 @@ fn run(a: RunArgs) -> Result<()> {
     let mut max_err: f32 = 0.0;
     let mut non_finite = 0usize;
     let mut steps = 0usize;
+    let mut substeps = 0usize;
     let mut counts = Counters::default();
     let t0 = Instant::now();
     let mut write_frame =
@@ -412,6 +413,7 @@ fn run(a: RunArgs) -> Result<()> {
                 non_finite += r.non_finite;
                 counts.add(r);
                 steps += 1;
+                substeps += r.substeps as usize;
             }
             Ok(())
         })?;
@@ -425,6 +427,8 @@ fn run(a: RunArgs) -> Result<()> {
     }
     bar.finish_and_clear();
     let wall = t0.elapsed().as_secs_f64();
+    let outside = built.particles_outside_colliders();
+    let world = &built.world;
     if let Some((_, gif)) = pictures {
         gif.finish()?;
         let p = a.render.as_ref().expect("render dir").join("animation.gif");
@@ -442,16 +446,25 @@ fn run(a: RunArgs) -> Result<()> {
     // Every particle is accounted for: live = start + emitted − drained − quarantined.
     let lost = (n0 + counts.emitted) as i64 - (n + counts.drained + counts.quarantined) as i64;
     println!(
-        "{}: {frames} frames, {steps} steps of {:.6} s = {:.3} s simulated",
+        "{}: {frames} frames, {steps} steps of {:.6} s = {:.3} s simulated, {substeps} fluid \
+         substeps ({:.1} per step)",
         a.scene.display(),
         built.dt,
-        steps as f64 * built.dt as f64
+        steps as f64 * built.dt as f64,
+        substeps as f64 / steps.max(1) as f64
     );
     println!(
         "particles            {n} (start {n0}), {} NaN/inf, max density error {:.2} %",
         non_finite,
         100.0 * max_err
     );
+    match built.collider_bounds() {
+        Some(_) => println!(
+            "outside the scene    {outside} particles left the bounds of the colliders (over a rim \
+             or off an edge: they fall for ever)"
+        ),
+        None => println!("outside the scene    no bounded collider to measure against"),
+    }
     if counts.any() || lost != 0 {
         println!(
             "emitted / drained    {} / {} ({} quarantined, {} lost; {} due at a blocked nozzle, capacity reached in {} steps)",

@@ -11,7 +11,8 @@
 //!     description: "A block of water dropped into a box",
 //!     duration: 1.0,            // simulated seconds
 //!     frame_rate: 30.0,         // frames per second for pictures and exports
-//!     // dt: 0.0005,            // time step (s); default: the acoustic limit 0.4·h/c, ≤ 1/200 s
+//!     // dt: 0.0005,            // time step (s); default: one step per frame, which the fluid
+//!                               // pipeline splits into the substeps its solver needs
 //!     gravity: (0.0, -9.81, 0.0),
 //!     fluids: [
 //!         Fluid(
@@ -66,6 +67,8 @@
 //! `KinematicPositionBased` body moves only when a program sets its next pose each step, which
 //! a file cannot describe, so a velocity on it (or on a `Fixed` body) is an error.
 
+#![cfg_attr(docsrs, doc(cfg(feature = "scene")))]
+
 mod shapes;
 mod sources;
 mod values;
@@ -95,10 +98,11 @@ pub struct SceneFile {
     pub description: String,
     /// Simulated time (s).
     pub duration: Positive,
-    /// Time step (s) of rapier and of each fluid step. Default: the smallest acoustic limit
-    /// `0.4·h/c` of the fluids, at most 1/200 s; rounded down so a frame holds a whole number
-    /// of steps. The fluid pipeline may split each step further (its adaptive CFL substeps,
-    /// [`crate::pipeline::TimeStepping`], are on by default).
+    /// Time step (s) of rapier and of each fluid step, rounded down so a frame holds a whole
+    /// number of steps. Default: one step per frame (`1/frame_rate`), as a game steps the
+    /// crate: the fluid pipeline splits each step into the substeps its solver needs (its
+    /// adaptive substeps, [`crate::pipeline::TimeStepping`], are on by default; DFSPH takes a
+    /// few per 1/60 s frame where the acoustic limit of WCSPH would take dozens).
     #[serde(default)]
     pub dt: Option<Positive>,
     /// Frames per second for pictures and exports. Default 30.
@@ -820,18 +824,12 @@ impl SceneFile {
             .expect("scene values are plain data")
     }
 
-    /// The time step the scene runs with: `dt` if given, else the smallest acoustic limit
-    /// of the fluids (at most 1/200 s); in both cases rounded down so that a frame
-    /// (`1/frame_rate`) holds a whole number of steps. Returns `(dt, steps per frame)`.
+    /// The time step the scene runs with: `dt` if given, else one frame (`1/frame_rate`,
+    /// which the fluid pipeline substeps); rounded down so that a frame holds a whole number
+    /// of steps. Returns `(dt, steps per frame)`.
     pub fn time_step(&self) -> (Real, usize) {
         let frame = 1.0 / self.frame_rate.0;
-        let dt = self.dt.map(|d| d.0).unwrap_or_else(|| {
-            self.fluids
-                .iter()
-                .filter_map(|f| f.params().ok())
-                .map(|p| p.acoustic_time_step())
-                .fold(1.0 / 200.0, Real::min)
-        });
+        let dt = self.dt.map_or(frame, |d| d.0);
         let steps = (frame / dt).ceil().max(1.0) as usize;
         (frame / steps as Real, steps)
     }
@@ -982,6 +980,58 @@ pub struct BuiltScene {
     pub camera: CameraDesc,
 }
 
+impl BuiltScene {
+    /// The box around the scene's colliders at their current poses (sensors and half-spaces
+    /// left out), open against gravity: along each axis gravity points down, the box has no
+    /// top. `None` when the scene has no such collider.
+    pub fn collider_bounds(&self) -> Option<(Vector, Vector)> {
+        let mut lo = Vector::splat(Real::INFINITY);
+        let mut hi = Vector::splat(Real::NEG_INFINITY);
+        for (_, c) in self.world.physics.colliders.iter() {
+            if c.is_sensor() || c.shape().as_halfspace().is_some() {
+                continue;
+            }
+            let aabb = c.compute_aabb();
+            lo = lo.min(aabb.mins);
+            hi = hi.max(aabb.maxs);
+        }
+        if !(lo.is_finite() && hi.is_finite()) {
+            return None;
+        }
+        let g = self.world.physics.gravity;
+        for k in 0..3 {
+            if g[k] < 0.0 {
+                hi[k] = Real::INFINITY;
+            } else if g[k] > 0.0 {
+                lo[k] = Real::NEG_INFINITY;
+            }
+        }
+        Some((lo, hi))
+    }
+
+    /// Particles that left the scene's geometry: outside [`Self::collider_bounds`] by more
+    /// than the largest particle spacing (over the rim of an open box, off the edge of a
+    /// floor: such particles fall for ever). 0 when the scene has no bounded collider.
+    pub fn particles_outside_colliders(&self) -> usize {
+        let Some((lo, hi)) = self.collider_bounds() else {
+            return 0;
+        };
+        let margin = self
+            .world
+            .fluids
+            .iter()
+            .map(|(_, f)| f.params().particle_spacing)
+            .fold(0.0, Real::max);
+        let (lo, hi) = (lo - Vector::splat(margin), hi + Vector::splat(margin));
+        self.world
+            .fluids
+            .iter()
+            .flat_map(|(_, f)| f.positions())
+            .filter(|p| !(p.cmpge(lo).all() && p.cmple(hi).all()))
+            .count()
+    }
+}
+
 impl CameraDesc {
     /// Degrees the camera turns per simulated second.
     pub fn degrees_per_second(&self) -> Real {
@@ -998,6 +1048,7 @@ impl CameraDesc {
 }
 
 #[cfg(feature = "render")]
+#[cfg_attr(docsrs, doc(cfg(feature = "render")))]
 impl CameraDesc {
     /// The render camera at simulated time `t` (s); `world` is used by [`CameraDesc::Auto`]
     /// to frame the scene (call it once on the initial world and turn the result with
@@ -1039,6 +1090,7 @@ impl CameraDesc {
 
 /// Bounding box of the particles and the finite colliders of a world.
 #[cfg(feature = "render")]
+#[cfg_attr(docsrs, doc(cfg(feature = "render")))]
 pub fn scene_bounds(world: &FluidWorld) -> (Vector, Vector) {
     let mut lo = Vector::splat(Real::INFINITY);
     let mut hi = Vector::splat(Real::NEG_INFINITY);
