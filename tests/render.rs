@@ -104,6 +104,49 @@ fn particles_are_drawn_coloured_by_speed_and_hidden_behind_opaque_colliders() {
     );
 }
 
+/// A collider given its own colour is drawn in it, and opaque even in front of the fluid
+/// (a crate is not a tank wall); the other colliders keep theirs.
+#[test]
+fn colliders_with_their_own_colour_are_drawn_in_it_and_opaque() {
+    let params = FluidParamsBuilder::water(0.1).build().unwrap();
+    let mut world = FluidWorld::new();
+    let mut fluid = Fluid::new(params).unwrap();
+    fluid.add_particles(&[Vector::new(0.0, 0.0, -1.0)]).unwrap();
+    world.fluids.insert(fluid);
+    let camera = Camera::look_at(Vector::new(0.0, 0.0, 5.0), Vector::ZERO);
+    let body = world.physics.insert_body(RigidBodyBuilder::fixed());
+    // A plate between the camera and the particle, on the left half of the view only.
+    let plate = world.physics.insert_collider(
+        ColliderBuilder::cuboid(1.0, 1.0, 0.05).translation(Vector::new(-1.0, 0.0, 1.0)),
+        Some(body),
+    );
+    let options = RenderOptions {
+        particle_scale: 2.0,
+        ..options()
+    };
+    let plain = Renderer::new(options.clone()).render_world(&camera, &world, None);
+    let red = [0.9, 0.1, 0.1];
+    let mut renderer = Renderer::new(RenderOptions {
+        collider_colors: vec![(plate, red)],
+        ..options
+    });
+    let coloured = renderer.render_world(&camera, &world, None);
+    // The particle (radius 0.2 m at 6 m: about 5 px around the centre) is behind the plate's
+    // left half (x < 0). Opaque in its own colour, the plate hides it: the pixel is red.
+    let on_plate = coloured.pixel(78, 60);
+    assert!(
+        on_plate[0] > 2 * on_plate[1] && on_plate[0] > 2 * on_plate[2],
+        "{on_plate:?}"
+    );
+    // Translucent in the default colour, the plate let the particle's blue through.
+    let seen = plain.pixel(78, 60);
+    assert!(!is_background(seen) && seen[2] > seen[0], "{seen:?}");
+    // Where there is no particle, the plate without its own colour is a light translucent
+    // grey over the background, not red.
+    let wall = plain.pixel(40, 60);
+    assert!(wall[0] < wall[2] + 40, "{wall:?}");
+}
+
 #[test]
 fn png_and_gif_files_are_written() {
     let camera = Camera::orbit(Vector::ZERO, 5.0, 30.0, 20.0);

@@ -24,6 +24,8 @@
 //! to the camera than the fluid's centroid, e.g. the front wall and the lid of a tank) are
 //! drawn translucent so the fluid stays visible; the others are opaque.
 
+#![cfg_attr(docsrs, doc(cfg(feature = "render")))]
+
 mod raster;
 
 pub use raster::Rgb;
@@ -32,7 +34,7 @@ use crate::fluid::FluidSet;
 use crate::math::{Real, Vector};
 use crate::mesh::{TessellationOptions, TriangleMesh};
 use crate::world::FluidWorld;
-use rapier3d::geometry::ColliderSet;
+use rapier3d::geometry::{ColliderHandle, ColliderSet};
 use raster::{Target, lerp3};
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -126,6 +128,10 @@ pub struct RenderOptions {
     /// Fade distant things towards the background by up to this fraction (depth cue).
     /// Default 0.35.
     pub fog: Real,
+    /// Colliders drawn in a colour of their own and always opaque (the crates of a scene,
+    /// say, among translucent tank walls); the others use [`Self::collider_color`]. Default
+    /// none.
+    pub collider_colors: Vec<(ColliderHandle, Rgb)>,
 }
 
 impl Default for RenderOptions {
@@ -143,6 +149,7 @@ impl Default for RenderOptions {
             surface_color: [0.12, 0.38, 0.75],
             tessellation: TessellationOptions::default(),
             fog: 0.35,
+            collider_colors: Vec::new(),
         }
     }
 }
@@ -368,16 +375,18 @@ impl Renderer {
         // Opaque colliders first, translucent ones after the particles.
         let mut translucent: Vec<([Vector; 3], Rgb)> = Vec::new();
         if o.draw_colliders {
-            for (_, mesh) in TriangleMesh::from_colliders(colliders, &o.tessellation) {
+            for (handle, mesh) in TriangleMesh::from_colliders(colliders, &o.tessellation) {
                 if mesh.vertices.is_empty() {
                     continue;
                 }
+                let own = o.collider_colors.iter().find(|(c, _)| *c == handle);
                 let (mut lo, mut hi) = (mesh.vertices[0], mesh.vertices[0]);
                 for v in &mesh.vertices {
                     lo = lo.min(*v);
                     hi = hi.max(*v);
                 }
-                let in_front = -to_view((lo + hi) * 0.5).z < fluid_depth;
+                let in_front = own.is_none() && -to_view((lo + hi) * 0.5).z < fluid_depth;
+                let color = own.map_or(o.collider_color, |(_, c)| *c);
                 for t in &mesh.triangles {
                     let p = t.map(|i| to_view(mesh.vertices[i as usize]));
                     let mut n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
@@ -387,7 +396,7 @@ impl Renderer {
                     }
                     let lambert = n.dot(light).max(0.0);
                     let shade = 0.35 + 0.65 * lambert;
-                    let base = o.collider_color.map(|c| c * shade);
+                    let base = color.map(|c| c * shade);
                     let col = fogged(base, -centre.z);
                     if in_front {
                         translucent.push((p, col));
