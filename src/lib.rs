@@ -102,6 +102,7 @@
 //!   [`Fluid::ids`] to follow one particle.
 
 #![warn(missing_docs)]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub(crate) mod boundary;
 pub(crate) mod density;

@@ -2,6 +2,8 @@
 //! `to_trimesh`), of reconstructed liquid surfaces, and of files. Shared by the `render`,
 //! `io`, `scene` and `surface` features; compiled only when one of them is on.
 
+#![cfg_attr(docsrs, doc(cfg(any(feature = "io", feature = "render"))))]
+
 use crate::math::{Pose, Real, Vector};
 use parry3d::shape::{Shape, TypedShape};
 use rapier3d::geometry::{ColliderHandle, ColliderSet};

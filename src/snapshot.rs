@@ -19,6 +19,8 @@
 //! not stored). The file starts with a format tag and version; a file from another version
 //! of the format is refused with [`SnapshotError::Version`].
 
+#![cfg_attr(docsrs, doc(cfg(feature = "snapshot")))]
+
 use crate::error::SphError;
 use crate::fluid::snapshot::FluidState;
 use crate::math::{Real, Vector};

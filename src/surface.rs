@@ -7,6 +7,8 @@
 //! `r = spacing·(3/(4π))^(1/3) ≈ 0.62·spacing`. With that radius the surface of a block at
 //! rest encloses the block's volume (tested within 10 %).
 
+#![cfg_attr(docsrs, doc(cfg(feature = "surface")))]
+
 use crate::fluid::{Fluid, FluidSet};
 use crate::math::{Real, Vector};
 use crate::mesh::TriangleMesh;

@@ -15,6 +15,8 @@
 //! round trip through VTK or PLY gives back bitwise the same numbers (tested). OBJ is text:
 //! it keeps about 9 significant digits.
 
+#![cfg_attr(docsrs, doc(cfg(feature = "io")))]
+
 mod obj;
 mod ply;
 mod vtk;
