@@ -229,7 +229,7 @@ fn lattice(min: Vector, max: Vector, s: Real, boxes: &[Box3]) -> Vec<Vector> {
     points
 }
 
-/// A GIF of every other frame and one PNG, drawn by the crate's software renderer
+/// A GIF of every third frame (20 frames a second: real time) and one PNG, drawn by the crate's software renderer
 /// (feature `render`, on for the examples).
 struct Pictures {
     dir: PathBuf,
@@ -264,7 +264,7 @@ impl Pictures {
             renderer: Renderer::new(options),
             // The water's part of the tank, from the front, a little from the right and above.
             camera: Camera::framing(Vector::ZERO, Vector::new(TANK.x, 0.55, TANK.z), 25.0, 32.0),
-            gif: GifWriter::create(dir.join("showcase.gif"), width, height, 4)?,
+            gif: GifWriter::create(dir.join("showcase.gif"), width, height, 5)?,
             seconds: 0.0,
         })
     }
@@ -274,12 +274,12 @@ impl Pictures {
         frame: usize,
         world: &FluidWorld,
     ) -> Result<(), Box<dyn std::error::Error>> {
-        if frame % 2 != 0 && frame != Self::STILL {
+        if frame % 3 != 0 && frame != Self::STILL {
             return Ok(());
         }
         let t = Instant::now();
         let image = self.renderer.render_world(&self.camera, world, None);
-        if frame % 2 == 0 {
+        if frame % 3 == 0 {
             self.gif.add_frame(&image)?;
         }
         if frame == Self::STILL {
