@@ -117,6 +117,13 @@ pub struct FluidParams {
 
 impl FluidParams {
     /// Checks every field; returns the first problem found.
+    ///
+    /// # Errors
+    ///
+    /// [`SphError::InvalidParameter`] naming the first field out of its range: a non-finite
+    /// or non-positive size, mass or density, a smoothing length below the spacing, a solver
+    /// setting out of range, wall viscosity without wall density, a periodic box smaller than
+    /// three supports.
     pub fn validate(&self) -> SphResult<()> {
         fn positive(field: &'static str, v: Real) -> SphResult<()> {
             if !v.is_finite() {
@@ -495,7 +502,12 @@ impl FluidParamsBuilder {
         self
     }
 
-    /// Validates and returns the parameters.
+    /// Validates and returns the parameters (the particle mass follows the spacing unless set).
+    ///
+    /// # Errors
+    ///
+    /// [`SphError::InvalidParameter`] naming the first bad field (see
+    /// [`FluidParams::validate`]).
     pub fn build(mut self) -> SphResult<FluidParams> {
         if !self.mass_given {
             let s = self.params.particle_spacing;

@@ -84,6 +84,28 @@ pub struct FluidAmount {
 impl Fluid {
     /// Particles, volume and mass of this fluid inside `region` (empty for a collider
     /// handle that names nothing).
+    ///
+    /// # Examples
+    ///
+    /// ```
+    /// use rapier_sph::{Fluid, FluidParamsBuilder, Region};
+    /// use rapier_sph::math::Vector;
+    /// use rapier_sph::rapier3d::prelude::{ColliderBuilder, ColliderSet};
+    ///
+    /// let mut fluid = Fluid::new(FluidParamsBuilder::water(0.1).build()?)?;
+    /// fluid.add_block(Vector::ZERO, Vector::new(1.0, 0.5, 1.0))?; // 10 × 5 × 10 particles
+    /// let mut colliders = ColliderSet::new();
+    /// // A sensor over the left half: a bucket, a trigger volume.
+    /// let sensor = colliders.insert(
+    ///     ColliderBuilder::cuboid(0.25, 1.0, 0.5).translation(Vector::new(0.25, 0.0, 0.5)).sensor(true),
+    /// );
+    /// let left = fluid.amount_in(&Region::Collider(sensor), &colliders);
+    /// assert_eq!(left.particles, 250);
+    /// assert!((left.volume - 0.25).abs() < 1e-4); // m³: 250 particles of 0.1³ m³
+    /// let all = fluid.amount_in(&Region::Aabb { min: Vector::ZERO, max: Vector::ONE }, &colliders);
+    /// assert_eq!(all.particles, 500);
+    /// # Ok::<(), rapier_sph::SphError>(())
+    /// ```
     pub fn amount_in(&self, region: &Region, colliders: &ColliderSet) -> FluidAmount {
         let Some((aabb, inside)) = region.resolve(colliders) else {
             return FluidAmount::default();
@@ -103,6 +125,22 @@ impl Fluid {
 }
 
 /// SPH interpolation of a fluid's fields at arbitrary points (see the [module docs](self)).
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::{Fluid, FluidParamsBuilder, FluidSampler};
+/// use rapier_sph::math::Vector;
+///
+/// let mut fluid = Fluid::new(FluidParamsBuilder::water(0.1).build()?)?;
+/// fluid.add_block(Vector::ZERO, Vector::ONE)?; // 10 × 10 × 10 particles
+/// fluid.velocities_mut().fill(Vector::new(1.0, 0.0, 0.0));
+/// let sampler = FluidSampler::new(&fluid); // once per frame
+/// let inside = sampler.sample(Vector::splat(0.5)).unwrap();
+/// assert!((inside.velocity.x - 1.0).abs() < 1e-5); // a uniform flow comes back exactly
+/// assert!(sampler.sample(Vector::splat(5.0)).is_none()); // no particle near
+/// # Ok::<(), rapier_sph::SphError>(())
+/// ```
 pub struct FluidSampler<'a> {
     fluid: &'a Fluid,
     h: Real,
@@ -202,6 +240,24 @@ impl<'a> FluidSampler<'a> {
 
 /// Counts particles entering and leaving a region from one call of
 /// [`RegionTracker::update`] to the next.
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::{Fluid, FluidParamsBuilder, Region, RegionTracker};
+/// use rapier_sph::math::Vector;
+/// use rapier_sph::rapier3d::prelude::ColliderSet;
+///
+/// let mut fluid = Fluid::new(FluidParamsBuilder::water(0.1).build()?)?;
+/// fluid.add_particles(&[Vector::new(0.5, 0.5, 0.5), Vector::new(2.0, 0.5, 0.5)])?;
+/// let colliders = ColliderSet::new();
+/// let mut goal = RegionTracker::new(Region::Aabb { min: Vector::ZERO, max: Vector::ONE });
+/// let first = goal.update(&fluid, &colliders);
+/// assert_eq!((first.entered, first.left, first.inside), (1, 0, 1));
+/// let next = goal.update(&fluid, &colliders); // nothing moved
+/// assert_eq!((next.entered, next.left, next.inside), (0, 0, 1));
+/// # Ok::<(), rapier_sph::SphError>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct RegionTracker {
     region: Region,

@@ -10,6 +10,26 @@ use rapier3d::pipeline::PhysicsWorld;
 /// with the world's gravity and time step (`physics.integration_parameters.dt`).
 ///
 /// Every field is public, so you can reach into rapier as usual.
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::prelude::*;
+/// use rapier_sph::rapier3d::prelude::{ColliderBuilder, RigidBodyBuilder};
+///
+/// let mut world = FluidWorld::new();
+/// let floor = world.physics.insert_body(RigidBodyBuilder::fixed());
+/// world.physics.insert_collider(ColliderBuilder::cuboid(1.0, 0.1, 1.0), Some(floor));
+/// let mut water = Fluid::new(FluidParamsBuilder::water(0.05).build()?)?;
+/// water.add_block(Vector::new(-0.2, 0.1, -0.2), Vector::new(0.4, 0.2, 0.4))?;
+/// let water = world.fluids.insert(water);
+/// for _ in 0..5 {
+///     let report = world.step()?; // rapier, then the fluid's substeps
+///     assert_eq!(report.non_finite, 0);
+/// }
+/// assert!(world.fluids[water].positions().iter().all(|p| p.y > 0.0));
+/// # Ok::<(), rapier_sph::SphError>(())
+/// ```
 #[derive(Default)]
 pub struct FluidWorld {
     /// The rapier world (bodies, colliders, broad-phase, ...).
@@ -27,6 +47,13 @@ impl FluidWorld {
     }
 
     /// Steps rapier, then the fluids, by `physics.integration_parameters.dt`.
+    ///
+    /// # Errors
+    ///
+    /// As [`FluidPipeline::step`]: [`crate::SphError::InvalidTimeStep`] for a time step that
+    /// is not positive and finite, [`crate::SphError::InvalidParameter`] for a non-finite
+    /// gravity or `rapier_substeps` of 0; the fluids are left unchanged (rapier has
+    /// stepped).
     pub fn step(&mut self) -> SphResult<&StepReport> {
         self.physics.step();
         self.step_fluids()
@@ -35,6 +62,10 @@ impl FluidWorld {
     /// Steps only the fluids, with the world's gravity and time step, against the rapier
     /// world as it is (for a world stepped elsewhere, or static geometry after rapier has
     /// stepped once).
+    ///
+    /// # Errors
+    ///
+    /// As [`FluidPipeline::step`].
     pub fn step_fluids(&mut self) -> SphResult<&StepReport> {
         let p = &mut self.physics;
         self.pipeline.rapier_substeps = p.integration_parameters.num_solver_iterations;

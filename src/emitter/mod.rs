@@ -126,6 +126,12 @@ impl Emitter {
     }
 
     /// Checks every field; returns the first problem, naming it.
+    ///
+    /// # Errors
+    ///
+    /// [`SphError::InvalidParameter`] naming the field: a nozzle size, speed or rate that is
+    /// not positive and finite, a non-finite position (or one beyond 10,000 km), a zero
+    /// direction (except for a sphere), a negative start or a stop before the start.
     pub fn validate(&self) -> SphResult<()> {
         let bad = |field, value: Real, reason| {
             Err(SphError::InvalidParameter {
@@ -208,7 +214,12 @@ impl Emitter {
         self.enabled
     }
 
-    /// Moves the nozzle (e.g. a hose carried by a character). Refuses non-finite input.
+    /// Moves the nozzle (e.g. a hose carried by a character).
+    ///
+    /// # Errors
+    ///
+    /// [`SphError::InvalidParameter`] for a non-finite position or a zero direction; the
+    /// emitter is left unchanged.
     pub fn set_pose(&mut self, position: Vector, direction: Vector) -> SphResult<()> {
         let mut e = self.clone();
         e.position = position;
@@ -218,7 +229,12 @@ impl Emitter {
         Ok(())
     }
 
-    /// Changes the rate (particles per second; positive and finite).
+    /// Changes the rate (particles per second).
+    ///
+    /// # Errors
+    ///
+    /// [`SphError::InvalidParameter`] unless the rate is positive and finite; the emitter is
+    /// left unchanged.
     pub fn set_rate(&mut self, rate: Real) -> SphResult<()> {
         let mut e = self.clone();
         e.rate = rate;
@@ -358,6 +374,11 @@ impl Sink {
     }
 
     /// Checks the region; returns the first problem, naming it.
+    ///
+    /// # Errors
+    ///
+    /// [`SphError::InvalidParameter`] for a box with non-finite corners or `max` below `min`,
+    /// a ball with a non-finite centre or a radius that is not positive, a negative reach.
     pub fn validate(&self) -> SphResult<()> {
         match self.region {
             SinkRegion::Aabb { min, max } => {

@@ -173,6 +173,10 @@ impl Image {
     }
 
     /// Writes the image as PNG.
+    ///
+    /// # Errors
+    ///
+    /// [`RenderError`] naming the path when the file cannot be created or written.
     pub fn save_png(&self, path: impl AsRef<Path>) -> Result<(), RenderError> {
         let path = path.as_ref();
         let file = std::fs::File::create(path).map_err(|e| RenderError::io(path, e))?;
@@ -188,6 +192,10 @@ impl Image {
     }
 
     /// Reads an 8-bit RGB or RGBA PNG (alpha is dropped), e.g. to check a written frame.
+    ///
+    /// # Errors
+    ///
+    /// [`RenderError`] naming the path when the file cannot be read or is not such a PNG.
     pub fn load_png(path: impl AsRef<Path>) -> Result<Image, RenderError> {
         let path = path.as_ref();
         let file = std::fs::File::open(path).map_err(|e| RenderError::io(path, e))?;
@@ -493,6 +501,10 @@ pub struct GifWriter {
 impl GifWriter {
     /// Creates `path` for frames of `width × height` pixels shown `delay_cs` hundredths of a
     /// second each, looping forever.
+    ///
+    /// # Errors
+    ///
+    /// [`RenderError`] naming the path when the file cannot be created.
     pub fn create(
         path: impl AsRef<Path>,
         width: u32,
@@ -521,7 +533,12 @@ impl GifWriter {
         })
     }
 
-    /// Appends a frame; it must have the size given to [`GifWriter::create`].
+    /// Appends a frame.
+    ///
+    /// # Errors
+    ///
+    /// [`RenderError`] when the frame's size is not the one given to [`GifWriter::create`]
+    /// or the file cannot be written.
     pub fn add_frame(&mut self, image: &Image) -> Result<(), RenderError> {
         if image.width != self.width as u32 || image.height != self.height as u32 {
             return Err(RenderError::encode(
@@ -540,6 +557,10 @@ impl GifWriter {
     }
 
     /// Finishes the file.
+    ///
+    /// # Errors
+    ///
+    /// [`RenderError`] when the file cannot be written.
     pub fn finish(self) -> Result<(), RenderError> {
         let path = self.path.clone();
         self.encoder
@@ -564,6 +585,33 @@ pub struct Recorder {
 impl Recorder {
     /// Creates `dir` (and its parents) and the GIF `dir/<name>.gif`; frames are shown
     /// `gif_delay_cs` hundredths of a second each.
+    ///
+    /// # Errors
+    ///
+    /// [`RenderError`] naming the path when the folder or the GIF cannot be created.
+    ///
+    /// # Examples
+    ///
+    /// ```no_run
+    /// use rapier_sph::FluidWorld;
+    /// use rapier_sph::math::Vector;
+    /// use rapier_sph::render::{Camera, Recorder, RenderOptions};
+    ///
+    /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+    /// let mut world = FluidWorld::new();
+    /// // ... colliders and fluids ...
+    /// let camera = Camera::framing(Vector::ZERO, Vector::new(2.0, 1.0, 1.0), 30.0, 25.0);
+    /// let mut pictures = Recorder::create("out", "splash", RenderOptions::default(), camera, 0.0, 4)?;
+    /// for frame in 0..240 {
+    ///     world.step()?;
+    ///     if frame % 4 == 0 {
+    ///         pictures.frame(&world)?; // out/frame_0000.png, ... and a frame of out/splash.gif
+    ///     }
+    /// }
+    /// pictures.finish()?;
+    /// # Ok(())
+    /// # }
+    /// ```
     pub fn create(
         dir: impl AsRef<Path>,
         name: &str,
@@ -591,6 +639,10 @@ impl Recorder {
     }
 
     /// Draws `world` as the next frame: writes its PNG and appends it to the GIF.
+    ///
+    /// # Errors
+    ///
+    /// [`RenderError`] naming the path when a file cannot be written.
     pub fn frame(&mut self, world: &FluidWorld) -> Result<(), RenderError> {
         let camera = self
             .camera
@@ -608,6 +660,10 @@ impl Recorder {
     }
 
     /// Finishes the GIF.
+    ///
+    /// # Errors
+    ///
+    /// [`RenderError`] when the GIF cannot be written.
     pub fn finish(self) -> Result<(), RenderError> {
         self.gif.finish()
     }
