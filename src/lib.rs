@@ -112,6 +112,8 @@ pub mod emitter;
 pub mod error;
 pub mod fluid;
 pub(crate) mod forces;
+#[doc = include_str!("../docs/guide.md")]
+pub mod guide {}
 pub(crate) mod integrate;
 #[cfg(feature = "io")]
 pub mod io;
