@@ -1,6 +1,8 @@
 //! Reference scenes, built with the public API only, shared by the examples, the tests and
 //! the benchmarks so each scene is defined in exactly one place.
 
+#![cfg_attr(docsrs, doc(cfg(feature = "validation")))]
+
 use crate::error::{SphError, SphResult};
 use crate::fluid::{Fluid, FluidHandle, lattice};
 use crate::math::{Real, Vector};

@@ -26,6 +26,8 @@
 //! and potential energy too), and 12 a column at rest with a kernel support of 3 spacings
 //! instead of 2 (full suite only). docs/stability.md has the results.
 
+#![cfg_attr(docsrs, doc(cfg(feature = "validation")))]
+
 use crate::math::{Real, Vector};
 use crate::params::{FluidParams, FluidParamsBuilder};
 use crate::pipeline::TimeStepping;

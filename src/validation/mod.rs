@@ -18,6 +18,8 @@
 //! returns a [`RunRecord`] with the wall time, the particle-steps, every error and whether it
 //! stayed stable. Reference data are read from `../shared/validation/` (see [`data`]).
 
+#![cfg_attr(docsrs, doc(cfg(feature = "validation")))]
+
 pub mod dam_break;
 pub mod data;
 pub mod hydrostatic;
