@@ -16,7 +16,14 @@ pub(crate) struct Target {
     pub inv_depth: Vec<Real>,
     /// Focal length in pixels.
     pub focal: Real,
+    /// Which opaque tagged surface (a collider) covers each pixel (`NO_ID`: none).
+    pub id: Vec<u32>,
+    /// View-space normal of the opaque tagged surface at each pixel.
+    pub normal: Vec<Vector>,
 }
+
+/// No tagged surface at this pixel.
+pub(crate) const NO_ID: u32 = u32::MAX;
 
 pub(crate) const NEAR: Real = 1e-3;
 
@@ -28,6 +35,8 @@ impl Target {
             color: Vec::new(),
             inv_depth: Vec::new(),
             focal: 1.0,
+            id: Vec::new(),
+            normal: Vec::new(),
         }
     }
 
@@ -43,6 +52,49 @@ impl Target {
         }
         self.inv_depth.clear();
         self.inv_depth.resize(width * height, 0.0);
+        self.id.clear();
+        self.id.resize(width * height, NO_ID);
+        self.normal.clear();
+        self.normal.resize(width * height, Vector::Z);
+    }
+
+    /// Darkens the pixels on the outline of tagged surfaces: where the tag changes, the
+    /// depth jumps (by more than `depth_jump` relatively) or the normal turns by more than
+    /// about 35° (a crease). `strength` in `[0, 1]` is how much darker.
+    pub fn outlines(&mut self, strength: Real, depth_jump: Real) {
+        let (w, h) = (self.width, self.height);
+        if w < 2 || h < 2 {
+            return;
+        }
+        let edge = |a: usize, b: usize, this: &Self| -> bool {
+            let (ia, ib) = (this.id[a], this.id[b]);
+            if ia == NO_ID && ib == NO_ID {
+                return false;
+            }
+            if ia != ib {
+                return true;
+            }
+            let (da, db) = (this.inv_depth[a], this.inv_depth[b]);
+            if (da - db).abs() > depth_jump * da.max(db) {
+                return true;
+            }
+            this.normal[a].dot(this.normal[b]) < 0.82
+        };
+        let mut mark = vec![false; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                let k = y * w + x;
+                if (x + 1 < w && edge(k, k + 1, self)) || (y + 1 < h && edge(k, k + w, self)) {
+                    // Darken the nearer of the two sides (the silhouette's own pixel).
+                    mark[k] = true;
+                }
+            }
+        }
+        for (c, &m) in self.color.iter_mut().zip(&mark) {
+            if m {
+                *c = c.map(|v| v * (1.0 - strength));
+            }
+        }
     }
 
     /// Screen position (pixels) and `1/d` of a view-space point with `d = -z > 0`.
@@ -124,7 +176,29 @@ impl Target {
         }
     }
 
+    /// An opaque triangle tagged with `id` and its view-space `normal` (for
+    /// [`Self::outlines`]).
+    pub fn solid_triangle(&mut self, p: [Vector; 3], c: Rgb, id: u32, normal: Vector) {
+        let inside = |v: &Vector| -v.z >= NEAR;
+        if p.iter().all(inside) {
+            self.raster_tagged(p, [c; 3], 1.0, Some((id, normal)));
+        } else {
+            // Rare (a collider crossing the near plane): drawn untagged through the clipper.
+            self.triangle(p, [c; 3], 1.0);
+        }
+    }
+
     fn raster(&mut self, p: [Vector; 3], c: [Rgb; 3], alpha: Real) {
+        self.raster_tagged(p, c, alpha, None)
+    }
+
+    fn raster_tagged(
+        &mut self,
+        p: [Vector; 3],
+        c: [Rgb; 3],
+        alpha: Real,
+        tag: Option<(u32, Vector)>,
+    ) {
         let s = p.map(|v| self.project(v));
         let area = (s[1].0 - s[0].0) * (s[2].1 - s[0].1) - (s[2].0 - s[0].0) * (s[1].1 - s[0].1);
         if area.abs() < 1e-12 || !area.is_finite() {
@@ -163,6 +237,10 @@ impl Target {
                 if alpha >= 1.0 {
                     self.inv_depth[k] = inv;
                     self.color[k] = col;
+                    if let Some((id, n)) = tag {
+                        self.id[k] = id;
+                        self.normal[k] = n;
+                    }
                 } else {
                     self.color[k] = lerp3(self.color[k], col, alpha);
                 }

@@ -8,8 +8,8 @@
 //!   `C_i = Σ w_ij (x_j − x̄ʷ_i)(x_j − x̄ʷ_i)ᵀ / Σ w_ij` (eqs. 9, 10),
 //! - its eigen decomposition `C = R diag(σ1, σ2, σ3) Rᵀ` (`σ1 ≥ σ2 ≥ σ3`), the small axes
 //!   clamped to `σ̃k = max(σk, σ1 / k_r)` (eq. 15) so no ellipsoid degenerates, and a
-//!   sphere for particles with fewer than `N_ε` neighbours (eq. 15's second case: splashes
-//!   stay round),
+//!   sphere for particles with fewer than `N_ε` neighbours (eq. 15's second case: lone
+//!   droplets stay round),
 //! - the smoothed centre `x̃_i = (1 − λ) x_i + λ x̄ʷ_i` (eq. 6, one step of Laplacian
 //!   smoothing, which pulls the surface layer in by the bias of the particles' lattice).
 //!
@@ -44,7 +44,10 @@ pub struct AnisotropySettings {
     /// Largest ratio `k_r` between the largest and the smallest `σ` (≥ 1). Default 4 (Yu & Turk).
     pub max_ratio: Real,
     /// Fewer particles than this in the neighbourhood (the particle included) give a
-    /// sphere. Default 25 (Yu & Turk's `N_ε`).
+    /// sphere. Default 6: Yu & Turk's `N_ε` = 25 is for their neighbourhood of radius `2h`
+    /// (about 4 spacings, some 270 particles in a bulk); scaled by the volume to the default
+    /// radius of 2.5 spacings it is `25 · (2.5/4)³ ≈ 6`. A single layer of particles (21 within
+    /// 2.5 spacings on a square lattice) is then still drawn as a sheet.
     pub min_neighbors: usize,
     /// Radius `r0` of a particle in a uniform bulk, in particle spacings. Default 0.5 (the
     /// water preset's particle radius).
@@ -57,7 +60,7 @@ impl Default for AnisotropySettings {
             radius: 2.5,
             smoothing: 0.9,
             max_ratio: 4.0,
-            min_neighbors: 25,
+            min_neighbors: 6,
             particle_radius: 0.5,
         }
     }
@@ -333,8 +336,7 @@ mod tests {
 
     /// Yu & Turk 2013, figure 2 / section 4: a thin sheet gets flat kernels, the smallest
     /// axis along the sheet's normal and clamped at `σ1 / k_r` (`k_r` = 4). The sheet is
-    /// two particle layers thick (a single layer has 21 neighbours within 2.5 spacings,
-    /// below `N_ε` = 25, and is drawn as spheres, as the paper's isolated particles are).
+    /// two particle layers thick; a single layer is tested below.
     #[test]
     fn a_flat_sheet_is_flat_with_its_smallest_axis_along_the_normal() {
         let s = 0.1;
@@ -363,6 +365,23 @@ mod tests {
         assert!(e.radii[1] > 0.5 * s, "{:?}", e.radii);
     }
 
+    /// A single layer (a sheet one particle thick, as a thin stream is): flat too, its
+    /// σ3 = 0 clamped to σ1 / 4.
+    #[test]
+    fn a_single_layer_is_a_flat_disc() {
+        let s = 0.1;
+        let points = lattice(12, 1, 12, s);
+        let mut a = Anisotropy::new(AnisotropySettings::default()).unwrap();
+        let e = a.compute_points(&points, s);
+        let i = nearest(&points, Vector::new(5.0 * s, 0.0, 5.0 * s));
+        assert!(e[i].axes[2].y.abs() > 0.999, "{:?}", e[i]);
+        assert!(
+            (e[i].radii[0] / e[i].radii[2] - 4.0).abs() < 1e-3,
+            "{:?}",
+            e[i]
+        );
+    }
+
     /// The free surface of a block: the top layer's smallest axis is vertical.
     #[test]
     fn the_free_surface_of_a_block_is_flattened_along_its_normal() {
@@ -379,6 +398,7 @@ mod tests {
     #[test]
     fn isolated_particles_are_spheres_and_bad_settings_are_refused() {
         let s = 0.1;
+        // Fewer than 6 together: a pair and a lone particle.
         let points = vec![Vector::ZERO, Vector::new(0.1, 0.0, 0.0), Vector::splat(5.0)];
         let mut a = Anisotropy::new(AnisotropySettings::default()).unwrap();
         for e in a.compute_points(&points, s) {
