@@ -25,10 +25,10 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! Fixed walls (cuboids) that lie between the camera and the fluid (their bounding-box
-//! centre is nearer to the camera than the fluid's centroid, e.g. the front wall and the lid
-//! of a tank) are drawn translucent so the fluid stays visible; every other collider is
-//! opaque, shaded and outlined.
+//! The faces of fixed walls (cuboids) whose plane separates the camera from the fluid's
+//! centroid (the front wall and the lid of a tank, not its back wall or floor) are drawn
+//! translucent with their edges outlined, so the fluid stays visible; every other collider
+//! is opaque, shaded and outlined.
 
 mod raster;
 mod ssf;
@@ -484,14 +484,17 @@ impl Renderer {
             }
             count += f.len();
         }
-        let fluid_depth = if count > 0 {
-            -to_view(centroid / count as Real).z
+        // View-space point the see-through test looks from (the camera is the origin).
+        let fluid_centre = if count > 0 {
+            to_view(centroid / count as Real)
         } else {
-            -to_view(camera.target).z
+            to_view(camera.target)
         };
 
-        // Opaque colliders first, translucent ones after the fluid.
+        // Opaque colliders first, translucent ones after the fluid, then the feature edges
+        // of the translucent ones (so a see-through tank still shows its shape).
         let mut translucent: Vec<([Vector; 3], Rgb)> = Vec::new();
+        let mut edges: Vec<(Vector, Vector)> = Vec::new();
         if o.draw_colliders {
             for (handle, mesh) in TriangleMesh::from_colliders(colliders, &o.tessellation) {
                 if mesh.vertices.is_empty() {
@@ -507,12 +510,6 @@ impl Renderer {
                 } else {
                     o.collider_color
                 };
-                let id = handle.into_raw_parts().0;
-                let (mut lo, mut hi) = (mesh.vertices[0], mesh.vertices[0]);
-                for v in &mesh.vertices {
-                    lo = lo.min(*v);
-                    hi = hi.max(*v);
-                }
                 // Only fixed walls (cuboids) between the camera and the fluid are see-through;
                 // obstacles (balls, capsules, meshes, heightfields, compounds) and moving
                 // bodies stay solid wherever they are.
@@ -528,11 +525,28 @@ impl Renderer {
                             ShapeType::Cuboid | ShapeType::RoundCuboid | ShapeType::HalfSpace
                         )
                 };
-                let in_front = wall && -to_view((lo + hi) * 0.5).z < fluid_depth;
+                // Walls with see-through faces are outlined by their feature edges (below);
+                // their opaque faces are not tagged, since seen through their own
+                // see-through end faces two faces of a thin wall alternate pixel by pixel.
+                let id = handle.into_raw_parts().0;
+                let any_see_through = wall
+                    && mesh.triangles.iter().any(|t| {
+                        let p = t.map(|i| to_view(mesh.vertices[i as usize]));
+                        let n = (p[1] - p[0]).cross(p[2] - p[0]);
+                        (n.dot(-p[0]) > 0.0) != (n.dot(fluid_centre - p[0]) > 0.0)
+                    });
+                let id = if any_see_through { raster::NO_ID } else { id };
+                let mut any_in_front = false;
                 for t in &mesh.triangles {
                     let p = t.map(|i| to_view(mesh.vertices[i as usize]));
                     let mut n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
                     let centre = (p[0] + p[1] + p[2]) / 3.0;
+                    // A wall's face is see-through when its plane separates the camera
+                    // from the fluid (the front wall and the lid of a tank; not its back
+                    // wall or floor).
+                    let in_front =
+                        wall && (n.dot(-p[0]) > 0.0) != (n.dot(fluid_centre - p[0]) > 0.0);
+                    any_in_front |= in_front;
                     if n.dot(-centre) < 0.0 {
                         n = -n; // two-sided: light the side we see
                     }
@@ -543,6 +557,11 @@ impl Renderer {
                         translucent.push((p, col));
                     } else {
                         self.target.solid_triangle(p, col, id, n);
+                    }
+                }
+                if any_in_front {
+                    for (a, b) in mesh.feature_edges(0.5) {
+                        edges.push((to_view(a), to_view(b)));
                     }
                 }
             }
@@ -626,6 +645,15 @@ impl Renderer {
             self.target
                 .triangle(p, [col; 3], self.options.front_collider_alpha);
         }
+        let line_width = self.options.supersample.max(1) as Real;
+        let veil = match self.options.style {
+            FluidStyle::ScreenSpace if self.options.draw_particles => &self.fluid.smooth[..],
+            _ => &[],
+        };
+        for (a, b) in edges {
+            self.target
+                .line(a, b, [0.25, 0.25, 0.24], 0.5, line_width, veil, 0.15);
+        }
 
         let (w, h, rgb) = self.target.resolve(ss);
         Image {
@@ -699,10 +727,12 @@ impl Renderer {
         for d in diffuse {
             let r = o.foam_scale * spacing;
             for (p, k) in d.positions().iter().zip(d.kinds()) {
+                // Coverage per dot: a lone dot is a faint fleck, a few overlapping ones
+                // turn white.
                 let weight = match k {
-                    crate::visual::DiffuseKind::Foam => 0.9,
-                    crate::visual::DiffuseKind::Spray => 0.7,
-                    crate::visual::DiffuseKind::Bubble => 0.5,
+                    crate::visual::DiffuseKind::Foam => 0.45,
+                    crate::visual::DiffuseKind::Spray => 0.4,
+                    crate::visual::DiffuseKind::Bubble => 0.12,
                 };
                 self.fluid
                     .foam_dot(&self.target, to_view(*p), r, weight, 2.0 * spacing);

@@ -71,14 +71,21 @@ impl Target {
             if ia == NO_ID && ib == NO_ID {
                 return false;
             }
-            if ia != ib {
-                return true;
-            }
             let (da, db) = (this.inv_depth[a], this.inv_depth[b]);
             if (da - db).abs() > depth_jump * da.max(db) {
                 return true;
             }
-            this.normal[a].dot(this.normal[b]) < 0.82
+            // A crease: the normal turns by more than about 35°. Faces seen nearly edge-on
+            // (normal within about 15° of the image plane) are left out: there, two faces of
+            // a thin wall alternate from pixel to pixel and would be speckled with marks.
+            let (na, nb) = (this.normal[a], this.normal[b]);
+            let turned = na.z.abs() > 0.25 && nb.z.abs() > 0.25 && na.dot(nb) < 0.82;
+            // Two colliders meeting: an edge unless they are coplanar there (overlapping
+            // walls of a tank would otherwise flicker between their tags).
+            if ia != ib {
+                return turned || (da - db).abs() > 1e-3 * da.max(db);
+            }
+            turned
         };
         let mut mark = vec![false; w * h];
         for y in 0..h {
@@ -243,6 +250,73 @@ impl Target {
                     }
                 } else {
                     self.color[k] = lerp3(self.color[k], col, alpha);
+                }
+            }
+        }
+    }
+
+    /// Blends a line from `a` to `b` (view space) over the image, `width` pixels wide,
+    /// hidden behind opaque surfaces (with a 1 % depth tolerance, so a surface's own edges
+    /// show) and faded to `alpha_behind` where `veil` (a depth per pixel, e.g. the water's)
+    /// is in front of it.
+    #[allow(clippy::too_many_arguments)]
+    pub fn line(
+        &mut self,
+        a: Vector,
+        b: Vector,
+        c: Rgb,
+        alpha: Real,
+        width: Real,
+        veil: &[Real],
+        alpha_behind: Real,
+    ) {
+        // Clip to the near plane.
+        let (da, db) = (-a.z, -b.z);
+        if da < NEAR && db < NEAR {
+            return;
+        }
+        let (a, b) = if da < NEAR {
+            (a + (b - a) * ((NEAR - da) / (db - da)), b)
+        } else if db < NEAR {
+            (a, b + (a - b) * ((NEAR - db) / (da - db)))
+        } else {
+            (a, b)
+        };
+        let (ax, ay, ia) = self.project(a);
+        let (bx, by, ib) = self.project(b);
+        let len = (bx - ax).hypot(by - ay);
+        if !len.is_finite() {
+            return;
+        }
+        let steps = len.ceil().max(1.0) as usize;
+        let r = (0.5 * width).max(0.5);
+        let ri = r.ceil() as isize;
+        for k in 0..=steps {
+            let t = k as Real / steps as Real;
+            let (x, y) = (ax + (bx - ax) * t, ay + (by - ay) * t);
+            let inv = ia + (ib - ia) * t;
+            let (cx, cy) = (x.floor() as isize, y.floor() as isize);
+            for oy in -ri..=ri {
+                for ox in -ri..=ri {
+                    let (px, py) = (cx + ox, cy + oy);
+                    if px < 0 || py < 0 || px >= self.width as isize || py >= self.height as isize {
+                        continue;
+                    }
+                    let dx = px as Real + 0.5 - x;
+                    let dy = py as Real + 0.5 - y;
+                    if dx * dx + dy * dy > r * r {
+                        continue;
+                    }
+                    let k = py as usize * self.width + px as usize;
+                    if inv < 0.99 * self.inv_depth[k] {
+                        continue;
+                    }
+                    let a = if veil.get(k).is_some_and(|&v| v * inv < 1.0) {
+                        alpha_behind
+                    } else {
+                        alpha
+                    };
+                    self.color[k] = lerp3(self.color[k], c, a);
                 }
             }
         }

@@ -268,7 +268,7 @@ impl FluidBuffers {
                 for (k, o) in out.iter_mut().enumerate() {
                     let i = c * rows * w + k;
                     let (x, y) = (i % w, i / w);
-                    let foam = this.foam[i].min(1.0);
+                    let foam = 0.9 * this.foam[i].min(1.0);
                     let d = this.smooth[i];
                     if !d.is_finite() {
                         if foam > 0.0 {
