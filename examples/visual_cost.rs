@@ -110,6 +110,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }),
         );
     }
+    {
+        // The same pass with every particle a sphere: the neighbour search and the
+        // weighted sums without the eigen decompositions.
+        let mut a = Anisotropy::new(AnisotropySettings {
+            min_neighbors: usize::MAX,
+            ..Default::default()
+        })?;
+        a.compute(f);
+        line(
+            "  of which search + sums (R = 2.5, no eigen)",
+            time(args.repeat, || {
+                a.compute(f);
+            }),
+        );
+    }
     line(
         "interpolation (record + positions)",
         time(args.repeat, || {
@@ -160,6 +175,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 1e3 * lo,
                 1e3 * hi
             );
+            let t = r.screen_space_timings();
+            if t.splat > 0.0 {
+                println!(
+                    "    last frame: anisotropy {:.1} ms, splats {:.1} ms, depth filter {:.1} ms, foam + shading {:.1} ms",
+                    1e3 * t.anisotropy,
+                    1e3 * t.splat,
+                    1e3 * t.filter,
+                    1e3 * t.shade
+                );
+            }
         }
     }
     #[cfg(not(feature = "render"))]

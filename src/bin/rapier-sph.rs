@@ -62,8 +62,9 @@ enum Command {
         /// Export particles each frame in this format (into --out).
         #[arg(long, value_enum)]
         export: Option<Format>,
-        /// Reconstruct the liquid surface each frame (splashsurf): render it instead of the
-        /// particles and, with --export, write it (OBJ, PLY or VTK). Needs the `surface` feature.
+        /// Reconstruct the liquid surface each frame (splashsurf, `SurfaceOptions::smooth()`):
+        /// render it instead of the particles and, with --export, write it (OBJ, PLY or VTK).
+        /// Needs the `surface` feature.
         #[arg(long)]
         mesh: bool,
         /// Folder for exports. Default: `out`.
@@ -585,7 +586,7 @@ impl Counters {
 fn surface_mesh(world: &rapier_sph::FluidWorld) -> Result<TriangleMesh> {
     Ok(rapier_sph::surface::reconstruct_fluids(
         &world.fluids,
-        &rapier_sph::surface::SurfaceOptions::default(),
+        &rapier_sph::surface::SurfaceOptions::smooth(),
     )?)
 }
 

@@ -346,8 +346,23 @@ pub fn speed_color(t: Real) -> Rgb {
     lerp3(STOPS[i], STOPS[i + 1], t - i as Real)
 }
 
+/// Where the last screen-space frame's time went (seconds), see
+/// [`Renderer::screen_space_timings`].
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct ScreenSpaceTimings {
+    /// Particle ellipsoids ([`crate::visual::Anisotropy`]).
+    pub anisotropy: f64,
+    /// Depth and thickness splats (serial).
+    pub splat: f64,
+    /// The narrow-range depth filter and the thickness blur.
+    pub filter: f64,
+    /// Foam dots and shading.
+    pub shade: f64,
+}
+
 /// Draws frames. Holds its buffers between frames, so rendering a sequence allocates once.
 pub struct Renderer {
+    timings: ScreenSpaceTimings,
     options: RenderOptions,
     target: Target,
     fluid: ssf::FluidBuffers,
@@ -382,6 +397,7 @@ impl Renderer {
     /// A renderer with these options.
     pub fn new(options: RenderOptions) -> Self {
         Self {
+            timings: ScreenSpaceTimings::default(),
             options,
             target: Target::new(),
             fluid: ssf::FluidBuffers::default(),
@@ -393,6 +409,11 @@ impl Renderer {
     /// The options.
     pub fn options(&self) -> &RenderOptions {
         &self.options
+    }
+
+    /// Where the last frame's screen-space passes spent their time.
+    pub fn screen_space_timings(&self) -> ScreenSpaceTimings {
+        self.timings
     }
 
     /// The options, mutably (e.g. to fix the speed range after the first frame).
@@ -676,6 +697,8 @@ impl Renderer {
         background: Rgb,
     ) {
         let (w, h) = (self.target.width, self.target.height);
+        self.timings = ScreenSpaceTimings::default();
+        let clock = std::time::Instant::now();
         self.fluid.reset(w, h);
         let (right, up, back) = basis;
         let mut spacing: Real = 0.0;
@@ -697,7 +720,10 @@ impl Renderer {
                 }
             };
             self.splats.clear();
-            for e in a.compute(f) {
+            let t = std::time::Instant::now();
+            let ellipsoids = a.compute(f);
+            self.timings.anisotropy += t.elapsed().as_secs_f64();
+            for e in ellipsoids {
                 let c = to_view(e.center);
                 let rows = [0, 1, 2].map(|k| {
                     let ax = e.axes[k];
@@ -717,6 +743,8 @@ impl Renderer {
         if spacing <= 0.0 {
             return;
         }
+        self.timings.splat = clock.elapsed().as_secs_f64() - self.timings.anisotropy;
+        let t = std::time::Instant::now();
         let max_px = (24 * o.supersample.max(1)) as usize;
         self.fluid.smooth_depth(
             self.target.focal,
@@ -724,6 +752,8 @@ impl Renderer {
             spacing,
             max_px,
         );
+        self.timings.filter = t.elapsed().as_secs_f64();
+        let t = std::time::Instant::now();
         for d in diffuse {
             let r = o.foam_scale * spacing;
             for (p, k) in d.positions().iter().zip(d.kinds()) {
@@ -754,6 +784,7 @@ impl Renderer {
             ground: [0.30, 0.30, 0.28],
         };
         self.fluid.shade(&mut self.target, &shade);
+        self.timings.shade = t.elapsed().as_secs_f64();
     }
 }
 
