@@ -65,13 +65,16 @@ impl Default for SurfaceOptions {
 
 impl SurfaceOptions {
     /// Settings for a smooth surface at coarse resolutions (the shipped scenes': 2,000 to
-    /// 10,000 particles): cubes of 0.6 spacings, marching-cubes cleanup, barnacle
-    /// decimation and 10 iterations of mesh smoothing (half-way steps). On a settled block
-    /// of 12 × 8 × 12 particles (`tests/surface.rs`): the lid's mean normal deviation
-    /// 1.4° → 0.25°, 5,992 → 3,400 triangles, enclosed volume +1.3 % → −5.0 % of the
-    /// particles'. Smoothed centres stay off: they shrink that block by a third.
+    /// 10,000 particles, streams one or two particles thick): a kernel of 3 spacings and an
+    /// iso-surface at 0.4 of the rest density (the defaults, 2.5 and 0.6, leave holes in
+    /// those streams), cubes of 0.6 spacings, marching-cubes cleanup, barnacle decimation
+    /// and 10 iterations of mesh smoothing (half-way steps). Smoothed centres stay off: they
+    /// shrink a settled block by a third. Measured in `tests/surface.rs` and
+    /// `docs/outputs.md`.
     pub fn smooth() -> Self {
         Self {
+            support_factor: 3.0,
+            iso_surface_threshold: 0.4,
             cube_size_factor: 0.6,
             cleanup: true,
             decimate_barnacles: true,

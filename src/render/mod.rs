@@ -133,9 +133,9 @@ pub struct RenderOptions {
     /// Screen-space style: absorption of red, green and blue light per particle spacing of
     /// water (Beer–Lambert over the thickness). Per spacing rather than per metre, so a
     /// scene looks the same at any scale (a game's tank is far shallower than the sea that
-    /// makes real water blue). Default `[0.45, 0.16, 0.08]`: a sheet of 3 particles lets
-    /// through 26 % of red, 62 % of green and 79 % of blue light, 10 particles 1 %, 20 % and
-    /// 45 % (blue), 30 particles nearly none (the deep colour).
+    /// makes real water blue). Default `[0.6, 0.22, 0.11]`: a sheet of 3 particles lets
+    /// through 17 % of red, 52 % of green and 72 % of blue light, 10 particles 0.2 %, 11 %
+    /// and 33 % (blue), 30 particles nearly none (the deep colour).
     pub absorption: Rgb,
     /// Screen-space style: the colour thick water tends to. Default a deep blue.
     pub deep_color: Rgb,
@@ -189,8 +189,8 @@ impl Default for RenderOptions {
                 ..AnisotropySettings::default()
             },
             smoothing_radius: 2.5,
-            absorption: [0.45, 0.16, 0.08],
-            deep_color: [0.02, 0.12, 0.28],
+            absorption: [0.6, 0.22, 0.11],
+            deep_color: [0.01, 0.09, 0.26],
             refraction: 0.25,
             foam_scale: 0.45,
             collider_palette: true,
