@@ -68,9 +68,11 @@ impl SurfaceOptions {
     /// 10,000 particles, streams one or two particles thick): a kernel of 3 spacings and an
     /// iso-surface at 0.4 of the rest density (the defaults, 2.5 and 0.6, leave holes in
     /// those streams), cubes of 0.6 spacings, marching-cubes cleanup, barnacle decimation
-    /// and 10 iterations of mesh smoothing (half-way steps). Smoothed centres stay off: they
-    /// shrink a settled block by a third. Measured in `tests/surface.rs` and
-    /// `docs/outputs.md`.
+    /// and 10 iterations of mesh smoothing (half-way steps). On a settled block of
+    /// 12 × 8 × 12 particles (`tests/surface.rs`) against the defaults: the lid's mean
+    /// normal deviation 1.4° → 0.35°, 5,992 → 3,664 triangles, enclosed volume +1 % → +16 %
+    /// of the particles' (the lower threshold puts the surface farther out). Smoothed
+    /// centres stay off: they shrink that block by a third. Cost in `docs/outputs.md`.
     pub fn smooth() -> Self {
         Self {
             support_factor: 3.0,
