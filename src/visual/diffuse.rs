@@ -174,7 +174,7 @@ pub struct DiffuseReport {
 }
 
 /// Spray, foam and bubbles of one fluid: stepped by the game after the fluid's step, read
-/// for drawing. See the [module docs](self).
+/// for drawing. See the [module docs](self) for the formulas.
 ///
 /// # Examples
 ///

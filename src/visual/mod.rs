@@ -18,9 +18,9 @@
 //! Their cost per particle is measured by `examples/visual_cost.rs`
 //! (see `docs/outputs.md`).
 
-mod anisotropy;
-mod diffuse;
-mod interpolate;
+pub mod anisotropy;
+pub mod diffuse;
+pub mod interpolate;
 
 pub use anisotropy::{Anisotropy, AnisotropySettings, Ellipsoid};
 pub use diffuse::{DiffuseKind, DiffuseParticles, DiffuseReport, DiffuseSettings};
