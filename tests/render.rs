@@ -181,7 +181,7 @@ fn screen_space_water_is_blue_over_the_wall_behind_it_and_covers_the_block() {
 }
 
 /// The frame is the same for any number of threads (the per-pixel passes run over fixed
-/// chunks; the splats are serial).
+/// chunks, the splats bands of rows each in the splats' order).
 #[test]
 fn screen_space_frames_do_not_depend_on_the_thread_count() {
     let params = FluidParamsBuilder::water(0.05).build().unwrap();

@@ -352,7 +352,7 @@ pub fn speed_color(t: Real) -> Rgb {
 pub struct ScreenSpaceTimings {
     /// Particle ellipsoids ([`crate::visual::Anisotropy`]).
     pub anisotropy: f64,
-    /// Depth and thickness splats (serial).
+    /// Depth and thickness splats.
     pub splat: f64,
     /// The narrow-range depth filter and the thickness blur.
     pub filter: f64,
@@ -736,9 +736,7 @@ impl Renderer {
                     max_radius: e.radii[0],
                 });
             }
-            for sp in &self.splats {
-                self.fluid.splat(&self.target, sp);
-            }
+            self.fluid.splat_all(&self.target, &self.splats);
         }
         if spacing <= 0.0 {
             return;

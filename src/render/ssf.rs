@@ -23,7 +23,8 @@
 //!    thickness towards the deep-water colour, a sun highlight; foam on top.
 //!
 //! Everything runs per pixel over rows in parallel (rayon, fixed chunks, so the image is
-//! the same for any thread count); the splats are serial.
+//! the same for any thread count); the splats run over bands of rows in parallel, each
+//! band in the splats' order.
 
 use super::raster::{Rgb, Target, lerp3};
 use crate::math::{Real, Vector};
@@ -55,6 +56,8 @@ pub(crate) struct FluidBuffers {
     pub foam: Vec<Real>,
     /// Copy of the opaque scene's colours (refraction reads it).
     scene: Vec<Rgb>,
+    /// Rows `y0..y1` each splat covers (scratch of [`Self::splat_all`]).
+    splat_rows: Vec<(u32, u32)>,
 }
 
 /// Shading inputs.
@@ -91,57 +94,43 @@ impl FluidBuffers {
         }
     }
 
-    /// Splats one ellipsoid: nearest depth and thickness, behind the opaque scene culled.
-    pub fn splat(&mut self, t: &Target, s: &Splat) {
-        let d = -s.center.z;
-        let r = s.max_radius;
-        if d - r < super::raster::NEAR {
+    /// Splats every ellipsoid: nearest depth and thickness, behind the opaque scene culled.
+    /// The image is cut into bands of rows splatted in parallel, each band going through the
+    /// splats in their order, so every pixel sums its thicknesses in the same order whatever
+    /// the thread count (the same image as a serial loop).
+    pub fn splat_all(&mut self, t: &Target, splats: &[Splat]) {
+        let w = t.width;
+        if w == 0 {
             return;
         }
-        let f = t.focal;
-        let (cx, cy) = (0.5 * t.width as Real, 0.5 * t.height as Real);
-        let sx = cx + s.center.x * f / d;
-        let sy = cy - s.center.y * f / d;
-        let rs = r * f / (d - r) + 1.0;
-        let x0 = (sx - rs).floor().max(0.0) as usize;
-        let y0 = (sy - rs).floor().max(0.0) as usize;
-        let x1 = ((sx + rs).ceil().min(t.width as Real)).max(0.0) as usize;
-        let y1 = ((sy + rs).ceil().min(t.height as Real)).max(0.0) as usize;
-        let m = s.inv_rows;
-        let w = Vector::new(m[0].dot(s.center), m[1].dot(s.center), m[2].dot(s.center));
-        let cc = w.dot(w) - 1.0;
-        let inv_f = 1.0 / f;
-        for py in y0..y1 {
-            let ry = -(py as Real + 0.5 - cy) * inv_f;
-            for px in x0..x1 {
-                let rx = (px as Real + 0.5 - cx) * inv_f;
-                let ray = Vector::new(rx, ry, -1.0);
-                let u = Vector::new(m[0].dot(ray), m[1].dot(ray), m[2].dot(ray));
-                let a = u.dot(u);
-                let b = u.dot(w);
-                let disc = b * b - a * cc;
-                if disc <= 0.0 {
-                    continue;
-                }
-                let root = disc.sqrt();
-                let t0 = (b - root) / a;
-                let t1 = (b + root) / a;
-                let k = py * t.width + px;
-                let inv_scene = t.inv_depth[k];
-                let scene = if inv_scene > 0.0 {
-                    1.0 / inv_scene
-                } else {
-                    Real::INFINITY
-                };
-                if t0 >= scene || t0 < super::raster::NEAR {
-                    continue;
-                }
-                if t0 < self.depth[k] {
-                    self.depth[k] = t0;
-                }
-                self.thickness[k] += t1.min(scene) - t0;
+        let band = 16usize;
+        // Each splat's rows, so a band skips the splats that miss it at once.
+        self.splat_rows.clear();
+        self.splat_rows.extend(splats.iter().map(|s| {
+            let d = -s.center.z;
+            let r = s.max_radius;
+            if d - r < super::raster::NEAR {
+                return (0, 0);
             }
-        }
+            let sy = 0.5 * t.height as Real - s.center.y * t.focal / d;
+            let rs = r * t.focal / (d - r) + 1.0;
+            let y0 = (sy - rs).floor().max(0.0) as u32;
+            let y1 = ((sy + rs).ceil().min(t.height as Real)).max(0.0) as u32;
+            (y0, y1)
+        }));
+        let spans = &self.splat_rows;
+        crate::par_chunks_mut!(self.depth, band * w)
+            .zip(crate::par_chunks_mut!(self.thickness, band * w))
+            .enumerate()
+            .for_each(|(b, (depth, thickness))| {
+                let rows = (b * band, b * band + depth.len() / w);
+                for (s, &(y0, y1)) in splats.iter().zip(spans) {
+                    if (y1 as usize) <= rows.0 || (y0 as usize) >= rows.1 {
+                        continue;
+                    }
+                    splat_rows(t, s, rows, depth, thickness);
+                }
+            });
     }
 
     /// Adds a soft foam dot of view-space centre `c` and radius `r`, `weight` in `[0, 1]`,
@@ -392,4 +381,69 @@ fn filter_1d(
         wsum += wgt;
     }
     if wsum > 0.0 { sum / wsum } else { zc }
+}
+
+/// Splats `s` into the rows `rows.0..rows.1` of the image, whose depth and thickness are
+/// `depth` and `thickness` (those rows only).
+#[inline]
+fn splat_rows(
+    t: &Target,
+    s: &Splat,
+    rows: (usize, usize),
+    depth: &mut [Real],
+    thickness: &mut [Real],
+) {
+    let d = -s.center.z;
+    let r = s.max_radius;
+    if d - r < super::raster::NEAR {
+        return;
+    }
+    let f = t.focal;
+    let (cx, cy) = (0.5 * t.width as Real, 0.5 * t.height as Real);
+    let sx = cx + s.center.x * f / d;
+    let sy = cy - s.center.y * f / d;
+    let rs = r * f / (d - r) + 1.0;
+    let x0 = (sx - rs).floor().max(0.0) as usize;
+    let y0 = ((sy - rs).floor().max(0.0) as usize).max(rows.0);
+    let x1 = ((sx + rs).ceil().min(t.width as Real)).max(0.0) as usize;
+    let y1 = (((sy + rs).ceil().min(t.height as Real)).max(0.0) as usize).min(rows.1);
+    if y0 >= y1 || x0 >= x1 {
+        return;
+    }
+    let m = s.inv_rows;
+    let w = Vector::new(m[0].dot(s.center), m[1].dot(s.center), m[2].dot(s.center));
+    let cc = w.dot(w) - 1.0;
+    let inv_f = 1.0 / f;
+    for py in y0..y1 {
+        let ry = -(py as Real + 0.5 - cy) * inv_f;
+        for px in x0..x1 {
+            let rx = (px as Real + 0.5 - cx) * inv_f;
+            let ray = Vector::new(rx, ry, -1.0);
+            let u = Vector::new(m[0].dot(ray), m[1].dot(ray), m[2].dot(ray));
+            let a = u.dot(u);
+            let b = u.dot(w);
+            let disc = b * b - a * cc;
+            if disc <= 0.0 {
+                continue;
+            }
+            let root = disc.sqrt();
+            let t0 = (b - root) / a;
+            let t1 = (b + root) / a;
+            let k = py * t.width + px;
+            let inv_scene = t.inv_depth[k];
+            let scene = if inv_scene > 0.0 {
+                1.0 / inv_scene
+            } else {
+                Real::INFINITY
+            };
+            if t0 >= scene || t0 < super::raster::NEAR {
+                continue;
+            }
+            let kb = k - rows.0 * t.width;
+            if t0 < depth[kb] {
+                depth[kb] = t0;
+            }
+            thickness[kb] += t1.min(scene) - t0;
+        }
+    }
 }
