@@ -101,6 +101,10 @@ struct Args {
     /// Turn the camera by this many degrees per frame (0: fixed camera).
     #[arg(long, default_value_t = 0.0)]
     orbit: f32,
+    /// Draw the particles as spheres coloured by speed (the renderer's older style) instead
+    /// of screen-space water with foam.
+    #[arg(long)]
+    spheres: bool,
 }
 
 #[cfg(feature = "render")]
@@ -109,6 +113,7 @@ struct Pictures {
     renderer: rapier_sph::render::Renderer,
     camera: rapier_sph::render::Camera,
     gif: rapier_sph::render::GifWriter,
+    diffuse: Option<rapier_sph::render::WorldDiffuse>,
     orbit: f32,
     frames: usize,
     seconds: f64,
@@ -123,8 +128,11 @@ impl Pictures {
         orbit: f32,
         scene: &rapier_sph::scenes::DamBreak,
         max_speed: f32,
+        spheres: bool,
     ) -> Result<Self, Box<dyn std::error::Error>> {
-        use rapier_sph::render::{Camera, GifWriter, RenderOptions, Renderer};
+        use rapier_sph::render::{
+            Camera, FluidStyle, GifWriter, RenderOptions, Renderer, WorldDiffuse,
+        };
         let (w, h) = size
             .split_once('x')
             .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
@@ -134,10 +142,21 @@ impl Pictures {
             width: w,
             height: h,
             speed_range: Some((0.0, max_speed)),
+            style: if spheres {
+                FluidStyle::Spheres
+            } else {
+                FluidStyle::ScreenSpace
+            },
             ..RenderOptions::default()
+        };
+        let diffuse = if spheres {
+            None
+        } else {
+            Some(WorldDiffuse::new(Default::default())?)
         };
         Ok(Self {
             dir: dir.to_path_buf(),
+            diffuse,
             renderer: Renderer::new(options),
             camera: Camera::framing(scene.tank_min, scene.tank_max, 30.0, 28.0),
             gif: GifWriter::create(dir.join("dam_break.gif"), w, h, 5)?,
@@ -151,7 +170,14 @@ impl Pictures {
     fn frame(&mut self, world: &rapier_sph::FluidWorld) -> Result<(), Box<dyn std::error::Error>> {
         let t = Instant::now();
         let camera = self.camera.rotated(self.orbit * self.frames as f32);
-        let image = self.renderer.render_world(&camera, world, None);
+        let layers = self
+            .diffuse
+            .as_ref()
+            .map(|d| d.layers())
+            .unwrap_or_default();
+        let image = self
+            .renderer
+            .render_world_with(&camera, world, None, &layers);
         self.render_seconds += t.elapsed().as_secs_f64();
         image.save_png(self.dir.join(format!("frame_{:04}.png", self.frames)))?;
         self.gif.add_frame(&image)?;
@@ -272,6 +298,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             args.orbit,
             &scene,
             (2.0 * 9.81 * scene.column_height).sqrt(),
+            args.spheres,
         )?),
         None => None,
     };
@@ -314,10 +341,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         halvings = halvings.max(report.solver_relaxation_halvings);
         dropped += report.solver_wall_neighbour_dropped as u64;
         #[cfg(feature = "render")]
-        if step % frame_every == 0
-            && let Some(p) = &mut pictures
-        {
-            p.frame(&scene.world)?;
+        if let Some(p) = &mut pictures {
+            // Foam and spray follow the liquid at every step, drawn every frame_every.
+            if let Some(d) = &mut p.diffuse {
+                d.step(&scene.world)?;
+            }
+            if step % frame_every == 0 {
+                p.frame(&scene.world)?;
+            }
         }
         if args.every > 0 && (step % args.every == 0 || step == args.steps) {
             let r = scene.world.pipeline.report();

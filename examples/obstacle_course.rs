@@ -47,6 +47,10 @@ struct Args {
     /// Picture size.
     #[arg(long, default_value = "640x360")]
     size: String,
+    /// Draw the particles as spheres coloured by speed (the renderer's older style) instead
+    /// of screen-space water with foam.
+    #[arg(long)]
+    spheres: bool,
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -66,7 +70,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     #[cfg(feature = "render")]
     let mut pictures = match &args.render {
         Some(dir) => {
-            use rapier_sph::render::{Camera, GifWriter, RenderOptions, Renderer};
+            use rapier_sph::render::{
+                Camera, FluidStyle, GifWriter, RenderOptions, Renderer, WorldDiffuse,
+            };
             let (w, h) = args
                 .size
                 .split_once('x')
@@ -77,7 +83,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 width: w,
                 height: h,
                 speed_range: Some((0.0, 4.0)),
+                style: if args.spheres {
+                    FluidStyle::Spheres
+                } else {
+                    FluidStyle::ScreenSpace
+                },
                 ..RenderOptions::default()
+            };
+            let diffuse = if args.spheres {
+                None
+            } else {
+                Some(WorldDiffuse::new(Default::default())?)
             };
             // From above the near side, looking down the course.
             let camera = Camera::orbit(
@@ -92,6 +108,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 camera,
                 GifWriter::create(dir.join("obstacle_course.gif"), w, h, 10)?,
                 0usize,
+                diffuse,
             ))
         }
         None => None,
@@ -145,10 +162,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             println!("{line}");
         }
         #[cfg(feature = "render")]
-        if let Some((dir, renderer, camera, gif, n)) = &mut pictures
+        if let Some((_, _, _, _, _, Some(diffuse))) = &mut pictures {
+            diffuse.step(&course.world)?;
+        }
+        #[cfg(feature = "render")]
+        if let Some((dir, renderer, camera, gif, n, diffuse)) = &mut pictures
             && frame % args.frame_every.max(1) == 0
         {
-            let image = renderer.render_world(camera, &course.world, None);
+            let layers = diffuse.as_ref().map(|d| d.layers()).unwrap_or_default();
+            let image = renderer.render_world_with(camera, &course.world, None, &layers);
             image.save_png(dir.join(format!("frame_{:04}.png", *n)))?;
             gif.add_frame(&image)?;
             *n += 1;
@@ -197,7 +219,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("  fluid stages (whole run):");
     println!("{timings}");
     #[cfg(feature = "render")]
-    if let Some((dir, _, _, _, n)) = pictures {
+    if let Some((dir, _, _, _, n, _)) = pictures {
         println!("  rendered {n} frames to {}", dir.display());
     }
     if lost != 0 {

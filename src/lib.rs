@@ -142,6 +142,7 @@ pub mod stability;
 pub mod surface;
 #[cfg(feature = "validation")]
 pub mod validation;
+pub mod visual;
 pub mod world;
 
 pub use diagnostics::{Stage, StageTimings, StepReport};

@@ -198,6 +198,45 @@ impl TriangleMesh {
         out
     }
 
+    /// The mesh's feature edges: edges of one triangle only (borders) and edges whose two
+    /// triangles' normals differ by more than `min_cos` in cosine (creases). Vertices are
+    /// matched by position, so meshes with duplicated corners (parry's cuboids) work too.
+    pub fn feature_edges(&self, min_cos: Real) -> Vec<(Vector, Vector)> {
+        let key = |v: Vector| (v.x.to_bits(), v.y.to_bits(), v.z.to_bits());
+        let mut map: std::collections::HashMap<_, (Vector, Vector, Vec<Vector>)> =
+            std::collections::HashMap::new();
+        for t in &self.triangles {
+            let p = t.map(|i| self.vertices[i as usize]);
+            let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+            for k in 0..3 {
+                let (a, b) = (p[k], p[(k + 1) % 3]);
+                let (ka, kb) = (key(a), key(b));
+                let (lo, hi, va, vb) = if ka <= kb {
+                    (ka, kb, a, b)
+                } else {
+                    (kb, ka, b, a)
+                };
+                map.entry((lo, hi))
+                    .or_insert_with(|| (va, vb, Vec::new()))
+                    .2
+                    .push(n);
+            }
+        }
+        let mut out: Vec<(Vector, Vector)> = map
+            .into_values()
+            .filter(|(_, _, normals)| {
+                normals.len() == 1 || normals.iter().any(|n| n.dot(normals[0]).abs() < min_cos)
+            })
+            .map(|(a, b, _)| (a, b))
+            .collect();
+        // A fixed order (the map's is random): the same picture on every run.
+        out.sort_by(|x, y| {
+            let k = |v: &(Vector, Vector)| [v.0.x, v.0.y, v.0.z, v.1.x, v.1.y, v.1.z];
+            k(x).partial_cmp(&k(y)).unwrap_or(std::cmp::Ordering::Equal)
+        });
+        out
+    }
+
     /// Area-weighted vertex normals (unit length; zero for isolated vertices).
     pub fn vertex_normals(&self) -> Vec<Vector> {
         let mut n = vec![Vector::ZERO; self.vertices.len()];

@@ -3,7 +3,7 @@
 #![cfg(feature = "render")]
 
 use rapier_sph::math::Vector;
-use rapier_sph::render::{Camera, GifWriter, Image, RenderOptions, Renderer};
+use rapier_sph::render::{Camera, FluidStyle, GifWriter, Image, RenderOptions, Renderer};
 use rapier_sph::{Fluid, FluidParamsBuilder, FluidWorld};
 use rapier3d::prelude::{ColliderBuilder, RigidBodyBuilder};
 
@@ -67,6 +67,7 @@ fn particles_are_drawn_coloured_by_speed_and_hidden_behind_opaque_colliders() {
     world.fluids.insert(fluid);
     let camera = Camera::look_at(Vector::new(0.0, 0.0, 5.0), Vector::ZERO);
     let mut renderer = Renderer::new(RenderOptions {
+        style: FluidStyle::Spheres,
         particle_scale: 2.0, // radius 0.2 m: about 16 px
         ..options()
     });
@@ -183,4 +184,106 @@ fn png_and_gif_files_are_written() {
         Image::load_png(tmp("missing.png")),
         Err(rapier_sph::render::RenderError::Io { .. })
     ));
+}
+
+/// The screen-space style: a block of water in front of a wall reads as water (blue, the
+/// wall's colour shifted towards blue by the absorption over its thickness), is opaque where
+/// it is thick, and covers the block's silhouette (splats of 0.8 spacings around particles
+/// that span ±0.25 m: the block's edge projects to about ±10 px at this distance).
+#[test]
+fn screen_space_water_is_blue_over_the_wall_behind_it_and_covers_the_block() {
+    let params = FluidParamsBuilder::water(0.05).build().unwrap();
+    let mut world = FluidWorld::new();
+    let mut fluid = Fluid::new(params).unwrap();
+    fluid
+        .add_block(Vector::splat(-0.25), Vector::splat(0.5))
+        .unwrap();
+    world.fluids.insert(fluid);
+    let body = world.physics.insert_body(RigidBodyBuilder::fixed());
+    // A fixed box far behind (a light stone-grey cuboid in the palette).
+    world.physics.insert_collider(
+        ColliderBuilder::cuboid(5.0, 5.0, 0.1).translation(Vector::new(0.0, 0.0, -3.0)),
+        Some(body),
+    );
+    let camera = Camera::look_at(Vector::new(0.0, 0.0, 5.0), Vector::ZERO);
+    let mut renderer = Renderer::new(options());
+    let img = renderer.render_world(&camera, &world, None);
+    let wall = img.pixel(5, 5);
+    let water = img.pixel(80, 60);
+    // The wall is grey (channels within 10 of each other); the water in front is blue.
+    assert!(wall[0].abs_diff(wall[2]) < 12, "wall {wall:?}");
+    assert!(
+        water[2] as i32 > water[0] as i32 + 60,
+        "water {water:?} over wall {wall:?}"
+    );
+    // The block projects to ±0.25/4.75 · 60/tan(20°) ≈ ±8.7 px (front face): inside is
+    // water, 20 px out is the wall.
+    let inside = img.pixel(80 + 6, 60 - 6);
+    assert!(inside[2] as i32 > inside[0] as i32 + 40, "{inside:?}");
+    assert_eq!(img.pixel(80 + 20, 60), img.pixel(80 + 30, 60));
+}
+
+/// The frame is the same for any number of threads (the per-pixel passes run over fixed
+/// chunks, the splats bands of rows each in the splats' order).
+#[test]
+fn screen_space_frames_do_not_depend_on_the_thread_count() {
+    let params = FluidParamsBuilder::water(0.05).build().unwrap();
+    let mut scene =
+        rapier_sph::scenes::dam_break(&rapier_sph::scenes::DamBreakConfig::tower(params, 0.5))
+            .unwrap();
+    for _ in 0..20 {
+        scene.world.step().unwrap();
+    }
+    let mut foam = rapier_sph::render::WorldDiffuse::new(Default::default()).unwrap();
+    foam.step(&scene.world).unwrap();
+    let camera = Camera::framing(scene.tank_min, scene.tank_max, 30.0, 25.0);
+    let draw = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                Renderer::new(options()).render_world_with(
+                    &camera,
+                    &scene.world,
+                    None,
+                    &foam.layers(),
+                )
+            })
+    };
+    assert_eq!(draw(1), draw(3));
+}
+
+/// Colliders are told apart by colour: a dynamic body orange, a fixed ball red, a fixed
+/// wall grey (see `RenderOptions::collider_palette`).
+#[test]
+fn colliders_are_coloured_by_kind() {
+    let mut world = FluidWorld::new();
+    let fixed = world.physics.insert_body(RigidBodyBuilder::fixed());
+    world.physics.insert_collider(
+        ColliderBuilder::ball(0.5).translation(Vector::new(-1.2, 0.0, 0.0)),
+        Some(fixed),
+    );
+    world.physics.insert_collider(
+        ColliderBuilder::cuboid(3.0, 3.0, 0.1).translation(Vector::new(0.0, 0.0, -2.0)),
+        Some(fixed),
+    );
+    let crate_body = world
+        .physics
+        .insert_body(RigidBodyBuilder::dynamic().translation(Vector::new(1.2, 0.0, 0.0)));
+    world
+        .physics
+        .insert_collider(ColliderBuilder::cuboid(0.4, 0.4, 0.4), Some(crate_body));
+    let camera = Camera::look_at(Vector::new(0.0, 0.0, 5.0), Vector::ZERO);
+    let img = Renderer::new(options()).render_world(&camera, &world, None);
+    // x = ±1.2 at distance 5 projects to 80 ± 40 px.
+    let ball = img.pixel(80 - 40, 60);
+    let crate_ = img.pixel(80 + 40, 60);
+    let wall = img.pixel(80, 20);
+    assert!(ball[0] as i32 > ball[1] as i32 + 60, "ball {ball:?}");
+    assert!(
+        crate_[0] > crate_[1] && crate_[1] as i32 > crate_[2] as i32 + 40,
+        "crate {crate_:?}"
+    );
+    assert!(wall[0].abs_diff(wall[2]) < 12, "wall {wall:?}");
 }

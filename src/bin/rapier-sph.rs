@@ -12,7 +12,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rapier_sph::io::{self, ParticleData};
 use rapier_sph::mesh::{TessellationOptions, TriangleMesh};
 use rapier_sph::rapier3d::prelude::ColliderHandle;
-use rapier_sph::render::{GifWriter, RenderOptions, Renderer};
+use rapier_sph::render::{FluidStyle, GifWriter, RenderOptions, Renderer, WorldDiffuse};
 use rapier_sph::scene_file::SceneFile;
 use rapier_sph::{Region, SinkRegion};
 use std::path::PathBuf;
@@ -55,11 +55,16 @@ enum Command {
         /// Picture size, WIDTHxHEIGHT.
         #[arg(long, default_value = "640x360")]
         size: String,
+        /// Draw particles as spheres coloured by speed (the older style) instead of
+        /// screen-space water with foam.
+        #[arg(long)]
+        spheres: bool,
         /// Export particles each frame in this format (into --out).
         #[arg(long, value_enum)]
         export: Option<Format>,
-        /// Reconstruct the liquid surface each frame (splashsurf): render it instead of the
-        /// particles and, with --export, write it (OBJ, PLY or VTK). Needs the `surface` feature.
+        /// Reconstruct the liquid surface each frame (splashsurf, `SurfaceOptions::smooth()`):
+        /// render it instead of the particles and, with --export, write it (OBJ, PLY or VTK).
+        /// Needs the `surface` feature.
         #[arg(long)]
         mesh: bool,
         /// Folder for exports. Default: `out`.
@@ -93,6 +98,7 @@ fn main() -> ExitCode {
             frames,
             render,
             size,
+            spheres,
             export,
             mesh,
             out,
@@ -104,6 +110,7 @@ fn main() -> ExitCode {
             frames,
             render,
             size,
+            spheres,
             export,
             mesh,
             out,
@@ -236,6 +243,7 @@ struct RunArgs {
     frames: Option<usize>,
     render: Option<PathBuf>,
     size: String,
+    spheres: bool,
     export: Option<Format>,
     mesh: bool,
     out: PathBuf,
@@ -289,6 +297,11 @@ fn run(a: RunArgs) -> Result<()> {
                 width: w,
                 height: h,
                 draw_particles: !a.mesh,
+                style: if a.spheres {
+                    FluidStyle::Spheres
+                } else {
+                    FluidStyle::ScreenSpace
+                },
                 ..RenderOptions::default()
             };
             Some((
@@ -339,6 +352,12 @@ fn run(a: RunArgs) -> Result<()> {
     let mut substeps = 0usize;
     let mut counts = Counters::default();
     let t0 = Instant::now();
+    // Foam, spray and bubbles for the screen-space pictures, stepped with the world.
+    let diffuse = std::cell::RefCell::new(if a.render.is_some() && !a.spheres && !a.mesh {
+        Some(WorldDiffuse::new(Default::default())?)
+    } else {
+        None
+    });
     let mut write_frame =
         |frame: usize, world: &rapier_sph::FluidWorld, clock: &mut Clock| -> Result<()> {
             let surface = if a.mesh {
@@ -352,7 +371,10 @@ fn run(a: RunArgs) -> Result<()> {
                 let dir = a.render.as_ref().expect("render dir");
                 let path = dir.join(format!("frame_{frame:04}.png"));
                 timed(&mut clock.render, || -> Result<()> {
-                    let image = renderer.render_world(&camera, world, surface.as_ref());
+                    let d = diffuse.borrow();
+                    let layers = d.as_ref().map(|d| d.layers()).unwrap_or_default();
+                    let image =
+                        renderer.render_world_with(&camera, world, surface.as_ref(), &layers);
                     image.save_png(&path)?;
                     gif.add_frame(&image)?;
                     Ok(())
@@ -408,7 +430,12 @@ fn run(a: RunArgs) -> Result<()> {
     for frame in 1..=frames {
         timed(&mut clock.simulate, || -> Result<()> {
             for _ in 0..built.steps_per_frame {
-                let r = world.step()?;
+                world.step()?;
+                // Counted in the simulation time.
+                if let Some(d) = diffuse.borrow_mut().as_mut() {
+                    d.step(world)?;
+                }
+                let r = world.pipeline.report();
                 max_err = max_err.max(r.max_density_error);
                 non_finite += r.non_finite;
                 counts.add(r);
@@ -572,7 +599,7 @@ impl Counters {
 fn surface_mesh(world: &rapier_sph::FluidWorld) -> Result<TriangleMesh> {
     Ok(rapier_sph::surface::reconstruct_fluids(
         &world.fluids,
-        &rapier_sph::surface::SurfaceOptions::default(),
+        &rapier_sph::surface::SurfaceOptions::smooth(),
     )?)
 }
 

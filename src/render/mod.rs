@@ -1,7 +1,12 @@
-//! Headless pictures (feature `render`): particles as shaded spheres coloured by speed, the
-//! rapier colliders as shaded geometry, an optional liquid surface mesh, seen by a fixed or
-//! orbiting [`Camera`]. A small z-buffered software rasteriser of this crate draws them (no
-//! GPU, no display); `png` and `gif` encode the frames.
+//! Headless pictures (feature `render`): the liquid as water by screen-space fluid
+//! rendering on the CPU ([`FluidStyle::ScreenSpace`], the default: anisotropic particle
+//! ellipsoids splatted to depth, smoothed by a narrow-range filter, shaded with Fresnel
+//! reflection, refraction of the scene behind and absorption over the thickness, foam from
+//! [`crate::visual::DiffuseParticles`] on top; see the `ssf` module's notes), or as shaded
+//! spheres coloured by speed ([`FluidStyle::Spheres`]); the rapier colliders solid and
+//! outlined, each kind of collider in its own colour; an optional liquid surface mesh; seen
+//! by a fixed or orbiting [`Camera`]. A small z-buffered software rasteriser of this crate
+//! draws them (no GPU, no display); `png` and `gif` encode the frames.
 //!
 //! ```no_run
 //! # use rapier_sph::render::{Camera, RenderOptions, Renderer, GifWriter};
@@ -20,21 +25,25 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! Colliders that lie between the camera and the fluid (their bounding-box centre is nearer
-//! to the camera than the fluid's centroid, e.g. the front wall and the lid of a tank) are
-//! drawn translucent so the fluid stays visible; the others are opaque.
+//! The faces of fixed walls (cuboids) whose plane separates the camera from the fluid's
+//! centroid (the front wall and the lid of a tank, not its back wall or floor) are drawn
+//! translucent with their edges outlined, so the fluid stays visible; every other collider
+//! is opaque, shaded and outlined.
 
 #![cfg_attr(docsrs, doc(cfg(feature = "render")))]
 
 mod raster;
+mod ssf;
 
 pub use raster::Rgb;
 
 use crate::fluid::FluidSet;
 use crate::math::{Real, Vector};
 use crate::mesh::{TessellationOptions, TriangleMesh};
+use crate::visual::{Anisotropy, AnisotropySettings, DiffuseParticles};
 use crate::world::FluidWorld;
-use rapier3d::geometry::{ColliderHandle, ColliderSet};
+use rapier3d::dynamics::{RigidBodySet, RigidBodyType};
+use rapier3d::geometry::{ColliderHandle, ColliderSet, ShapeType};
 use raster::{Target, lerp3};
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -100,9 +109,51 @@ impl Camera {
     }
 }
 
+/// How the liquid is drawn.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, Default)]
+pub enum FluidStyle {
+    /// Screen-space fluid: a continuous, refracting, reflecting water surface with foam.
+    #[default]
+    ScreenSpace,
+    /// One shaded sphere per particle, coloured by speed (see [`speed_color`]).
+    Spheres,
+}
+
 /// What to draw and how.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderOptions {
+    /// How the liquid is drawn. Default [`FluidStyle::ScreenSpace`].
+    pub style: FluidStyle,
+    /// Screen-space style: the particle ellipsoids ([`crate::visual::Anisotropy`]); their
+    /// `particle_radius` (in spacings) is the splat size of a particle in the bulk.
+    /// Default: Yu & Turk's settings with `particle_radius` 0.8 (neighbouring splats overlap,
+    /// so the surface is closed).
+    pub anisotropy: AnisotropySettings,
+    /// Screen-space style: half-width of the depth filter's footprint, in particle spacings.
+    /// Default 2.5.
+    pub smoothing_radius: Real,
+    /// Screen-space style: absorption of red, green and blue light per particle spacing of
+    /// water (Beer–Lambert over the thickness). Per spacing rather than per metre, so a
+    /// scene looks the same at any scale (a game's tank is far shallower than the sea that
+    /// makes real water blue). Default `[0.6, 0.22, 0.11]`: a sheet of 3 particles lets
+    /// through 17 % of red, 52 % of green and 72 % of blue light, 10 particles 0.2 %, 11 %
+    /// and 33 % (blue), 30 particles nearly none (the deep colour).
+    pub absorption: Rgb,
+    /// Screen-space style: the colour thick water tends to. Default a deep blue.
+    pub deep_color: Rgb,
+    /// Screen-space style: how far the scene behind the water is shifted by refraction,
+    /// per metre of thickness along the surface normal. Default 0.25.
+    pub refraction: Real,
+    /// Screen-space style: radius of a foam dot in particle spacings. Default 0.45.
+    pub foam_scale: Real,
+    /// Colour each collider by its kind (fixed walls stone grey, fixed balls, capsules and
+    /// cylinders red, fixed triangle meshes green, heightfields sand, compounds violet,
+    /// kinematic bodies yellow, dynamic bodies orange) instead of [`Self::collider_color`].
+    /// Default true.
+    pub collider_palette: bool,
+    /// Darken the outlines and creases of the colliders by this fraction (0: off).
+    /// Default 0.55.
+    pub outlines: Real,
     /// Image width (pixels). Default 640.
     pub width: u32,
     /// Image height (pixels). Default 360.
@@ -111,7 +162,8 @@ pub struct RenderOptions {
     pub supersample: u32,
     /// Speeds mapped to the colour scale (m/s): `None` uses 0 to the frame's fastest particle.
     pub speed_range: Option<(Real, Real)>,
-    /// Drawn sphere radius as a multiple of each fluid's particle spacing. Default 0.6.
+    /// Spheres style: drawn sphere radius as a multiple of each fluid's particle spacing.
+    /// Default 0.6.
     pub particle_scale: Real,
     /// Draw the particles (turn off to show only a surface mesh). Default true.
     pub draw_particles: bool,
@@ -119,7 +171,7 @@ pub struct RenderOptions {
     pub draw_colliders: bool,
     /// Collider colour. Default a light sand grey.
     pub collider_color: Rgb,
-    /// Opacity of the colliders between the camera and the fluid. Default 0.18.
+    /// Opacity of the fixed walls between the camera and the fluid. Default 0.12.
     pub front_collider_alpha: Real,
     /// Surface mesh colour. Default a water blue.
     pub surface_color: Rgb,
@@ -137,6 +189,18 @@ pub struct RenderOptions {
 impl Default for RenderOptions {
     fn default() -> Self {
         Self {
+            style: FluidStyle::ScreenSpace,
+            anisotropy: AnisotropySettings {
+                particle_radius: 0.8,
+                ..AnisotropySettings::default()
+            },
+            smoothing_radius: 2.5,
+            absorption: [0.6, 0.22, 0.11],
+            deep_color: [0.01, 0.09, 0.26],
+            refraction: 0.25,
+            foam_scale: 0.45,
+            collider_palette: true,
+            outlines: 0.55,
             width: 640,
             height: 360,
             supersample: 2,
@@ -145,7 +209,7 @@ impl Default for RenderOptions {
             draw_particles: true,
             draw_colliders: true,
             collider_color: [0.55, 0.52, 0.46],
-            front_collider_alpha: 0.18,
+            front_collider_alpha: 0.12,
             surface_color: [0.12, 0.38, 0.75],
             tessellation: TessellationOptions::default(),
             fog: 0.35,
@@ -297,24 +361,74 @@ pub fn speed_color(t: Real) -> Rgb {
     lerp3(STOPS[i], STOPS[i + 1], t - i as Real)
 }
 
+/// Where the last screen-space frame's time went (seconds), see
+/// [`Renderer::screen_space_timings`].
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct ScreenSpaceTimings {
+    /// Particle ellipsoids ([`crate::visual::Anisotropy`]).
+    pub anisotropy: f64,
+    /// Depth and thickness splats.
+    pub splat: f64,
+    /// The narrow-range depth filter and the thickness blur.
+    pub filter: f64,
+    /// Foam dots and shading.
+    pub shade: f64,
+}
+
 /// Draws frames. Holds its buffers between frames, so rendering a sequence allocates once.
 pub struct Renderer {
+    timings: ScreenSpaceTimings,
     options: RenderOptions,
     target: Target,
+    fluid: ssf::FluidBuffers,
+    anisotropy: Option<Anisotropy>,
+    splats: Vec<ssf::Splat>,
+}
+
+/// The colour of a collider by its kind (see [`RenderOptions::collider_palette`]).
+fn palette(shape: ShapeType, body: Option<RigidBodyType>) -> Rgb {
+    match body {
+        Some(RigidBodyType::Dynamic) => return [0.86, 0.48, 0.16],
+        Some(RigidBodyType::KinematicPositionBased | RigidBodyType::KinematicVelocityBased) => {
+            return [0.95, 0.80, 0.18];
+        }
+        _ => {}
+    }
+    match shape {
+        ShapeType::Ball
+        | ShapeType::Capsule
+        | ShapeType::Cylinder
+        | ShapeType::Cone
+        | ShapeType::RoundCylinder
+        | ShapeType::RoundCone => [0.85, 0.22, 0.20],
+        ShapeType::TriMesh | ShapeType::Polyline => [0.22, 0.66, 0.42],
+        ShapeType::HeightField => [0.78, 0.68, 0.46],
+        ShapeType::Compound => [0.58, 0.40, 0.78],
+        _ => [0.74, 0.73, 0.70],
+    }
 }
 
 impl Renderer {
     /// A renderer with these options.
     pub fn new(options: RenderOptions) -> Self {
         Self {
+            timings: ScreenSpaceTimings::default(),
             options,
             target: Target::new(),
+            fluid: ssf::FluidBuffers::default(),
+            anisotropy: None,
+            splats: Vec::new(),
         }
     }
 
     /// The options.
     pub fn options(&self) -> &RenderOptions {
         &self.options
+    }
+
+    /// Where the last frame's screen-space passes spent their time.
+    pub fn screen_space_timings(&self) -> ScreenSpaceTimings {
+        self.timings
     }
 
     /// The options, mutably (e.g. to fix the speed range after the first frame).
@@ -329,17 +443,49 @@ impl Renderer {
         world: &FluidWorld,
         surface: Option<&TriangleMesh>,
     ) -> Image {
-        self.render(camera, &world.fluids, &world.physics.colliders, surface)
+        self.render_world_with(camera, world, surface, &[])
+    }
+
+    /// [`Self::render_world`] with foam, spray and bubbles (screen-space style; the spheres
+    /// style ignores them).
+    pub fn render_world_with(
+        &mut self,
+        camera: &Camera,
+        world: &FluidWorld,
+        surface: Option<&TriangleMesh>,
+        diffuse: &[&DiffuseParticles],
+    ) -> Image {
+        self.draw(
+            camera,
+            &world.fluids,
+            &world.physics.colliders,
+            Some(&world.physics.bodies),
+            surface,
+            diffuse,
+        )
     }
 
     /// Renders the particles of `fluids`, the colliders of `colliders` and an optional
-    /// liquid surface mesh.
+    /// liquid surface mesh. Colliders are coloured by shape only (their bodies are not
+    /// known here; [`Self::render_world`] colours kinematic and dynamic bodies too).
     pub fn render(
         &mut self,
         camera: &Camera,
         fluids: &FluidSet,
         colliders: &ColliderSet,
         surface: Option<&TriangleMesh>,
+    ) -> Image {
+        self.draw(camera, fluids, colliders, None, surface, &[])
+    }
+
+    fn draw(
+        &mut self,
+        camera: &Camera,
+        fluids: &FluidSet,
+        colliders: &ColliderSet,
+        bodies: Option<&RigidBodySet>,
+        surface: Option<&TriangleMesh>,
+        diffuse: &[&DiffuseParticles],
     ) -> Image {
         let o = &self.options;
         let ss = o.supersample.max(1) as usize;
@@ -374,44 +520,94 @@ impl Renderer {
             }
             count += f.len();
         }
-        let fluid_depth = if count > 0 {
-            -to_view(centroid / count as Real).z
+        // View-space point the see-through test looks from (the camera is the origin).
+        let fluid_centre = if count > 0 {
+            to_view(centroid / count as Real)
         } else {
-            -to_view(camera.target).z
+            to_view(camera.target)
         };
 
-        // Opaque colliders first, translucent ones after the particles.
+        // Opaque colliders first, translucent ones after the fluid, then the feature edges
+        // of the translucent ones (so a see-through tank still shows its shape).
         let mut translucent: Vec<([Vector; 3], Rgb)> = Vec::new();
+        let mut edges: Vec<(Vector, Vector)> = Vec::new();
         if o.draw_colliders {
             for (handle, mesh) in TriangleMesh::from_colliders(colliders, &o.tessellation) {
                 if mesh.vertices.is_empty() {
                     continue;
                 }
+                // A collider given its own colour (`collider_colors`) is drawn in it and
+                // always opaque.
                 let own = o.collider_colors.iter().find(|(c, _)| *c == handle);
-                let (mut lo, mut hi) = (mesh.vertices[0], mesh.vertices[0]);
-                for v in &mesh.vertices {
-                    lo = lo.min(*v);
-                    hi = hi.max(*v);
-                }
-                let in_front = own.is_none() && -to_view((lo + hi) * 0.5).z < fluid_depth;
-                let color = own.map_or(o.collider_color, |(_, c)| *c);
+                let base_color = if let Some((_, color)) = own {
+                    *color
+                } else if o.collider_palette {
+                    let c = &colliders[handle];
+                    let body = c
+                        .parent()
+                        .and_then(|b| bodies.and_then(|set| set.get(b)))
+                        .map(|b| b.body_type());
+                    palette(c.shape().shape_type(), body)
+                } else {
+                    o.collider_color
+                };
+                // Only fixed walls (cuboids) between the camera and the fluid are see-through;
+                // obstacles (balls, capsules, meshes, heightfields, compounds) and moving
+                // bodies stay solid wherever they are.
+                let wall = own.is_none() && {
+                    let c = &colliders[handle];
+                    let moving = c
+                        .parent()
+                        .and_then(|b| bodies.and_then(|set| set.get(b)))
+                        .is_some_and(|b| !b.is_fixed());
+                    !moving
+                        && matches!(
+                            c.shape().shape_type(),
+                            ShapeType::Cuboid | ShapeType::RoundCuboid | ShapeType::HalfSpace
+                        )
+                };
+                // Walls with see-through faces are outlined by their feature edges (below);
+                // their opaque faces are not tagged, since seen through their own
+                // see-through end faces two faces of a thin wall alternate pixel by pixel.
+                let id = handle.into_raw_parts().0;
+                let any_see_through = wall
+                    && mesh.triangles.iter().any(|t| {
+                        let p = t.map(|i| to_view(mesh.vertices[i as usize]));
+                        let n = (p[1] - p[0]).cross(p[2] - p[0]);
+                        (n.dot(-p[0]) > 0.0) != (n.dot(fluid_centre - p[0]) > 0.0)
+                    });
+                let id = if any_see_through { raster::NO_ID } else { id };
+                let mut any_in_front = false;
                 for t in &mesh.triangles {
                     let p = t.map(|i| to_view(mesh.vertices[i as usize]));
                     let mut n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
                     let centre = (p[0] + p[1] + p[2]) / 3.0;
+                    // A wall's face is see-through when its plane separates the camera
+                    // from the fluid (the front wall and the lid of a tank; not its back
+                    // wall or floor).
+                    let in_front =
+                        wall && (n.dot(-p[0]) > 0.0) != (n.dot(fluid_centre - p[0]) > 0.0);
+                    any_in_front |= in_front;
                     if n.dot(-centre) < 0.0 {
                         n = -n; // two-sided: light the side we see
                     }
                     let lambert = n.dot(light).max(0.0);
                     let shade = 0.35 + 0.65 * lambert;
-                    let base = color.map(|c| c * shade);
-                    let col = fogged(base, -centre.z);
+                    let col = fogged(base_color.map(|c| c * shade), -centre.z);
                     if in_front {
                         translucent.push((p, col));
                     } else {
-                        self.target.triangle(p, [col; 3], 1.0);
+                        self.target.solid_triangle(p, col, id, n);
                     }
                 }
+                if any_in_front {
+                    for (a, b) in mesh.feature_edges(0.5) {
+                        edges.push((to_view(a), to_view(b)));
+                    }
+                }
+            }
+            if o.outlines > 0.0 {
+                self.target.outlines(o.outlines.clamp(0.0, 1.0), 0.04);
             }
         }
 
@@ -442,35 +638,62 @@ impl Renderer {
         }
 
         if o.draw_particles {
-            let (lo, hi) = match o.speed_range {
-                Some(r) => r,
-                None => {
-                    let mut max: Real = 0.0;
+            match o.style {
+                FluidStyle::Spheres => {
+                    let (lo, hi) = match o.speed_range {
+                        Some(r) => r,
+                        None => {
+                            let mut max: Real = 0.0;
+                            for (_, f) in fluids.iter() {
+                                for v in f.velocities() {
+                                    max = max.max(v.length());
+                                }
+                            }
+                            (0.0, max)
+                        }
+                    };
+                    let inv_range = if hi > lo { 1.0 / (hi - lo) } else { 0.0 };
                     for (_, f) in fluids.iter() {
-                        for v in f.velocities() {
-                            max = max.max(v.length());
+                        let r = o.particle_scale * f.params().particle_spacing;
+                        for (p, v) in f.positions().iter().zip(f.velocities()) {
+                            let base = speed_color((v.length() - lo) * inv_range);
+                            self.target.sphere(to_view(*p), r, |n, d| {
+                                let diffuse = n.dot(light).max(0.0);
+                                let spec = n.dot(half).max(0.0).powi(32);
+                                let c = base.map(|c| c * (0.35 + 0.65 * diffuse) + 0.35 * spec);
+                                fogged(c, d)
+                            });
                         }
                     }
-                    (0.0, max)
                 }
-            };
-            let inv_range = if hi > lo { 1.0 / (hi - lo) } else { 0.0 };
-            for (_, f) in fluids.iter() {
-                let r = o.particle_scale * f.params().particle_spacing;
-                for (p, v) in f.positions().iter().zip(f.velocities()) {
-                    let base = speed_color((v.length() - lo) * inv_range);
-                    self.target.sphere(to_view(*p), r, |n, d| {
-                        let diffuse = n.dot(light).max(0.0);
-                        let spec = n.dot(half).max(0.0).powi(32);
-                        let c = base.map(|c| c * (0.35 + 0.65 * diffuse) + 0.35 * spec);
-                        fogged(c, d)
-                    });
+                FluidStyle::ScreenSpace => {
+                    let o = self.options.clone();
+                    self.screen_space(
+                        &o,
+                        fluids,
+                        diffuse,
+                        &to_view,
+                        light,
+                        (right, up, back),
+                        target_distance,
+                        background,
+                    );
                 }
             }
         }
 
         for (p, col) in translucent {
-            self.target.triangle(p, [col; 3], o.front_collider_alpha);
+            self.target
+                .triangle(p, [col; 3], self.options.front_collider_alpha);
+        }
+        let line_width = self.options.supersample.max(1) as Real;
+        let veil = match self.options.style {
+            FluidStyle::ScreenSpace if self.options.draw_particles => &self.fluid.smooth[..],
+            _ => &[],
+        };
+        for (a, b) in edges {
+            self.target
+                .line(a, b, [0.25, 0.25, 0.24], 0.5, line_width, veil, 0.15);
         }
 
         let (w, h, rgb) = self.target.resolve(ss);
@@ -479,6 +702,107 @@ impl Renderer {
             height: h as u32,
             rgb,
         }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn screen_space(
+        &mut self,
+        o: &RenderOptions,
+        fluids: &FluidSet,
+        diffuse: &[&DiffuseParticles],
+        to_view: &dyn Fn(Vector) -> Vector,
+        light: Vector,
+        basis: (Vector, Vector, Vector),
+        target_distance: Real,
+        background: Rgb,
+    ) {
+        let (w, h) = (self.target.width, self.target.height);
+        self.timings = ScreenSpaceTimings::default();
+        let clock = std::time::Instant::now();
+        self.fluid.reset(w, h);
+        let (right, up, back) = basis;
+        let mut spacing: Real = 0.0;
+        for (_, f) in fluids.iter() {
+            if f.is_empty() {
+                continue;
+            }
+            let s = f.params().particle_spacing;
+            spacing = spacing.max(s);
+            let a = match &mut self.anisotropy {
+                Some(a) if *a.settings() == o.anisotropy => a,
+                slot => {
+                    // Settings were validated by `RenderOptions` users; fall back to the
+                    // defaults if they are out of range rather than draw nothing.
+                    let a = Anisotropy::new(o.anisotropy).unwrap_or_else(|_| {
+                        Anisotropy::new(AnisotropySettings::default()).expect("defaults are valid")
+                    });
+                    slot.insert(a)
+                }
+            };
+            self.splats.clear();
+            let t = std::time::Instant::now();
+            let ellipsoids = a.compute(f);
+            self.timings.anisotropy += t.elapsed().as_secs_f64();
+            for e in ellipsoids {
+                let c = to_view(e.center);
+                let rows = [0, 1, 2].map(|k| {
+                    let ax = e.axes[k];
+                    let v = Vector::new(ax.dot(right), ax.dot(up), ax.dot(back));
+                    v / e.radii[k].max(1e-9)
+                });
+                self.splats.push(ssf::Splat {
+                    center: c,
+                    inv_rows: rows,
+                    max_radius: e.radii[0],
+                });
+            }
+            self.fluid.splat_all(&self.target, &self.splats);
+        }
+        if spacing <= 0.0 {
+            return;
+        }
+        self.timings.splat = clock.elapsed().as_secs_f64() - self.timings.anisotropy;
+        let t = std::time::Instant::now();
+        let max_px = (24 * o.supersample.max(1)) as usize;
+        self.fluid.smooth_depth(
+            self.target.focal,
+            o.smoothing_radius * spacing,
+            spacing,
+            max_px,
+        );
+        self.timings.filter = t.elapsed().as_secs_f64();
+        let t = std::time::Instant::now();
+        for d in diffuse {
+            let r = o.foam_scale * spacing;
+            for (p, k) in d.positions().iter().zip(d.kinds()) {
+                // Coverage per dot: a lone dot is a faint fleck, a few overlapping ones
+                // turn white.
+                let weight = match k {
+                    crate::visual::DiffuseKind::Foam => 0.45,
+                    crate::visual::DiffuseKind::Spray => 0.4,
+                    crate::visual::DiffuseKind::Bubble => 0.12,
+                };
+                self.fluid
+                    .foam_dot(&self.target, to_view(*p), r, weight, 2.0 * spacing);
+            }
+        }
+        let shade = ssf::Shade {
+            absorption: o.absorption,
+            spacing,
+            deep: o.deep_color,
+            foam: [0.93, 0.96, 1.0],
+            light,
+            refraction: o.refraction,
+            basis,
+            fog: o.fog,
+            fog_start: 0.8 * target_distance,
+            background,
+            sky_top: [0.45, 0.62, 0.88],
+            sky_horizon: [0.88, 0.92, 0.96],
+            ground: [0.30, 0.30, 0.28],
+        };
+        self.fluid.shade(&mut self.target, &shade);
+        self.timings.shade = t.elapsed().as_secs_f64();
     }
 }
 
@@ -570,6 +894,83 @@ impl GifWriter {
     }
 }
 
+/// Spray, foam and bubbles for every fluid of a [`FluidWorld`]: one
+/// [`DiffuseParticles`] per fluid, stepped after each world step, drawn by
+/// [`Renderer::render_world_with`].
+///
+/// ```
+/// # use rapier_sph::render::{Camera, RenderOptions, Renderer, WorldDiffuse};
+/// # use rapier_sph::scenes::{dam_break, DamBreakConfig};
+/// # use rapier_sph::visual::DiffuseSettings;
+/// # let params = rapier_sph::FluidParamsBuilder::water(0.05).build()?;
+/// # let mut scene = dam_break(&DamBreakConfig::tower(params, 0.4))?;
+/// let mut foam = WorldDiffuse::new(DiffuseSettings::default())?;
+/// let mut renderer = Renderer::new(RenderOptions { width: 64, height: 36, ..Default::default() });
+/// let camera = Camera::framing(scene.tank_min, scene.tank_max, 30.0, 25.0);
+/// for _ in 0..3 {
+///     scene.world.step()?;
+///     foam.step(&scene.world)?;
+/// }
+/// let image = renderer.render_world_with(&camera, &scene.world, None, &foam.layers());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Clone, Debug)]
+pub struct WorldDiffuse {
+    settings: crate::visual::DiffuseSettings,
+    fluids: Vec<(crate::FluidHandle, DiffuseParticles)>,
+}
+
+impl WorldDiffuse {
+    /// No diffuse particle yet; every fluid gets these settings.
+    ///
+    /// # Errors
+    /// [`crate::SphError::InvalidParameter`] when a setting is out of range.
+    pub fn new(settings: crate::visual::DiffuseSettings) -> crate::SphResult<Self> {
+        settings.validate()?;
+        Ok(Self {
+            settings,
+            fluids: Vec::new(),
+        })
+    }
+
+    /// Advances every fluid's diffuse particles by the world's time step (call after each
+    /// [`FluidWorld::step`]).
+    ///
+    /// # Errors
+    /// [`crate::SphError::InvalidTimeStep`] when the world's time step is not positive.
+    pub fn step(&mut self, world: &FluidWorld) -> crate::SphResult<()> {
+        let dt = world.physics.integration_parameters.dt;
+        self.fluids.retain(|(h, _)| world.fluids.get(*h).is_some());
+        for (handle, fluid) in world.fluids.iter() {
+            let k = match self.fluids.iter().position(|(h, _)| *h == handle) {
+                Some(k) => k,
+                None => {
+                    self.fluids
+                        .push((handle, DiffuseParticles::new(self.settings)?));
+                    self.fluids.len() - 1
+                }
+            };
+            self.fluids[k].1.step(fluid, world.physics.gravity, dt)?;
+        }
+        Ok(())
+    }
+
+    /// The diffuse particles of each fluid, for [`Renderer::render_world_with`].
+    pub fn layers(&self) -> Vec<&DiffuseParticles> {
+        self.fluids.iter().map(|(_, d)| d).collect()
+    }
+
+    /// Diffuse particles alive in all fluids.
+    pub fn len(&self) -> usize {
+        self.fluids.iter().map(|(_, d)| d.len()).sum()
+    }
+
+    /// `true` when there is none.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
 /// What an example's `--render DIR` writes: numbered PNG frames `frame_0000.png`, … and one
 /// animated GIF `<name>.gif` in `DIR`, each frame drawn by a [`Renderer`] from a camera that
 /// may orbit a fixed number of degrees per frame.
@@ -580,6 +981,7 @@ pub struct Recorder {
     orbit_degrees: Real,
     gif: GifWriter,
     frames: usize,
+    diffuse: Option<WorldDiffuse>,
 }
 
 impl Recorder {
@@ -635,7 +1037,33 @@ impl Recorder {
             orbit_degrees,
             gif,
             frames: 0,
+            diffuse: None,
         })
+    }
+
+    /// Draws foam, spray and bubbles from now on: call [`Self::step`] after every world
+    /// step so they follow the liquid.
+    ///
+    /// # Errors
+    /// [`crate::SphError::InvalidParameter`] when a setting is out of range.
+    pub fn with_diffuse(
+        mut self,
+        settings: crate::visual::DiffuseSettings,
+    ) -> crate::SphResult<Self> {
+        self.diffuse = Some(WorldDiffuse::new(settings)?);
+        Ok(self)
+    }
+
+    /// Advances the diffuse particles (if [`Self::with_diffuse`] turned them on) after a
+    /// world step.
+    ///
+    /// # Errors
+    /// See [`WorldDiffuse::step`].
+    pub fn step(&mut self, world: &FluidWorld) -> crate::SphResult<()> {
+        match &mut self.diffuse {
+            Some(d) => d.step(world),
+            None => Ok(()),
+        }
     }
 
     /// Draws `world` as the next frame: writes its PNG and appends it to the GIF.
@@ -647,7 +1075,14 @@ impl Recorder {
         let camera = self
             .camera
             .rotated(self.orbit_degrees * self.frames as Real);
-        let image = self.renderer.render_world(&camera, world, None);
+        let layers = self
+            .diffuse
+            .as_ref()
+            .map(|d| d.layers())
+            .unwrap_or_default();
+        let image = self
+            .renderer
+            .render_world_with(&camera, world, None, &layers);
         image.save_png(self.dir.join(format!("frame_{:04}.png", self.frames)))?;
         self.gif.add_frame(&image)?;
         self.frames += 1;

@@ -16,7 +16,14 @@ pub(crate) struct Target {
     pub inv_depth: Vec<Real>,
     /// Focal length in pixels.
     pub focal: Real,
+    /// Which opaque tagged surface (a collider) covers each pixel (`NO_ID`: none).
+    pub id: Vec<u32>,
+    /// View-space normal of the opaque tagged surface at each pixel.
+    pub normal: Vec<Vector>,
 }
+
+/// No tagged surface at this pixel.
+pub(crate) const NO_ID: u32 = u32::MAX;
 
 pub(crate) const NEAR: Real = 1e-3;
 
@@ -28,6 +35,8 @@ impl Target {
             color: Vec::new(),
             inv_depth: Vec::new(),
             focal: 1.0,
+            id: Vec::new(),
+            normal: Vec::new(),
         }
     }
 
@@ -43,6 +52,56 @@ impl Target {
         }
         self.inv_depth.clear();
         self.inv_depth.resize(width * height, 0.0);
+        self.id.clear();
+        self.id.resize(width * height, NO_ID);
+        self.normal.clear();
+        self.normal.resize(width * height, Vector::Z);
+    }
+
+    /// Darkens the pixels on the outline of tagged surfaces: where the tag changes, the
+    /// depth jumps (by more than `depth_jump` relatively) or the normal turns by more than
+    /// about 35° (a crease). `strength` in `[0, 1]` is how much darker.
+    pub fn outlines(&mut self, strength: Real, depth_jump: Real) {
+        let (w, h) = (self.width, self.height);
+        if w < 2 || h < 2 {
+            return;
+        }
+        let edge = |a: usize, b: usize, this: &Self| -> bool {
+            let (ia, ib) = (this.id[a], this.id[b]);
+            if ia == NO_ID && ib == NO_ID {
+                return false;
+            }
+            let (da, db) = (this.inv_depth[a], this.inv_depth[b]);
+            if (da - db).abs() > depth_jump * da.max(db) {
+                return true;
+            }
+            // A crease: the normal turns by more than about 35°. Faces seen nearly edge-on
+            // (normal within about 15° of the image plane) are left out: there, two faces of
+            // a thin wall alternate from pixel to pixel and would be speckled with marks.
+            let (na, nb) = (this.normal[a], this.normal[b]);
+            let turned = na.z.abs() > 0.25 && nb.z.abs() > 0.25 && na.dot(nb) < 0.82;
+            // Two colliders meeting: an edge unless they are coplanar there (overlapping
+            // walls of a tank would otherwise flicker between their tags).
+            if ia != ib {
+                return turned || (da - db).abs() > 1e-3 * da.max(db);
+            }
+            turned
+        };
+        let mut mark = vec![false; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                let k = y * w + x;
+                if (x + 1 < w && edge(k, k + 1, self)) || (y + 1 < h && edge(k, k + w, self)) {
+                    // Darken the nearer of the two sides (the silhouette's own pixel).
+                    mark[k] = true;
+                }
+            }
+        }
+        for (c, &m) in self.color.iter_mut().zip(&mark) {
+            if m {
+                *c = c.map(|v| v * (1.0 - strength));
+            }
+        }
     }
 
     /// Screen position (pixels) and `1/d` of a view-space point with `d = -z > 0`.
@@ -124,7 +183,29 @@ impl Target {
         }
     }
 
+    /// An opaque triangle tagged with `id` and its view-space `normal` (for
+    /// [`Self::outlines`]).
+    pub fn solid_triangle(&mut self, p: [Vector; 3], c: Rgb, id: u32, normal: Vector) {
+        let inside = |v: &Vector| -v.z >= NEAR;
+        if p.iter().all(inside) {
+            self.raster_tagged(p, [c; 3], 1.0, Some((id, normal)));
+        } else {
+            // Rare (a collider crossing the near plane): drawn untagged through the clipper.
+            self.triangle(p, [c; 3], 1.0);
+        }
+    }
+
     fn raster(&mut self, p: [Vector; 3], c: [Rgb; 3], alpha: Real) {
+        self.raster_tagged(p, c, alpha, None)
+    }
+
+    fn raster_tagged(
+        &mut self,
+        p: [Vector; 3],
+        c: [Rgb; 3],
+        alpha: Real,
+        tag: Option<(u32, Vector)>,
+    ) {
         let s = p.map(|v| self.project(v));
         let area = (s[1].0 - s[0].0) * (s[2].1 - s[0].1) - (s[2].0 - s[0].0) * (s[1].1 - s[0].1);
         if area.abs() < 1e-12 || !area.is_finite() {
@@ -163,8 +244,79 @@ impl Target {
                 if alpha >= 1.0 {
                     self.inv_depth[k] = inv;
                     self.color[k] = col;
+                    if let Some((id, n)) = tag {
+                        self.id[k] = id;
+                        self.normal[k] = n;
+                    }
                 } else {
                     self.color[k] = lerp3(self.color[k], col, alpha);
+                }
+            }
+        }
+    }
+
+    /// Blends a line from `a` to `b` (view space) over the image, `width` pixels wide,
+    /// hidden behind opaque surfaces (with a 1 % depth tolerance, so a surface's own edges
+    /// show) and faded to `alpha_behind` where `veil` (a depth per pixel, e.g. the water's)
+    /// is in front of it.
+    #[allow(clippy::too_many_arguments)]
+    pub fn line(
+        &mut self,
+        a: Vector,
+        b: Vector,
+        c: Rgb,
+        alpha: Real,
+        width: Real,
+        veil: &[Real],
+        alpha_behind: Real,
+    ) {
+        // Clip to the near plane.
+        let (da, db) = (-a.z, -b.z);
+        if da < NEAR && db < NEAR {
+            return;
+        }
+        let (a, b) = if da < NEAR {
+            (a + (b - a) * ((NEAR - da) / (db - da)), b)
+        } else if db < NEAR {
+            (a, b + (a - b) * ((NEAR - db) / (da - db)))
+        } else {
+            (a, b)
+        };
+        let (ax, ay, ia) = self.project(a);
+        let (bx, by, ib) = self.project(b);
+        let len = (bx - ax).hypot(by - ay);
+        if !len.is_finite() {
+            return;
+        }
+        let steps = len.ceil().max(1.0) as usize;
+        let r = (0.5 * width).max(0.5);
+        let ri = r.ceil() as isize;
+        for k in 0..=steps {
+            let t = k as Real / steps as Real;
+            let (x, y) = (ax + (bx - ax) * t, ay + (by - ay) * t);
+            let inv = ia + (ib - ia) * t;
+            let (cx, cy) = (x.floor() as isize, y.floor() as isize);
+            for oy in -ri..=ri {
+                for ox in -ri..=ri {
+                    let (px, py) = (cx + ox, cy + oy);
+                    if px < 0 || py < 0 || px >= self.width as isize || py >= self.height as isize {
+                        continue;
+                    }
+                    let dx = px as Real + 0.5 - x;
+                    let dy = py as Real + 0.5 - y;
+                    if dx * dx + dy * dy > r * r {
+                        continue;
+                    }
+                    let k = py as usize * self.width + px as usize;
+                    if inv < 0.99 * self.inv_depth[k] {
+                        continue;
+                    }
+                    let a = if veil.get(k).is_some_and(|&v| v * inv < 1.0) {
+                        alpha_behind
+                    } else {
+                        alpha
+                    };
+                    self.color[k] = lerp3(self.color[k], c, a);
                 }
             }
         }
