@@ -207,6 +207,7 @@ fn build_errors_name_the_field() {
         "Ball(radius: 0.5)",
         "TriMeshFile(path: \"no_such_file.obj\")",
     );
+    // Built from a value (no text): the field, no line.
     let scene = SceneFile::parse(&text, "bad.ron").unwrap();
     match scene.build(Path::new("bad.ron"), scenes_dir()) {
         Err(SceneError::Invalid { field, message, .. }) => {
@@ -215,15 +216,34 @@ fn build_errors_name_the_field() {
         }
         other => panic!("expected an invalid scene, got {:?}", other.err()),
     }
+    // Loaded from a file: the same error at the field's line.
+    let dir = std::env::temp_dir().join(format!("rapier_sph_build_err_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("bad.ron");
+    std::fs::write(&file, &text).unwrap();
+    match SceneFile::load_and_build(&file) {
+        Err(SceneError::Parse {
+            line,
+            field,
+            message,
+            ..
+        }) => {
+            assert_eq!(line, 11);
+            assert_eq!(field, "bodies[0].colliders[0].shape");
+            assert!(message.contains("no_such_file.obj"), "{message}");
+        }
+        other => panic!("expected a located error, got {:?}", other.err()),
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+    // A degenerate hull is found as the file is read, at its line.
     let text = GOOD.replace(
         "Ball(radius: 0.5)",
         "ConvexHull(points: [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)])",
     );
-    let scene = SceneFile::parse(&text, "bad.ron").unwrap();
-    assert!(matches!(
-        scene.build(Path::new("bad.ron"), scenes_dir()),
-        Err(SceneError::Invalid { .. })
-    ));
+    let (line, _, field, message) = parse_err(&text);
+    assert_eq!(line, 11);
+    assert_eq!(field, "bodies[0].colliders[0].shape");
+    assert!(message.contains("degenerate"), "{message}");
     assert!(matches!(
         SceneFile::load(scenes_dir().join("missing.ron")),
         Err(SceneError::Io { .. })
@@ -569,34 +589,51 @@ fn emitter_and_sink_mistakes_name_the_line_and_field() {
 }
 
 #[test]
-fn a_capacity_below_the_initial_particles_is_a_build_error() {
+fn a_capacity_below_the_initial_particles_is_refused_at_its_line() {
     let text = SOURCES.replacen(
         "capacity: 500",
         "capacity: 5, blocks: [Block(min: (0.0, 0.0, 0.0), size: (0.5, 0.5, 0.5))]",
         1,
     );
-    let scene = SceneFile::parse(&text, "bad.ron").unwrap();
-    match scene.build(Path::new("bad.ron"), scenes_dir()) {
-        Err(SceneError::Invalid { field, message, .. }) => {
-            assert_eq!(field, "fluids[0].capacity");
-            assert!(message.contains("capacity"), "{message}");
-        }
-        other => panic!("expected an invalid scene, got {:?}", other.err()),
-    }
+    let (line, _, field, message) = parse_err(&text);
+    assert_eq!(line, 22);
+    assert_eq!(field, "fluids[0].capacity");
+    assert!(message.contains("below the 125 particles"), "{message}");
 }
 
 #[test]
-fn an_impossible_capacity_is_a_build_error_not_an_abort() {
-    // 10^15 particles: petabytes, more than any address space holds.
-    let text = SOURCES.replacen("capacity: 500", "capacity: 1000000000000000", 1);
-    let scene = SceneFile::parse(&text, "big.ron").unwrap();
-    match scene.build(Path::new("big.ron"), scenes_dir()) {
-        Err(SceneError::Invalid { field, message, .. }) => {
-            assert_eq!(field, "fluids[0].capacity");
-            assert!(message.contains("memory"), "{message}");
-        }
-        other => panic!("expected an invalid scene, got {:?}", other.err()),
+fn an_impossible_capacity_is_refused_at_its_line_not_an_abort() {
+    // 10^15 particles: more than a fluid's u32 ids can name, and petabytes of memory.
+    let (line, _, field, message) =
+        parse_err(&SOURCES.replacen("capacity: 500", "capacity: 1000000000000000", 1));
+    assert_eq!(line, 22);
+    assert_eq!(field, "fluids[0].capacity");
+    assert!(message.contains("MAX_PARTICLES"), "{message}");
+    // 10^9 particles: ids enough, but about 1.6 TB for DFSPH (refused unless the machine
+    // has that much memory and swap, or always grants memory: `vm.overcommit_memory = 1`).
+    if reservations_are_bounded_below(1.5e12) {
+        let (line, _, field, message) =
+            parse_err(&SOURCES.replacen("capacity: 500", "capacity: 1000000000", 1));
+        assert_eq!((line, field.as_str()), (22, "fluids[0].capacity"));
+        assert!(message.contains("memory"), "{message}");
     }
+}
+
+/// Whether a reservation of `bytes` must fail on this machine: Linux with an overcommit policy
+/// that refuses reservations beyond RAM + swap (not `1`), and less RAM + swap than `bytes`.
+fn reservations_are_bounded_below(bytes: f64) -> bool {
+    let policy = std::fs::read_to_string("/proc/sys/vm/overcommit_memory");
+    let Ok(info) = std::fs::read_to_string("/proc/meminfo") else {
+        return false;
+    };
+    let kib = |key: &str| -> f64 {
+        info.lines()
+            .find(|l| l.starts_with(key))
+            .and_then(|l| l.split_whitespace().nth(1))
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(f64::INFINITY)
+    };
+    policy.is_ok_and(|p| p.trim() != "1") && (kib("MemTotal:") + kib("SwapTotal:")) * 1024.0 < bytes
 }
 
 #[test]
