@@ -219,6 +219,22 @@ impl Emitter {
         Ok(())
     }
 
+    /// [`Emitter::validate`], the slot count at `spacing`, and the state a snapshot carries
+    /// (the clock finite and not negative).
+    #[cfg(feature = "snapshot")]
+    pub(crate) fn validate_state(&self, spacing: Real) -> SphResult<()> {
+        self.validate()?;
+        self.check_slots(spacing)?;
+        if !(self.clock.is_finite() && self.clock >= 0.0) {
+            return Err(SphError::InvalidParameter {
+                field: "clock",
+                value: self.clock,
+                reason: "an emitter's clock must be finite and not negative",
+            });
+        }
+        Ok(())
+    }
+
     /// The nozzle.
     pub fn nozzle(&self) -> Nozzle {
         self.nozzle
@@ -579,6 +595,14 @@ impl<T> Slots<T> {
     }
     pub(crate) fn is_empty(&self) -> bool {
         self.len == 0
+    }
+    /// `true` when the count matches the entries and no generation is at its end (used when
+    /// a snapshot is restored).
+    #[cfg(feature = "snapshot")]
+    pub(crate) fn is_consistent(&self) -> bool {
+        self.entries.len() <= u32::MAX as usize
+            && self.len == self.entries.iter().filter(|e| e.1.is_some()).count()
+            && self.entries.iter().all(|e| e.0 < u32::MAX)
     }
     pub(crate) fn iter_mut(&mut self) -> impl Iterator<Item = &mut T> {
         self.entries.iter_mut().filter_map(|e| e.1.as_mut())

@@ -260,6 +260,12 @@ impl Fluid {
         Ok(())
     }
 
+    /// The id the next particle added gets (every id below it was handed out).
+    #[cfg_attr(not(feature = "snapshot"), allow(dead_code))]
+    pub(crate) fn next_id(&self) -> u32 {
+        self.next_id
+    }
+
     /// Ids this fluid can still hand out (see [`MAX_PARTICLES`]).
     pub(crate) fn ids_left(&self) -> usize {
         (u32::MAX - self.next_id) as usize
