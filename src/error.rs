@@ -38,6 +38,15 @@ pub enum SphError {
         /// Number of colliders in the `ColliderSet`.
         colliders: usize,
     },
+    /// Positions lie inside a triangle mesh built with `TriMeshFlags::ORIENTED`, which parry
+    /// treats as a solid: fluid there would be pushed out through the mesh at the next step
+    /// (see [`crate::query::check_container`]).
+    InsideOrientedTriMesh {
+        /// How many of the positions are inside.
+        inside: usize,
+        /// How many positions were checked.
+        positions: usize,
+    },
     /// Reference data of a validation scene could not be read (the `validation` feature).
     ReferenceData {
         /// The file or folder.
@@ -68,6 +77,13 @@ impl fmt::Display for SphError {
                 f,
                 "the rapier broad-phase is empty but the collider set holds {colliders} colliders: \
                  step the rapier world once after inserting colliders"
+            ),
+            SphError::InsideOrientedTriMesh { inside, positions } => write!(
+                f,
+                "{inside} of {positions} positions are inside a triangle mesh built with \
+                 TriMeshFlags::ORIENTED: parry treats it as a solid, so fluid there is pushed \
+                 out through its surface; build a tank without ORIENTED (a surface) or with \
+                 its normals facing the fluid"
             ),
             SphError::ReferenceData { path, reason } => {
                 write!(f, "reference data {path}: {reason}")
