@@ -717,3 +717,162 @@ fn solvers_come_from_the_file() {
     let (_, _, _, message) = parse_err(&with("solver: Pbf(iteratoins: 3),"));
     assert!(message.contains("iteratoins"), "{message}");
 }
+
+/// The errors that used to name no line (found when the scene was built): a triangle mesh
+/// index out of range, an empty mesh, a ragged or non-finite height field, a degenerate hull,
+/// and the other shapes' checks, are now found as the shape is read, at its line.
+#[test]
+fn shape_errors_name_their_line() {
+    for (shape, says) in [
+        (
+            "TriMesh(vertices: [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, 1.0)], indices: [(0, 1, 7)])",
+            "past the 3 vertices",
+        ),
+        ("TriMesh(vertices: [], indices: [])", ""),
+        (
+            "HeightField(heights: [[0.0, 0.1], [0.0]], scale: (1.0, 1.0, 1.0))",
+            "same length",
+        ),
+        (
+            "HeightField(heights: [[0.0, 1e300], [0.0, 0.0]], scale: (1.0, 1.0, 1.0))",
+            "not a finite number",
+        ),
+        (
+            "ConvexHull(points: [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (2.0, 0.0, 0.0)])",
+            "degenerate",
+        ),
+        (
+            "RoundConvexHull(points: [(0.0, 0.0, 0.0)], border_radius: 0.1)",
+            "degenerate",
+        ),
+        ("Polyline(vertices: [(0.0, 0.0, 0.0)])", "at least 2"),
+        (
+            "Polyline(vertices: [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)], indices: [(0, 2)])",
+            "past the 2 vertices",
+        ),
+        ("HalfSpace(normal: (0.0, 0.0, 0.0))", "zero"),
+        (
+            "Voxels(voxel_size: (0.1, 0.1, 0.1), points: [])",
+            "at least one",
+        ),
+        ("Compound(parts: [])", "at least one part"),
+        (
+            "Compound(parts: [Part(shape: Compound(parts: [Part(shape: Ball(radius: 0.1))]))])",
+            "cannot hold a compound",
+        ),
+        ("TriMeshFile(path: \"\")", "empty"),
+    ] {
+        let (line, _, field, message) = parse_err(&GOOD.replace("Ball(radius: 0.5)", shape));
+        assert_eq!(line, 11, "{shape}: {message}");
+        assert!(
+            field.starts_with("bodies[0].colliders[0].shape"),
+            "{shape}: {field}"
+        );
+        assert!(message.contains(says), "{shape}: {message}");
+    }
+}
+
+/// Settings that ask for unbounded work, and particle counts beyond a fluid's limits, are
+/// refused when the file is read, at the field's line.
+#[test]
+fn unbounded_settings_are_refused_at_their_line() {
+    // dt: 10^-30 s, 3·10^28 steps in a frame.
+    let (line, _, field, message) =
+        parse_err(&GOOD.replace("duration: 1.0,", "duration: 1.0, dt: 1e-30,"));
+    assert_eq!((line, field.as_str()), (2, "dt"));
+    assert!(message.contains("MAX_STEPS_PER_FRAME"), "{message}");
+    // duration: 10^30 s, 3·10^31 frames.
+    let (line, _, field, message) = parse_err(&GOOD.replace("duration: 1.0,", "duration: 1e30,"));
+    assert_eq!((line, field.as_str()), (2, "duration"));
+    assert!(message.contains("MAX_FRAMES"), "{message}");
+    // A frame rate of 10^-30 frames per second makes each frame 10^30 s long.
+    let (_, _, field, _) =
+        parse_err(&GOOD.replace("duration: 1.0,", "duration: 1.0, frame_rate: 1e-30,"));
+    assert_eq!(field, "dt");
+    // At the bound, accepted: 2^16 steps of a 1/30 s frame.
+    let ok = GOOD.replace("duration: 1.0,", "duration: 1.0, dt: 5.1e-7,");
+    assert_eq!(
+        SceneFile::parse(&ok, "ok.ron").unwrap().time_step().1,
+        65360
+    );
+    // PBF with 10^8 iterations a substep: refused with the fluid.
+    let (line, _, field, message) = parse_err(&GOOD.replace(
+        "preset: Water(spacing: 0.1),",
+        "preset: Water(spacing: 0.1),\n            solver: Pbf(iterations: 100000000),",
+    ));
+    assert!(
+        (4..=10).contains(&line) && field.starts_with("fluids[0]"),
+        "{line} {field}"
+    );
+    assert!(message.contains("iterations"), "{message}");
+    // A kilometre of water at a millimetre: 10^18 particles.
+    let (line, _, field, message) = parse_err(
+        &GOOD
+            .replace("Water(spacing: 0.1)", "Water(spacing: 0.001)")
+            .replace("size: (0.5, 0.5, 0.5)", "size: (1000.0, 1000.0, 1000.0)"),
+    );
+    assert_eq!((line, field.as_str()), (6, "fluids[0].blocks[0].size"));
+    assert!(message.contains("MAX_PARTICLES"), "{message}");
+    // A particle beyond 10,000 km.
+    let (line, _, field, _) = parse_err(&GOOD.replace(
+        "blocks: [",
+        "particles: [(0.0, 0.0, 0.0), (2e7, 0.0, 0.0)],\n            blocks: [",
+    ));
+    assert_eq!((line, field.as_str()), (6, "fluids[0].particles[1]"));
+    // An emitter at 10^12 particles per second, and a nozzle of 10^5 m.
+    let (line, _, field, message) = parse_err(&SOURCES.replacen("rate: 40.0", "rate: 1e12", 1));
+    assert!((7..=16).contains(&line), "{line}");
+    assert!(field.starts_with("fluids[0].emitters[0]"), "{field}");
+    assert!(message.contains("MAX_RATE"), "{message}");
+    let (line, _, field, message) =
+        parse_err(&SOURCES.replacen("Disk(radius: 0.2)", "Disk(radius: 1e5)", 1));
+    assert_eq!((line, field.as_str()), (8, "fluids[0].emitters[0].nozzle"));
+    assert!(message.contains("MAX_NOZZLE_SLOTS"), "{message}");
+}
+
+/// Files are read within a size limit and only when they are regular files: a mesh path to
+/// `/dev/zero` (which used to be read until memory ran out) and a mesh larger than the limit
+/// (a sparse file: no disk is used) are refused at the shape's line; so is a scene file that
+/// is a device.
+#[test]
+fn file_reads_are_bounded() {
+    let dir = std::env::temp_dir().join(format!("rapier_sph_bounded_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let big = dir.join("big.obj");
+    std::fs::File::create(&big)
+        .unwrap()
+        .set_len(rapier_sph::scene_file::MAX_FILE_BYTES + 1)
+        .unwrap();
+    for (mesh, says) in [
+        ("/dev/zero", "not a regular file"),
+        (big.to_str().unwrap(), "limit"),
+        (dir.to_str().unwrap(), "not a regular file"),
+    ] {
+        if !Path::new(mesh).exists() {
+            continue; // no /dev/zero on this system
+        }
+        let text = GOOD.replace("Ball(radius: 0.5)", &format!("TriMeshFile(path: {mesh:?})"));
+        let file = dir.join("scene.ron");
+        std::fs::write(&file, &text).unwrap();
+        match SceneFile::load_and_build(&file) {
+            Err(SceneError::Parse {
+                line,
+                field,
+                message,
+                ..
+            }) => {
+                assert_eq!(line, 11, "{mesh}");
+                assert_eq!(field, "bodies[0].colliders[0].shape");
+                assert!(message.contains(says), "{mesh}: {message}");
+            }
+            other => panic!("{mesh}: expected a located error, got {:?}", other.err()),
+        }
+    }
+    if Path::new("/dev/zero").exists() {
+        assert!(matches!(
+            SceneFile::load("/dev/zero"),
+            Err(SceneError::Io { .. })
+        ));
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
