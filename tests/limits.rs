@@ -56,7 +56,7 @@ fn blocks_beyond_the_particle_limit_are_refused() {
         assert_eq!(field_of(r), "size", "a block of {side} m");
         assert!(f.is_empty());
     }
-    // 1.5 m at 1 mm: 3.4·10^9 particles, within the ids, but 5.3 TB at DFSPH's 1,572 bytes a
+    // 1.5 m at 1 mm: 3.4·10^9 particles, within the ids, but 5.4 TB at DFSPH's 1,588 bytes a
     // particle: refused by the memory probe where the machine cannot reserve that much.
     if reservations_are_bounded_below(5.0e12) {
         let r = f.add_block(Vector::ZERO, Vector::splat(1.5));

@@ -68,8 +68,8 @@ pub const MAX_RATE: Real = 4_294_967_296.0;
 
 /// Most slots a nozzle may have at its fluid's spacing: 2^22 (4,194,304; a disk of radius
 /// 1.15 m at 1 mm spacing, or 115 m at 10 cm). Each frame builds the slot list (24 bytes a
-/// slot, 100 MB at the bound) and may place a layer of particles per slot (6.6 GB of fluid
-/// at the bound at DFSPH's [`crate::fluid::bytes_per_particle`], 1,572 bytes).
+/// slot, 100 MB at the bound) and may place a layer of particles per slot (6.7 GB of fluid
+/// at the bound at DFSPH's [`crate::fluid::bytes_per_particle`], 1,588 bytes).
 pub const MAX_NOZZLE_SLOTS: usize = 1 << 22;
 
 /// Most due particles one emitter tries to place in one frame: two layers of the largest

@@ -30,8 +30,8 @@ pub const MAX_PARTICLES: usize = u32::MAX as usize;
 /// N=20000 cargo test --release --test limits -- --ignored --nocapture bytes_per_particle`,
 /// and `H=3` for a support of 3 spacings), in bytes per particle at N = 33.5 / 113.1: DFSPH
 /// 1,554 / 4,080, WCSPH 484 / 980, PBF 480 / 942, Clavet 361 / 839, Clavet with springs
-/// 1,486 / 4,897; the bounds above give 1,572 / 4,119, 535 / 1,092, 535 / 1,092, 535 / 1,092,
-/// 1,808 / 5,390.
+/// 1,486 / 4,897; the bounds above (with `N` rounded up) give 1,588 / 4,148 for DFSPH, 538 /
+/// 1,098 for WCSPH, PBF and Clavet, 1,830 / 5,430 for Clavet with springs.
 ///
 /// Before a call adds particles, the memory the fluid will need with them
 /// (`particles × bytes_per_particle`) is reserved once and released (a probe): a request the
