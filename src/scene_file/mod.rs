@@ -56,10 +56,16 @@
 //! Errors name the file, the line and column, and the field (`fluids[0].blocks[1].size`):
 //! unknown fields are refused (`deny_unknown_fields`), numbers are checked while they are read
 //! (a radius must be positive and finite, a position finite), and each fluid's parameters are
-//! validated as a whole when its entry ends; so are emitters, sinks and bodies (an emitter
-//! whose `stop` is before its `start`, a sink box with `max` below `min`, a velocity on a body
-//! that cannot keep one). Collider names are checked once the whole file is read: a sink that
-//! names no collider, or two colliders with one name, is reported at the name's line.
+//! validated as a whole when its entry ends; so are emitters, sinks, bodies and shapes (an
+//! emitter whose `stop` is before its `start`, a sink box with `max` below `min`, a velocity
+//! on a body that cannot keep one, a mesh index past its vertices, a degenerate hull).
+//! Collider names are checked once the whole file is read: a sink that names no collider, or
+//! two colliders with one name, is reported at the name's line. So are the bounds on the work
+//! a scene asks for ([`MAX_STEPS_PER_FRAME`], [`MAX_FRAMES`]) and on its particles (a fluid's
+//! count and memory, nozzles, capacities: see [`crate::fluid::MAX_PARTICLES`]), each at its
+//! field's line; [`SceneFile::load_and_build`] reports what fails when the scene is built (a
+//! mesh file that cannot be read) at the field's line too. Files are read only if they are
+//! regular files of at most [`MAX_FILE_BYTES`].
 //!
 //! Bodies keep a velocity only if they are `Dynamic` (initial velocity) or
 //! `KinematicVelocityBased` (constant `linvel` and `angvel`: a conveyor, a paddle wheel). A
