@@ -414,13 +414,15 @@ fn check_physics(p: &PhysicsWorld) -> Result<(), SphError> {
         let aabb = c.compute_aabb();
         let finite = crate::math::is_finite(pose.translation)
             && pose.rotation.is_finite()
+            && c.contact_skin().is_finite()
+            && c.contact_skin() >= 0.0
             && (c.shape().as_halfspace().is_some()
                 || crate::math::is_finite(aabb.mins) && crate::math::is_finite(aabb.maxs));
         if !finite {
             return bad(
                 "colliders",
                 k as f64,
-                "a collider's pose or bounding box is not finite",
+                "a collider's pose, bounding box or contact skin is not finite (or the skin is negative)",
             );
         }
         if let Some(parent) = c.parent()
