@@ -304,7 +304,7 @@ fn bodies_energy(world: &FluidWorld, floor: Real, g: Real) -> (f64, f64) {
 /// the particles' current positions ([`crate::FluidSampler`], the density kernel).
 ///
 /// `u` is the energy whose gradient the WCSPH pressure force is in a uniform fluid
-/// (Müller's symmetric force, see [`crate::pressure::wcsph`]: `u' = p/(2ρ²)`), zero at rest
+/// (Müller's symmetric force, `src/pressure/wcsph.rs`: `u' = p/(2ρ²)`), zero at rest
 /// density: `u = (k/2)(ln(ρ/ρ0) + ρ0/ρ − 1)` for the linear `p = k(ρ − ρ0)`, and
 /// `u = (B/2)((ρ^(γ−1) − ρ0^(γ−1))/((γ−1)ρ0^γ) + 1/ρ − 1/ρ0)` for Tait's; with negative
 /// pressures clamped, `u = 0` below `ρ0`. Only with one kernel for density and force is that

@@ -32,7 +32,7 @@
 //! - the rate is at most [`MAX_RATE`] (2^32 per second: a fluid's ids run out after 2^32 − 1
 //!   particles, [`crate::fluid::MAX_PARTICLES`]);
 //! - a nozzle has at most [`MAX_NOZZLE_SLOTS`] slots at its fluid's spacing, checked by
-//!   [`Fluid::add_emitter`] and again by [`Fluid::set_params`] when the spacing changes;
+//!   [`crate::Fluid::add_emitter`] and again by [`crate::Fluid::set_params`] when the spacing changes;
 //! - a frame tries at most `4·slots·(⌊speed·dt/(0.9·spacing)⌋ + 1)` due particles per emitter,
 //!   and never more than [`MAX_ATTEMPTS_PER_FRAME`]. A slot's particles must stay `0.9·spacing`
 //!   apart along its jet, so at most `⌊speed·dt/(0.9·spacing)⌋ + 1` of them fit in a frame:
@@ -100,7 +100,7 @@ pub enum Nozzle {
 }
 
 /// A nozzle that adds particles to its fluid. Build it with [`Emitter::new`] and the setters,
-/// add it with [`Fluid::add_emitter`](crate::Fluid::add_emitter) (which validates it).
+/// add it with [`crate::Fluid::add_emitter`](crate::Fluid::add_emitter) (which validates it).
 #[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub struct Emitter {
@@ -163,7 +163,7 @@ impl Emitter {
     }
 
     /// Checks every field; returns the first problem, naming it. The nozzle's slot count
-    /// depends on the fluid's spacing and is checked by [`Fluid::add_emitter`]
+    /// depends on the fluid's spacing and is checked by [`crate::Fluid::add_emitter`]
     /// ([`MAX_NOZZLE_SLOTS`]).
     ///
     /// # Errors
@@ -312,7 +312,7 @@ impl Emitter {
 
     /// Largest rate (particles/s) at which slots never block: one layer of slots per
     /// `spacing` of travel, `speed·slots/spacing`. For a nozzle with more than
-    /// [`MAX_NOZZLE_SLOTS`] slots at `spacing` (which [`Fluid::add_emitter`] refuses), the
+    /// [`MAX_NOZZLE_SLOTS`] slots at `spacing` (which [`crate::Fluid::add_emitter`] refuses), the
     /// slots are not built and their count is estimated from the nozzle's area.
     pub fn max_rate(&self, spacing: Real) -> Real {
         let slots = if self.slot_bound(spacing) <= MAX_NOZZLE_SLOTS as f64 {
