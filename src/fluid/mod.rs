@@ -57,7 +57,7 @@ pub(crate) fn check_particle_count(
     bytes_each: usize,
     field: &'static str,
 ) -> SphResult<()> {
-    if !(total <= MAX_PARTICLES as f64) {
+    if total.is_nan() || total > MAX_PARTICLES as f64 {
         return Err(SphError::InvalidParameter {
             field,
             value: total,
