@@ -145,7 +145,8 @@ fn main() {
             frame as Real,
             TimeStepping::Adaptive {
                 courant,
-                max_substeps: 100_000,
+                // As good as no cap: the CFL limits alone set the substeps.
+                max_substeps: rapier_sph::pipeline::MAX_SUBSTEPS,
             },
             1,
         ),

@@ -106,7 +106,8 @@ fn main() -> ExitCode {
     );
     println!(
         "max err: largest compression of any particle; solve err: largest average compression a step ended with;\n\
-         KE/E0: largest kinetic energy over the initial kinetic + potential energy (verdict: at most 1.05)"
+         KE/E0: largest kinetic energy over the initial kinetic + potential energy (verdict: at most 1.05);\n\
+         case 1 (E/E0): largest total energy, the equation of state's internal energy counted, over its initial value"
     );
     if failed + errors > 0 {
         ExitCode::FAILURE

@@ -3,9 +3,10 @@
 //! `u(ρ) = (k/2)(ln(ρ/ρ0) + ρ0/ρ − 1)` for the linear `p = k(ρ − ρ0)` (the energy whose
 //! gradient Müller's symmetric force is in a uniform fluid: `u' = p/(2ρ²)`).
 //!
-//! The suite's verdict compares the kinetic energy with the initial potential energy only; the
-//! paper preset's tower starts compressed, so this shows how much of a failure is stored
-//! compression released and how much is energy the integrator made.
+//! The suite's case 1 bounds the total (kinetic + potential + internal) against its initial
+//! value; the paper preset's tower starts compressed, so this shows how much of the motion is
+//! stored compression released and how much is energy the integrator made. The densities are
+//! interpolated at the particles' positions at the end of each frame (as at t = 0).
 //!
 //! ```text
 //! cargo run --release --example stiffness_energy -- 3000 240   # k, frames of 1/60 s
@@ -74,14 +75,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
          internal {ie0:.4e} J",
         mean / rho0
     );
-    let (mut max_verdict, mut max_total) = (0.0f64, 0.0f64);
+    let (mut max_verdict, mut max_total, mut max_energy) = (0.0f64, 0.0f64, 0.0f64);
     for frame in 0..frames {
         let substeps = d.world.step()?.substeps;
         let f = &d.world.fluids[d.fluid];
-        let rhos: Vec<f64> = f.densities().iter().map(|&r| r as f64).collect();
+        // The densities at the frame's end positions, as at t = 0 (the stability suite's
+        // case 1 counts the same: `stability::eos_internal_energy`).
+        let sampler = FluidSampler::new(f);
+        let rhos: Vec<f64> = f
+            .positions()
+            .iter()
+            .map(|&x| sampler.sample(x).map_or(0.0, |s| s.density as f64))
+            .collect();
         let (ke, pe, ie) = energies(f, &rhos);
         max_verdict = max_verdict.max(ke / (pe0 + ke0));
         max_total = max_total.max(ke / (pe0 + ke0 + ie0));
+        max_energy = max_energy.max((ke + pe + ie) / (pe0 + ke0 + ie0));
         if frame < 3 || frame % 30 == 0 || frame + 1 == frames {
             println!(
                 "frame {frame:4} ({substeps:3} substeps): kinetic {ke:.4e}  potential {pe:.4e}  \
@@ -91,8 +100,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     println!(
-        "largest kinetic energy / initial (kinetic + potential): {max_verdict:.3} (the suite's \
-         verdict); / initial (kinetic + potential + internal): {max_total:.3}"
+        "largest kinetic energy / initial (kinetic + potential): {max_verdict:.3}; \
+         / initial (kinetic + potential + internal): {max_total:.3}; largest total / initial \
+         total: {max_energy:.3} (case 1's verdict, at most 1.05)"
     );
     Ok(())
 }

@@ -38,6 +38,15 @@ pub enum SphError {
         /// Number of colliders in the `ColliderSet`.
         colliders: usize,
     },
+    /// Positions lie inside a triangle mesh built with `TriMeshFlags::ORIENTED`, which parry
+    /// treats as a solid: fluid there would be pushed out through the mesh at the next step
+    /// (see [`crate::query::check_container`]).
+    InsideOrientedTriMesh {
+        /// How many of the positions are inside.
+        inside: usize,
+        /// How many positions were checked.
+        positions: usize,
+    },
     /// Reference data of a validation scene could not be read (the `validation` feature).
     ReferenceData {
         /// The file or folder.
@@ -69,6 +78,13 @@ impl fmt::Display for SphError {
                 "the rapier broad-phase is empty but the collider set holds {colliders} colliders: \
                  step the rapier world once after inserting colliders"
             ),
+            SphError::InsideOrientedTriMesh { inside, positions } => write!(
+                f,
+                "{inside} of {positions} positions are inside a triangle mesh built with \
+                 TriMeshFlags::ORIENTED: parry treats it as a solid, so fluid there is pushed \
+                 out through its surface; build a tank without ORIENTED (a surface) or with \
+                 its normals facing the fluid"
+            ),
             SphError::ReferenceData { path, reason } => {
                 write!(f, "reference data {path}: {reason}")
             }
@@ -80,3 +96,42 @@ impl std::error::Error for SphError {}
 
 /// Shorthand for results of this crate.
 pub type SphResult<T> = Result<T, SphError>;
+
+/// Reads a whole file of at most `max_bytes`: refuses what is not a regular file (a device
+/// such as `/dev/zero`, a pipe, a folder) before reading it, refuses a larger file, reserves
+/// the buffer with `try_reserve` and never reads more than `max_bytes + 1` bytes (a file that
+/// grows while it is read is refused too).
+#[cfg(any(feature = "io", feature = "scene", feature = "snapshot"))]
+pub(crate) fn read_regular_file(
+    path: &std::path::Path,
+    max_bytes: u64,
+) -> std::io::Result<Vec<u8>> {
+    use std::io::{Error, ErrorKind, Read};
+    let file = std::fs::File::open(path)?;
+    let meta = file.metadata()?;
+    if !meta.is_file() {
+        return Err(Error::new(
+            ErrorKind::InvalidInput,
+            "not a regular file (a device, a pipe or a folder)",
+        ));
+    }
+    let too_big = || {
+        Error::new(
+            ErrorKind::InvalidData,
+            format!("larger than the {max_bytes}-byte limit for this kind of file"),
+        )
+    };
+    if meta.len() > max_bytes {
+        return Err(too_big());
+    }
+    let mut bytes = Vec::new();
+    bytes
+        .try_reserve_exact(meta.len() as usize)
+        .map_err(|_| Error::new(ErrorKind::OutOfMemory, "cannot reserve memory for the file"))?;
+    file.take(max_bytes.saturating_add(1))
+        .read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(too_big());
+    }
+    Ok(bytes)
+}

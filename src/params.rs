@@ -13,6 +13,18 @@ use crate::math::Real;
 use crate::solver::settings::Solver;
 use rapier3d::geometry::InteractionGroups;
 
+/// Most iterations a solver may run per substep: PBF's `iterations`
+/// ([`crate::solver::Pbf::validate`]) and DFSPH's `max_iterations`
+/// ([`crate::solver::Dfsph::validate`]).
+///
+/// Why 2048: a Jacobi iteration carries a correction one kernel support (at least one
+/// particle spacing) further, so 2048 iterations carry it across 2048 spacings, more than the
+/// side of the largest cube of particles a fluid can hold (2^32 particles, 1,626 per side; see
+/// [`crate::fluid::MAX_PARTICLES`]): more iterations cannot reach particles the previous ones
+/// did not. A substep's solver work is then at most 512 times PBF's default (4 iterations) and
+/// about 20 times DFSPH's default cap (100).
+pub const MAX_SOLVER_ITERATIONS: u32 = 2048;
+
 /// The equation of state: how pressure follows from density.
 #[derive(Copy, Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
@@ -219,70 +231,11 @@ impl FluidParams {
         }
         non_negative("friction", self.friction)?;
         self.domain.validate(self.smoothing_length)?;
-        if let Solver::Pbf(b) = &self.solver {
-            if b.iterations == 0 {
-                return Err(SphError::InvalidParameter {
-                    field: "iterations",
-                    value: 0.0,
-                    reason: "PBF needs at least one iteration",
-                });
-            }
-            non_negative("relaxation", b.relaxation)?;
-            non_negative("artificial_pressure", b.artificial_pressure)?;
-            if !(b.artificial_pressure_distance > 0.0 && b.artificial_pressure_distance < 1.0) {
-                return Err(SphError::InvalidParameter {
-                    field: "artificial_pressure_distance",
-                    value: b.artificial_pressure_distance as f64,
-                    reason: "must be a fraction of the support radius, in (0, 1)",
-                });
-            }
-            if b.max_density_error.is_nan() || b.max_density_error <= 0.0 {
-                return Err(SphError::InvalidParameter {
-                    field: "max_density_error",
-                    value: b.max_density_error as f64,
-                    reason: "must be positive (infinity switches the time step control off)",
-                });
-            }
-            if !(1..=16).contains(&b.artificial_pressure_exponent) {
-                return Err(SphError::InvalidParameter {
-                    field: "artificial_pressure_exponent",
-                    value: b.artificial_pressure_exponent as f64,
-                    reason: "must be between 1 and 16",
-                });
-            }
-        }
-        if let Solver::Clavet(c) = &self.solver {
-            non_negative("stiffness", c.stiffness)?;
-            non_negative("cohesion", c.cohesion)?;
-            if let Some(k) = c.near_stiffness {
-                non_negative("near_stiffness", k)?;
-            }
-            if let Some(sp) = &c.springs {
-                non_negative("spring_stiffness", sp.stiffness)?;
-                non_negative("yield_ratio", sp.yield_ratio)?;
-                non_negative("plasticity", sp.plasticity)?;
-            }
-        }
-        if let Solver::Dfsph(d) = &self.solver {
-            positive("max_density_error", d.max_density_error)?;
-            positive("max_divergence_error", d.max_divergence_error)?;
-            if !(0.0..=1.0).contains(&d.warm_start) {
-                return Err(SphError::InvalidParameter {
-                    field: "warm_start",
-                    value: d.warm_start as f64,
-                    reason: "must be a fraction in [0, 1]",
-                });
-            }
-            if d.max_iterations == 0
-                || d.min_iterations > d.max_iterations
-                || d.min_divergence_iterations > d.max_iterations
-            {
-                return Err(SphError::InvalidParameter {
-                    field: "max_iterations",
-                    value: d.max_iterations as f64,
-                    reason: "must be at least 1 and at least both minimum iteration counts",
-                });
-            }
+        match &self.solver {
+            Solver::Wcsph => {}
+            Solver::Dfsph(d) => d.validate()?,
+            Solver::Pbf(b) => b.validate()?,
+            Solver::Clavet(c) => c.validate()?,
         }
         Ok(())
     }

@@ -12,6 +12,8 @@
 //!   sorted by cell), then each sample costs 27 cell look-ups.
 //! - [`RegionTracker`]: the ids inside a region, frame to frame: entered, left, inside.
 //!   Particles removed by sinks while inside count as having left.
+//! - [`check_container`]: whether a collider meant to hold fluid is a solid to parry (a
+//!   triangle mesh built with `TriMeshFlags::ORIENTED` with the fluid inside it).
 
 use crate::fluid::Fluid;
 use crate::math::{Real, Vector, is_finite};
@@ -319,4 +321,66 @@ impl RegionTracker {
             inside: self.inside.len(),
         }
     }
+}
+
+/// Checks that none of `positions` lies inside `collider` as parry's solid semantics see it,
+/// where the collider is a triangle mesh built with `TriMeshFlags::ORIENTED`: call it on a tank before spawning water in it, with the
+/// positions to spawn or [`Fluid::positions`].
+///
+/// A triangle mesh is a surface to parry unless it is built with `ORIENTED`; then the side
+/// its normals face away from is solid. A closed mesh with outward normals (the usual
+/// export) is then a solid block: particles inside it are "in a solid", and collider contact
+/// pushes every one of them out through the nearest wall at the next step, silently. Build a
+/// tank without `ORIENTED` (as scene files do), or with its normals facing the fluid.
+/// Other shapes are not checked (a particle inside a ball is inside a ball).
+///
+/// # Errors
+/// [`crate::SphError::InsideOrientedTriMesh`] with the number of positions inside.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::math::Vector;
+/// use rapier_sph::query::check_container;
+/// use rapier_sph::rapier3d::prelude::*;
+/// # use rapier_sph::rapier3d::parry::shape::TriMeshFlags;
+/// // A closed unit cube with outward normals.
+/// let v = vec![
+///     Vector::new(0.0, 0.0, 0.0), Vector::new(1.0, 0.0, 0.0), Vector::new(1.0, 1.0, 0.0),
+///     Vector::new(0.0, 1.0, 0.0), Vector::new(0.0, 0.0, 1.0), Vector::new(1.0, 0.0, 1.0),
+///     Vector::new(1.0, 1.0, 1.0), Vector::new(0.0, 1.0, 1.0),
+/// ];
+/// let t = vec![
+///     [0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4],
+///     [2, 3, 7], [2, 7, 6], [1, 2, 6], [1, 6, 5], [0, 4, 7], [0, 7, 3],
+/// ];
+/// let water = [Vector::splat(0.5)];
+/// let tank = ColliderBuilder::trimesh(v.clone(), t.clone()).unwrap().build();
+/// assert!(check_container(&tank, &water).is_ok()); // a surface: holds the water
+/// let solid = ColliderBuilder::trimesh_with_flags(v, t, TriMeshFlags::ORIENTED).unwrap().build();
+/// assert!(check_container(&solid, &water).is_err()); // a solid: would eject it
+/// ```
+pub fn check_container(
+    collider: &rapier3d::geometry::Collider,
+    positions: &[Vector],
+) -> crate::SphResult<()> {
+    use parry3d::query::PointQuery;
+    // (A compound cannot hold a triangle mesh: parry refuses nested composite shapes.)
+    let Some(mesh) = collider.shape().as_trimesh() else {
+        return Ok(());
+    };
+    if mesh.pseudo_normals_if_oriented().is_none() {
+        return Ok(());
+    }
+    let pose = collider.position();
+    let inside = positions
+        .iter()
+        .filter(|x| is_finite(**x) && mesh.contains_point(pose, **x))
+        .count();
+    if inside > 0 {
+        return Err(crate::SphError::InsideOrientedTriMesh {
+            inside,
+            positions: positions.len(),
+        });
+    }
+    Ok(())
 }

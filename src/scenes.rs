@@ -4,7 +4,7 @@
 #![cfg_attr(docsrs, doc(cfg(feature = "validation")))]
 
 use crate::error::{SphError, SphResult};
-use crate::fluid::{Fluid, FluidHandle, lattice};
+use crate::fluid::{Fluid, FluidHandle, try_lattice};
 use crate::math::{Real, Vector};
 use crate::params::FluidParams;
 use crate::world::FluidWorld;
@@ -193,7 +193,7 @@ pub fn dam_break(config: &DamBreakConfig) -> SphResult<DamBreak> {
     let mut world = FluidWorld::new();
     add_closed_box(&mut world, tank_min, tank_max, (4.0 * s).max(0.05));
     let mut fluid = Fluid::new(p.clone())?;
-    fluid.add_particles(&lattice(Vector::splat(0.5 * s), nx, ny, nz, s))?;
+    fluid.add_particles(&try_lattice(Vector::splat(0.5 * s), nx, ny, nz, s)?)?;
     let handle = world.fluids.insert(fluid);
     Ok(DamBreak {
         world,
@@ -238,7 +238,7 @@ impl HydrostaticTank {
         );
         world.physics.step();
         let mut fluid = Fluid::new(params)?;
-        fluid.add_particles(&lattice(Vector::splat(0.5 * s), nx, ny, nz, s))?;
+        fluid.add_particles(&try_lattice(Vector::splat(0.5 * s), nx, ny, nz, s)?)?;
         let fluid = world.fluids.insert(fluid);
         Ok(Self {
             world,
@@ -756,7 +756,7 @@ impl FloatingBox {
             mid,
         );
         let n = (tank / s) as usize;
-        let pts: Vec<Vector> = lattice(Vector::splat(0.5 * s), n, (depth / s) as usize, n, s)
+        let pts: Vec<Vector> = try_lattice(Vector::splat(0.5 * s), n, (depth / s) as usize, n, s)?
             .into_iter()
             .filter(|p| ((*p - centre).abs() - half - Vector::splat(0.5 * s)).max_element() > 0.0)
             .collect();

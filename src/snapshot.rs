@@ -16,8 +16,33 @@
 //!
 //! Fluids come back in the set's iteration order with fresh handles: the handles equal the
 //! old ones when no fluid was ever removed from the set (handles hold generations, which are
-//! not stored). The file starts with a format tag and version; a file from another version
-//! of the format is refused with [`SnapshotError::Version`].
+//! not stored).
+//!
+//! ## The file, and what loading checks
+//!
+//! A file is a 16-byte tag, the format version (`u32`), the payload's length (`u64`) and its
+//! CRC-32 (`u32`, IEEE 802.3), all little-endian, then the payload (postcard). Loading refuses,
+//! each with its own [`SnapshotError`]:
+//! - a file that is not a regular file or is larger than the limit ([`MAX_SNAPSHOT_BYTES`] for
+//!   [`load`], any for [`load_with_limit`]): [`SnapshotError::Io`], before it is read;
+//! - another tag ([`SnapshotError::NotASnapshot`]) or version ([`SnapshotError::Version`]);
+//! - a payload of another length or checksum (a truncated or corrupted file:
+//!   [`SnapshotError::Encoding`], [`SnapshotError::Checksum`]): a random corruption passes the
+//!   CRC-32 with probability 2^−32;
+//! - a payload that does not decode ([`SnapshotError::Encoding`]);
+//! - decoded data that is not a valid state ([`SnapshotError::Invalid`]): every fluid's
+//!   parameters (and solver settings) valid, its arrays of one length, every value finite,
+//!   ids unique and below the next id, springs well formed and naming handed-out ids,
+//!   emitters and sinks valid (nozzles within [`crate::emitter::MAX_NOZZLE_SLOTS`] slots),
+//!   the capacity reservable; the time stepping valid ([`TimeStepping::validate`]); the
+//!   coupling's velocities finite; rapier's gravity, time step and settings (finite, its
+//!   iteration counts at most [`crate::params::MAX_SOLVER_ITERATIONS`]), body poses and velocities,
+//!   collider poses and bounding boxes finite, every collider's parent a body of the set, the
+//!   narrow phase's pairs naming colliders of the set and the joints bodies of the set.
+//!
+//! Rapier's internal structures (its broad-phase tree, islands, contact graph) are restored
+//! as rapier wrote them and not checked further: the checksum guards them against corruption,
+//! not against a file crafted to pass it.
 
 #![cfg_attr(docsrs, doc(cfg(feature = "snapshot")))]
 
@@ -36,8 +61,43 @@ const MAGIC: &[u8; 16] = b"rapier-sph snap\0";
 /// The snapshot format's version, stored in every file (3: fluids carry their emitters,
 /// sinks, emitted/drained counters and capacity; 4: the coupling's memory of the velocity
 /// each dynamic body was left with; 5: per-particle attributes, and the solvers' memory
-/// beside the fluids).
-pub const FORMAT_VERSION: u32 = 5;
+/// beside the fluids; 6: the payload's length and CRC-32 in the header).
+pub const FORMAT_VERSION: u32 = 6;
+
+/// Bytes before the payload: tag, version, length, checksum.
+const HEADER: usize = 16 + 4 + 8 + 4;
+
+/// Largest file [`load`] reads: 4 GiB, about 70 million particles (a snapshot stores about 60
+/// bytes a particle, plus rapier's world). [`load_with_limit`] takes another limit.
+pub const MAX_SNAPSHOT_BYTES: u64 = 1 << 32;
+
+/// CRC-32 (IEEE 802.3, reflected, polynomial `0xEDB88320`), as zlib and PNG compute it.
+fn crc32(bytes: &[u8]) -> u32 {
+    const TABLE: [u32; 256] = {
+        let mut table = [0u32; 256];
+        let mut i = 0;
+        while i < 256 {
+            let mut c = i as u32;
+            let mut k = 0;
+            while k < 8 {
+                c = if c & 1 != 0 {
+                    0xEDB8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
+                k += 1;
+            }
+            table[i] = c;
+            i += 1;
+        }
+        table
+    };
+    let mut c = !0u32;
+    for &b in bytes {
+        c = TABLE[((c ^ b as u32) & 0xFF) as usize] ^ (c >> 8);
+    }
+    !c
+}
 
 /// A body handle's raw parts and a linear velocity.
 type BodyVelocity = ((u32, u32), [Real; 3]);
@@ -80,6 +140,13 @@ pub enum SnapshotError {
     },
     /// The data could not be encoded or decoded (truncated or corrupt file).
     Encoding(String),
+    /// The payload's CRC-32 is not the one stored in the header: the file was corrupted.
+    Checksum {
+        /// The checksum stored in the file.
+        stored: u32,
+        /// The checksum of the payload as read.
+        computed: u32,
+    },
     /// The decoded fluid data is invalid (bad parameters, non-finite particles, arrays of
     /// different lengths).
     Invalid(SphError),
@@ -95,6 +162,10 @@ impl fmt::Display for SnapshotError {
                 "snapshot format version {found}; this build reads version {FORMAT_VERSION}"
             ),
             SnapshotError::Encoding(m) => write!(f, "corrupt snapshot: {m}"),
+            SnapshotError::Checksum { stored, computed } => write!(
+                f,
+                "corrupt snapshot: its checksum is {computed:08x}, the file says {stored:08x}"
+            ),
             SnapshotError::Invalid(e) => write!(f, "invalid snapshot data: {e}"),
         }
     }
@@ -126,10 +197,22 @@ pub fn to_bytes(world: &FluidWorld) -> Result<Vec<u8>, SnapshotError> {
     };
     let mut out = MAGIC.to_vec();
     out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
-    postcard::to_extend(&data, out).map_err(|e| SnapshotError::Encoding(e.to_string()))
+    out.extend_from_slice(&[0; 12]); // length and checksum, written below
+    let mut out =
+        postcard::to_extend(&data, out).map_err(|e| SnapshotError::Encoding(e.to_string()))?;
+    let length = (out.len() - HEADER) as u64;
+    let crc = crc32(&out[HEADER..]);
+    out[20..28].copy_from_slice(&length.to_le_bytes());
+    out[28..32].copy_from_slice(&crc.to_le_bytes());
+    Ok(out)
 }
 
-/// The state back from [`to_bytes`].
+/// The state back from [`to_bytes`], checked (see the [module docs](self)).
+///
+/// # Errors
+/// [`SnapshotError::NotASnapshot`], [`SnapshotError::Version`], [`SnapshotError::Checksum`],
+/// [`SnapshotError::Encoding`] (truncated, or not decodable) and [`SnapshotError::Invalid`]
+/// (decoded, but not a valid state).
 pub fn from_bytes(bytes: &[u8]) -> Result<FluidWorld, SnapshotError> {
     if bytes.len() < MAGIC.len() + 4 || &bytes[..MAGIC.len()] != MAGIC {
         return Err(SnapshotError::NotASnapshot);
@@ -139,8 +222,39 @@ pub fn from_bytes(bytes: &[u8]) -> Result<FluidWorld, SnapshotError> {
     if found != FORMAT_VERSION {
         return Err(SnapshotError::Version { found });
     }
-    let data: SnapshotOwned = postcard::from_bytes(&bytes[MAGIC.len() + 4..])
-        .map_err(|e| SnapshotError::Encoding(e.to_string()))?;
+    if bytes.len() < HEADER {
+        return Err(SnapshotError::Encoding("truncated header".into()));
+    }
+    let length = u64::from_le_bytes(bytes[20..28].try_into().expect("8 bytes"));
+    let stored = u32::from_le_bytes(bytes[28..32].try_into().expect("4 bytes"));
+    let payload = &bytes[HEADER..];
+    if payload.len() as u64 != length {
+        return Err(SnapshotError::Encoding(format!(
+            "the payload is {} bytes long, the header says {length} (truncated or extended file)",
+            payload.len()
+        )));
+    }
+    let computed = crc32(payload);
+    if computed != stored {
+        return Err(SnapshotError::Checksum { stored, computed });
+    }
+    let data: SnapshotOwned =
+        postcard::from_bytes(payload).map_err(|e| SnapshotError::Encoding(e.to_string()))?;
+    data.time_stepping
+        .validate()
+        .map_err(SnapshotError::Invalid)?;
+    check_physics(&data.physics).map_err(SnapshotError::Invalid)?;
+    if let Some(k) = data
+        .coupling
+        .iter()
+        .position(|(_, v)| v.iter().any(|x| !x.is_finite()))
+    {
+        return Err(SnapshotError::Invalid(SphError::InvalidParameter {
+            field: "coupling",
+            value: k as f64,
+            reason: "a body's remembered velocity is not finite",
+        }));
+    }
     let mut world = FluidWorld {
         physics: data.physics,
         pipeline: FluidPipeline::with_time_stepping(data.time_stepping),
@@ -163,19 +277,202 @@ pub fn from_bytes(bytes: &[u8]) -> Result<FluidWorld, SnapshotError> {
         ));
     }
     for (state, memory) in data.fluids.into_iter().zip(data.solvers) {
-        if !memory.springs.is_consistent() {
+        let fluid = state.restore().map_err(SnapshotError::Invalid)?;
+        if !memory.springs.is_consistent() || !memory.springs.ids_below(fluid.next_id()) {
             return Err(SnapshotError::Invalid(SphError::InvalidParticle {
                 index: 0,
                 reason: "snapshot springs are malformed",
             }));
         }
-        let fluid = state.restore().map_err(SnapshotError::Invalid)?;
         let handle = world.fluids.insert(fluid);
         world
             .pipeline
             .restore_solver_memory(handle, &world.fluids, memory);
     }
     Ok(world)
+}
+
+/// Checks what of rapier's world the fluid step and rapier's own step read as numbers:
+/// gravity and time step, body poses and velocities, collider poses and bounding boxes finite,
+/// and every collider's parent a body of the set.
+fn check_physics(p: &PhysicsWorld) -> Result<(), SphError> {
+    let bad = |field, value: f64, reason| {
+        Err(SphError::InvalidParameter {
+            field,
+            value,
+            reason,
+        })
+    };
+    if !crate::math::is_finite(p.gravity) {
+        return bad("gravity", p.gravity.length() as f64, "must be finite");
+    }
+    let ip = &p.integration_parameters;
+    if !(ip.dt.is_finite() && ip.dt > 0.0) {
+        return bad(
+            "dt",
+            ip.dt as f64,
+            "rapier's time step must be positive and finite",
+        );
+    }
+    // Rapier's iteration counts bound its step's work: at most MAX_SOLVER_ITERATIONS, as the
+    // fluid solvers' (rapier's defaults are 4, 1, 1 and 1).
+    let most = crate::params::MAX_SOLVER_ITERATIONS as usize;
+    for (field, n) in [
+        ("num_solver_iterations", ip.num_solver_iterations),
+        (
+            "num_internal_pgs_iterations",
+            ip.num_internal_pgs_iterations,
+        ),
+        (
+            "num_internal_stabilization_iterations",
+            ip.num_internal_stabilization_iterations,
+        ),
+        ("max_ccd_substeps", ip.max_ccd_substeps),
+        (
+            "soft_bodies.max_extra_substeps",
+            ip.soft_bodies.max_extra_substeps,
+        ),
+    ] {
+        if n > most {
+            return bad(
+                field,
+                n as f64,
+                "more than MAX_SOLVER_ITERATIONS (2048) iterations or substeps",
+            );
+        }
+    }
+    for (field, v) in [
+        ("min_ccd_dt", ip.min_ccd_dt),
+        ("warmstart_coefficient", ip.warmstart_coefficient),
+        ("length_unit", ip.length_unit),
+        (
+            "normalized_allowed_linear_error",
+            ip.normalized_allowed_linear_error,
+        ),
+        (
+            "normalized_max_corrective_velocity",
+            ip.normalized_max_corrective_velocity,
+        ),
+        (
+            "normalized_prediction_distance",
+            ip.normalized_prediction_distance,
+        ),
+        (
+            "contact_softness.natural_frequency",
+            ip.contact_softness.natural_frequency,
+        ),
+        (
+            "contact_softness.damping_ratio",
+            ip.contact_softness.damping_ratio,
+        ),
+    ] {
+        if !v.is_finite() {
+            return bad(field, v as f64, "rapier's setting must be finite");
+        }
+    }
+    for (field, v) in [
+        (
+            "normalized_allowed_linear_error",
+            ip.normalized_allowed_linear_error,
+        ),
+        (
+            "normalized_max_corrective_velocity",
+            ip.normalized_max_corrective_velocity,
+        ),
+        (
+            "normalized_prediction_distance",
+            ip.normalized_prediction_distance,
+        ),
+        ("min_ccd_dt", ip.min_ccd_dt),
+    ] {
+        if v < 0.0 {
+            return bad(field, v as f64, "rapier's setting must not be negative");
+        }
+    }
+    if !(ip.length_unit > 0.0) {
+        return bad(
+            "length_unit",
+            ip.length_unit as f64,
+            "rapier's length unit must be positive",
+        );
+    }
+    for (k, (_, b)) in p.bodies.iter().enumerate() {
+        let pose = b.position();
+        let finite = crate::math::is_finite(pose.translation)
+            && pose.rotation.is_finite()
+            && crate::math::is_finite(b.linvel())
+            && crate::math::is_finite(b.angvel())
+            && b.mass().is_finite();
+        if !finite {
+            return bad(
+                "bodies",
+                k as f64,
+                "a body's pose, velocity or mass is not finite",
+            );
+        }
+    }
+    for (k, (_, c)) in p.colliders.iter().enumerate() {
+        let pose = c.position();
+        let aabb = c.compute_aabb();
+        let finite = crate::math::is_finite(pose.translation)
+            && pose.rotation.is_finite()
+            && c.contact_skin().is_finite()
+            && c.contact_skin() >= 0.0
+            && (c.shape().as_halfspace().is_some()
+                || crate::math::is_finite(aabb.mins) && crate::math::is_finite(aabb.maxs));
+        if !finite {
+            return bad(
+                "colliders",
+                k as f64,
+                "a collider's pose, bounding box or contact skin is not finite (or the skin is negative)",
+            );
+        }
+        if let Some(parent) = c.parent()
+            && p.bodies.get(parent).is_none()
+        {
+            return bad(
+                "colliders",
+                k as f64,
+                "a collider's parent is not a body of the set",
+            );
+        }
+    }
+    // The narrow phase's pairs and the joints name colliders and bodies of the sets.
+    let collider = |h| p.colliders.get(h).is_some();
+    if let Some(k) = p
+        .narrow_phase
+        .contact_pairs()
+        .position(|pair| !collider(pair.collider1) || !collider(pair.collider2))
+    {
+        return bad(
+            "narrow_phase",
+            k as f64,
+            "a contact pair names a collider that is not in the set",
+        );
+    }
+    if let Some(k) = p
+        .narrow_phase
+        .intersection_pairs()
+        .position(|(a, b, _)| !collider(a) || !collider(b))
+    {
+        return bad(
+            "narrow_phase",
+            k as f64,
+            "an intersection pair names a collider that is not in the set",
+        );
+    }
+    if let Some(k) = p
+        .impulse_joints
+        .iter()
+        .position(|(_, j)| p.bodies.get(j.body1()).is_none() || p.bodies.get(j.body2()).is_none())
+    {
+        return bad(
+            "impulse_joints",
+            k as f64,
+            "a joint names a body that is not in the set",
+        );
+    }
+    Ok(())
 }
 
 /// Writes the whole state to `path`.
@@ -188,12 +485,39 @@ pub fn save(world: &FluidWorld, path: impl AsRef<Path>) -> Result<(), SnapshotEr
     })
 }
 
-/// Reads a state written by [`save`].
+/// Reads a state written by [`save`]: a regular file of at most [`MAX_SNAPSHOT_BYTES`],
+/// checked as [`from_bytes`] does.
+///
+/// # Errors
+/// [`SnapshotError::Io`] when the file cannot be read, is not a regular file (a device, a
+/// pipe) or is larger than the limit; then [`from_bytes`]'s errors.
 pub fn load(path: impl AsRef<Path>) -> Result<FluidWorld, SnapshotError> {
+    load_with_limit(path, MAX_SNAPSHOT_BYTES)
+}
+
+/// [`load`] with another size limit (bytes).
+///
+/// # Errors
+/// As [`load`].
+pub fn load_with_limit(
+    path: impl AsRef<Path>,
+    max_bytes: u64,
+) -> Result<FluidWorld, SnapshotError> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|source| SnapshotError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes =
+        crate::error::read_regular_file(path, max_bytes).map_err(|source| SnapshotError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
     from_bytes(&bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn crc32_of_the_check_string() {
+        // The standard check value of CRC-32/ISO-HDLC.
+        assert_eq!(super::crc32(b"123456789"), 0xCBF4_3926);
+        assert_eq!(super::crc32(b""), 0);
+    }
 }

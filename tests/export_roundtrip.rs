@@ -164,3 +164,52 @@ fn soup(m: &TriangleMesh) -> Vec<[[u32; 3]; 3]> {
         .map(|t| t.map(|i| m.vertices[i as usize].to_array().map(f32::to_bits)))
         .collect()
 }
+
+/// Every reader reads within `io::MAX_FILE_BYTES` and only regular files: a device
+/// (`/dev/zero`, which would be read until memory ran out), a folder and a file one byte past
+/// the limit (sparse: no disk used) are refused with an I/O error before they are read.
+#[test]
+fn reads_are_bounded() {
+    let big = |ext: &str| {
+        let p = tmp(&format!("big.{ext}"));
+        std::fs::File::create(&p)
+            .unwrap()
+            .set_len(io::MAX_FILE_BYTES + 1)
+            .unwrap();
+        p
+    };
+    type Read = fn(&std::path::Path) -> Result<(), ExportError>;
+    let readers: [(&str, Read); 5] = [
+        ("obj", |p| io::read_mesh_obj(p).map(|_| ())),
+        ("ply", |p| io::read_mesh_ply(p).map(|_| ())),
+        ("ply", |p| io::read_particles_ply(p).map(|_| ())),
+        ("vtk", |p| io::read_mesh_vtk(p).map(|_| ())),
+        ("vtk", |p| io::read_particles_vtk(p).map(|_| ())),
+    ];
+    for (ext, read) in readers {
+        let file = big(ext);
+        match read(&file) {
+            Err(ExportError::Io { source, .. }) => {
+                assert!(source.to_string().contains("limit"), "{ext}: {source}")
+            }
+            other => panic!("{ext}: expected an I/O error, got {other:?}"),
+        }
+        std::fs::remove_file(&file).unwrap();
+        // A folder named like a mesh file.
+        let dir = tmp(&format!("folder.{ext}"));
+        std::fs::create_dir_all(&dir).unwrap();
+        assert!(matches!(read(&dir), Err(ExportError::Io { .. })), "{ext}");
+        std::fs::remove_dir(&dir).unwrap();
+    }
+    let zero = std::path::Path::new("/dev/zero");
+    if zero.exists() {
+        assert!(matches!(
+            io::read_mesh_obj(zero),
+            Err(ExportError::Io { .. })
+        ));
+        assert!(matches!(
+            io::read_particles_ply(zero),
+            Err(ExportError::Io { .. })
+        ));
+    }
+}

@@ -207,6 +207,7 @@ fn build_errors_name_the_field() {
         "Ball(radius: 0.5)",
         "TriMeshFile(path: \"no_such_file.obj\")",
     );
+    // Built from a value (no text): the field, no line.
     let scene = SceneFile::parse(&text, "bad.ron").unwrap();
     match scene.build(Path::new("bad.ron"), scenes_dir()) {
         Err(SceneError::Invalid { field, message, .. }) => {
@@ -215,15 +216,34 @@ fn build_errors_name_the_field() {
         }
         other => panic!("expected an invalid scene, got {:?}", other.err()),
     }
+    // Loaded from a file: the same error at the field's line.
+    let dir = std::env::temp_dir().join(format!("rapier_sph_build_err_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("bad.ron");
+    std::fs::write(&file, &text).unwrap();
+    match SceneFile::load_and_build(&file) {
+        Err(SceneError::Parse {
+            line,
+            field,
+            message,
+            ..
+        }) => {
+            assert_eq!(line, 11);
+            assert_eq!(field, "bodies[0].colliders[0].shape");
+            assert!(message.contains("no_such_file.obj"), "{message}");
+        }
+        other => panic!("expected a located error, got {:?}", other.err()),
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+    // A degenerate hull is found as the file is read, at its line.
     let text = GOOD.replace(
         "Ball(radius: 0.5)",
         "ConvexHull(points: [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)])",
     );
-    let scene = SceneFile::parse(&text, "bad.ron").unwrap();
-    assert!(matches!(
-        scene.build(Path::new("bad.ron"), scenes_dir()),
-        Err(SceneError::Invalid { .. })
-    ));
+    let (line, _, field, message) = parse_err(&text);
+    assert_eq!(line, 11);
+    assert_eq!(field, "bodies[0].colliders[0].shape");
+    assert!(message.contains("degenerate"), "{message}");
     assert!(matches!(
         SceneFile::load(scenes_dir().join("missing.ron")),
         Err(SceneError::Io { .. })
@@ -569,34 +589,51 @@ fn emitter_and_sink_mistakes_name_the_line_and_field() {
 }
 
 #[test]
-fn a_capacity_below_the_initial_particles_is_a_build_error() {
+fn a_capacity_below_the_initial_particles_is_refused_at_its_line() {
     let text = SOURCES.replacen(
         "capacity: 500",
         "capacity: 5, blocks: [Block(min: (0.0, 0.0, 0.0), size: (0.5, 0.5, 0.5))]",
         1,
     );
-    let scene = SceneFile::parse(&text, "bad.ron").unwrap();
-    match scene.build(Path::new("bad.ron"), scenes_dir()) {
-        Err(SceneError::Invalid { field, message, .. }) => {
-            assert_eq!(field, "fluids[0].capacity");
-            assert!(message.contains("capacity"), "{message}");
-        }
-        other => panic!("expected an invalid scene, got {:?}", other.err()),
-    }
+    let (line, _, field, message) = parse_err(&text);
+    assert_eq!(line, 22);
+    assert_eq!(field, "fluids[0].capacity");
+    assert!(message.contains("below the 125 particles"), "{message}");
 }
 
 #[test]
-fn an_impossible_capacity_is_a_build_error_not_an_abort() {
-    // 10^15 particles: petabytes, more than any address space holds.
-    let text = SOURCES.replacen("capacity: 500", "capacity: 1000000000000000", 1);
-    let scene = SceneFile::parse(&text, "big.ron").unwrap();
-    match scene.build(Path::new("big.ron"), scenes_dir()) {
-        Err(SceneError::Invalid { field, message, .. }) => {
-            assert_eq!(field, "fluids[0].capacity");
-            assert!(message.contains("memory"), "{message}");
-        }
-        other => panic!("expected an invalid scene, got {:?}", other.err()),
+fn an_impossible_capacity_is_refused_at_its_line_not_an_abort() {
+    // 10^15 particles: more than a fluid's u32 ids can name, and petabytes of memory.
+    let (line, _, field, message) =
+        parse_err(&SOURCES.replacen("capacity: 500", "capacity: 1000000000000000", 1));
+    assert_eq!(line, 22);
+    assert_eq!(field, "fluids[0].capacity");
+    assert!(message.contains("MAX_PARTICLES"), "{message}");
+    // 10^9 particles: ids enough, but about 1.6 TB for DFSPH (refused unless the machine
+    // has that much memory and swap, or always grants memory: `vm.overcommit_memory = 1`).
+    if reservations_are_bounded_below(1.5e12) {
+        let (line, _, field, message) =
+            parse_err(&SOURCES.replacen("capacity: 500", "capacity: 1000000000", 1));
+        assert_eq!((line, field.as_str()), (22, "fluids[0].capacity"));
+        assert!(message.contains("memory"), "{message}");
     }
+}
+
+/// Whether a reservation of `bytes` must fail on this machine: Linux with an overcommit policy
+/// that refuses reservations beyond RAM + swap (not `1`), and less RAM + swap than `bytes`.
+fn reservations_are_bounded_below(bytes: f64) -> bool {
+    let policy = std::fs::read_to_string("/proc/sys/vm/overcommit_memory");
+    let Ok(info) = std::fs::read_to_string("/proc/meminfo") else {
+        return false;
+    };
+    let kib = |key: &str| -> f64 {
+        info.lines()
+            .find(|l| l.starts_with(key))
+            .and_then(|l| l.split_whitespace().nth(1))
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(f64::INFINITY)
+    };
+    policy.is_ok_and(|p| p.trim() != "1") && (kib("MemTotal:") + kib("SwapTotal:")) * 1024.0 < bytes
 }
 
 #[test]
@@ -731,4 +768,163 @@ fn water_obstacles_keeps_its_water() {
     }
     assert_eq!(built.world.fluids.num_particles(), n);
     assert_eq!(built.particles_outside_colliders(), 0);
+}
+
+/// The errors that used to name no line (found when the scene was built): a triangle mesh
+/// index out of range, an empty mesh, a ragged or non-finite height field, a degenerate hull,
+/// and the other shapes' checks, are now found as the shape is read, at its line.
+#[test]
+fn shape_errors_name_their_line() {
+    for (shape, says) in [
+        (
+            "TriMesh(vertices: [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, 1.0)], indices: [(0, 1, 7)])",
+            "past the 3 vertices",
+        ),
+        ("TriMesh(vertices: [], indices: [])", ""),
+        (
+            "HeightField(heights: [[0.0, 0.1], [0.0]], scale: (1.0, 1.0, 1.0))",
+            "same length",
+        ),
+        (
+            "HeightField(heights: [[0.0, 1e300], [0.0, 0.0]], scale: (1.0, 1.0, 1.0))",
+            "not a finite number",
+        ),
+        (
+            "ConvexHull(points: [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (2.0, 0.0, 0.0)])",
+            "degenerate",
+        ),
+        (
+            "RoundConvexHull(points: [(0.0, 0.0, 0.0)], border_radius: 0.1)",
+            "degenerate",
+        ),
+        ("Polyline(vertices: [(0.0, 0.0, 0.0)])", "at least 2"),
+        (
+            "Polyline(vertices: [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)], indices: [(0, 2)])",
+            "past the 2 vertices",
+        ),
+        ("HalfSpace(normal: (0.0, 0.0, 0.0))", "zero"),
+        (
+            "Voxels(voxel_size: (0.1, 0.1, 0.1), points: [])",
+            "at least one",
+        ),
+        ("Compound(parts: [])", "at least one part"),
+        (
+            "Compound(parts: [Part(shape: Compound(parts: [Part(shape: Ball(radius: 0.1))]))])",
+            "cannot hold a compound",
+        ),
+        ("TriMeshFile(path: \"\")", "empty"),
+    ] {
+        let (line, _, field, message) = parse_err(&GOOD.replace("Ball(radius: 0.5)", shape));
+        assert_eq!(line, 11, "{shape}: {message}");
+        assert!(
+            field.starts_with("bodies[0].colliders[0].shape"),
+            "{shape}: {field}"
+        );
+        assert!(message.contains(says), "{shape}: {message}");
+    }
+}
+
+/// Settings that ask for unbounded work, and particle counts beyond a fluid's limits, are
+/// refused when the file is read, at the field's line.
+#[test]
+fn unbounded_settings_are_refused_at_their_line() {
+    // dt: 10^-30 s, 3·10^28 steps in a frame.
+    let (line, _, field, message) =
+        parse_err(&GOOD.replace("duration: 1.0,", "duration: 1.0, dt: 1e-30,"));
+    assert_eq!((line, field.as_str()), (2, "dt"));
+    assert!(message.contains("MAX_STEPS_PER_FRAME"), "{message}");
+    // duration: 10^30 s, 3·10^31 frames.
+    let (line, _, field, message) = parse_err(&GOOD.replace("duration: 1.0,", "duration: 1e30,"));
+    assert_eq!((line, field.as_str()), (2, "duration"));
+    assert!(message.contains("MAX_FRAMES"), "{message}");
+    // A frame rate of 10^-30 frames per second makes each frame 10^30 s long.
+    let (_, _, field, _) =
+        parse_err(&GOOD.replace("duration: 1.0,", "duration: 1.0, frame_rate: 1e-30,"));
+    assert_eq!(field, "dt");
+    // At the bound, accepted: 2^16 steps of a 1/30 s frame.
+    let ok = GOOD.replace("duration: 1.0,", "duration: 1.0, dt: 5.1e-7,");
+    assert_eq!(
+        SceneFile::parse(&ok, "ok.ron").unwrap().time_step().1,
+        65360
+    );
+    // PBF with 10^8 iterations a substep: refused with the fluid.
+    let (line, _, field, message) = parse_err(&GOOD.replace(
+        "preset: Water(spacing: 0.1),",
+        "preset: Water(spacing: 0.1),\n            solver: Pbf(iterations: 100000000),",
+    ));
+    assert!(
+        (4..=10).contains(&line) && field.starts_with("fluids[0]"),
+        "{line} {field}"
+    );
+    assert!(message.contains("iterations"), "{message}");
+    // A kilometre of water at a millimetre: 10^18 particles.
+    let (line, _, field, message) = parse_err(
+        &GOOD
+            .replace("Water(spacing: 0.1)", "Water(spacing: 0.001)")
+            .replace("size: (0.5, 0.5, 0.5)", "size: (1000.0, 1000.0, 1000.0)"),
+    );
+    assert_eq!((line, field.as_str()), (6, "fluids[0].blocks[0].size"));
+    assert!(message.contains("MAX_PARTICLES"), "{message}");
+    // A particle beyond 10,000 km.
+    let (line, _, field, _) = parse_err(&GOOD.replace(
+        "blocks: [",
+        "particles: [(0.0, 0.0, 0.0), (2e7, 0.0, 0.0)],\n            blocks: [",
+    ));
+    assert_eq!((line, field.as_str()), (6, "fluids[0].particles[1]"));
+    // An emitter at 10^12 particles per second, and a nozzle of 10^5 m.
+    let (line, _, field, message) = parse_err(&SOURCES.replacen("rate: 40.0", "rate: 1e12", 1));
+    assert!((7..=16).contains(&line), "{line}");
+    assert!(field.starts_with("fluids[0].emitters[0]"), "{field}");
+    assert!(message.contains("MAX_RATE"), "{message}");
+    let (line, _, field, message) =
+        parse_err(&SOURCES.replacen("Disk(radius: 0.2)", "Disk(radius: 1e5)", 1));
+    assert_eq!((line, field.as_str()), (8, "fluids[0].emitters[0].nozzle"));
+    assert!(message.contains("MAX_NOZZLE_SLOTS"), "{message}");
+}
+
+/// Files are read within a size limit and only when they are regular files: a mesh path to
+/// `/dev/zero` (which used to be read until memory ran out) and a mesh larger than the limit
+/// (a sparse file: no disk is used) are refused at the shape's line; so is a scene file that
+/// is a device.
+#[test]
+fn file_reads_are_bounded() {
+    let dir = std::env::temp_dir().join(format!("rapier_sph_bounded_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let big = dir.join("big.obj");
+    std::fs::File::create(&big)
+        .unwrap()
+        .set_len(rapier_sph::scene_file::MAX_FILE_BYTES + 1)
+        .unwrap();
+    for (mesh, says) in [
+        ("/dev/zero", "not a regular file"),
+        (big.to_str().unwrap(), "limit"),
+        (dir.to_str().unwrap(), "not a regular file"),
+    ] {
+        if !Path::new(mesh).exists() {
+            continue; // no /dev/zero on this system
+        }
+        let text = GOOD.replace("Ball(radius: 0.5)", &format!("TriMeshFile(path: {mesh:?})"));
+        let file = dir.join("scene.ron");
+        std::fs::write(&file, &text).unwrap();
+        match SceneFile::load_and_build(&file) {
+            Err(SceneError::Parse {
+                line,
+                field,
+                message,
+                ..
+            }) => {
+                assert_eq!(line, 11, "{mesh}");
+                assert_eq!(field, "bodies[0].colliders[0].shape");
+                assert!(message.contains(says), "{mesh}: {message}");
+            }
+            other => panic!("{mesh}: expected a located error, got {:?}", other.err()),
+        }
+    }
+    if Path::new("/dev/zero").exists() {
+        assert!(matches!(
+            SceneFile::load("/dev/zero"),
+            Err(SceneError::Io { .. })
+        ));
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
 }

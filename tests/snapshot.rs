@@ -206,3 +206,48 @@ fn bad_files_are_refused() {
     ));
     assert!(snapshot::from_bytes(&bytes).is_ok());
 }
+
+/// Loading reads only regular files within the limit: `/dev/zero`, a folder and a file past
+/// the limit are refused before they are read; a corrupted byte anywhere fails the checksum.
+#[test]
+fn loads_are_bounded_and_checked() {
+    let dir =
+        std::env::temp_dir().join(format!("rapier-sph-snapshot-bounds-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut w = scene();
+    w.step().unwrap();
+    let path = dir.join("state.bin");
+    snapshot::save(&w, &path).unwrap();
+    let size = std::fs::metadata(&path).unwrap().len();
+    assert!(snapshot::load_with_limit(&path, size).is_ok());
+    match snapshot::load_with_limit(&path, size - 1) {
+        Err(SnapshotError::Io { source, .. }) => assert!(source.to_string().contains("limit")),
+        other => panic!("expected an I/O error, got {:?}", other.err()),
+    }
+    assert!(matches!(
+        snapshot::load(&dir),
+        Err(SnapshotError::Io { .. })
+    ));
+    if std::path::Path::new("/dev/zero").exists() {
+        assert!(matches!(
+            snapshot::load("/dev/zero"),
+            Err(SnapshotError::Io { .. })
+        ));
+    }
+    // One byte of the payload changed: the checksum says so.
+    let mut bytes = snapshot::to_bytes(&w).unwrap();
+    let k = bytes.len() / 2;
+    bytes[k] ^= 0x10;
+    assert!(matches!(
+        snapshot::from_bytes(&bytes),
+        Err(SnapshotError::Checksum { .. })
+    ));
+    // Bytes added at the end: the length says so.
+    let mut longer = snapshot::to_bytes(&w).unwrap();
+    longer.push(0);
+    assert!(matches!(
+        snapshot::from_bytes(&longer),
+        Err(SnapshotError::Encoding(_))
+    ));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

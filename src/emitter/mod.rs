@@ -26,6 +26,26 @@
 //! ([`Emitter::max_rate`]). When the fluid reaches its capacity ([`Fluid::set_capacity`](crate::Fluid::set_capacity))
 //! emitters pause and the report says so (`capacity_reached`).
 //!
+//! ### Bounds
+//!
+//! An emitter's work per frame is bounded whatever its settings:
+//! - the rate is at most [`MAX_RATE`] (2^32 per second: a fluid's ids run out after 2^32 − 1
+//!   particles, [`crate::fluid::MAX_PARTICLES`]);
+//! - a nozzle has at most [`MAX_NOZZLE_SLOTS`] slots at its fluid's spacing, checked by
+//!   [`crate::Fluid::add_emitter`] and again by [`crate::Fluid::set_params`] when the spacing changes;
+//! - a frame tries at most `4·slots·(⌊speed·dt/(0.9·spacing)⌋ + 1)` due particles per emitter,
+//!   and never more than [`MAX_ATTEMPTS_PER_FRAME`]. A slot's particles must stay `0.9·spacing`
+//!   apart along its jet, so at most `⌊speed·dt/(0.9·spacing)⌋ + 1` of them fit in a frame:
+//!   the first bound is four times what can possibly be placed. When more particles are due,
+//!   they are tried evenly spread over the frame (every `k`-th due instant) and the others are
+//!   counted as blocked ([`crate::StepReport::emitter_blocked`]);
+//! - emitters stop when the fluid's ids run out, as at its capacity (`capacity_reached`), and
+//!   pause for a frame whose particles' memory ([`crate::fluid::bytes_per_particle`]) could
+//!   not be reserved.
+//!
+//! Placement checks each candidate against the particles near it through a hashed grid, so a
+//! frame's emission costs in proportion to what it tries.
+//!
 //! ## Sinks
 //!
 //! A sink ([`SinkRegion`]: a box, a ball, or a rapier collider) removes every particle of its
@@ -39,6 +59,23 @@ mod run;
 use crate::error::{SphError, SphResult};
 use crate::math::{Real, Vector, is_finite};
 use rapier3d::geometry::ColliderHandle;
+
+/// Fastest emission rate (particles per second): 2^32. A fluid hands out at most 2^32 − 1
+/// particle ids over its life ([`crate::fluid::MAX_PARTICLES`]), so a faster emitter would use
+/// them all up within its first second; the bound also keeps the emitter's 64-bit count of due
+/// instants from overflowing for 136 years of its clock.
+pub const MAX_RATE: Real = 4_294_967_296.0;
+
+/// Most slots a nozzle may have at its fluid's spacing: 2^22 (4,194,304; a disk of radius
+/// 1.15 m at 1 mm spacing, or 115 m at 10 cm). Each frame builds the slot list (24 bytes a
+/// slot, 100 MB at the bound) and may place a layer of particles per slot (6.7 GB of fluid
+/// at the bound at DFSPH's [`crate::fluid::bytes_per_particle`], 1,588 bytes).
+pub const MAX_NOZZLE_SLOTS: usize = 1 << 22;
+
+/// Most due particles one emitter tries to place in one frame: two layers of the largest
+/// nozzle ([`MAX_NOZZLE_SLOTS`]). Beyond it the due particles are thinned evenly and counted
+/// as blocked (see the [module docs](self), "Bounds").
+pub const MAX_ATTEMPTS_PER_FRAME: usize = 2 * MAX_NOZZLE_SLOTS;
 
 /// Shape of an emitter's opening.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -63,7 +100,7 @@ pub enum Nozzle {
 }
 
 /// A nozzle that adds particles to its fluid. Build it with [`Emitter::new`] and the setters,
-/// add it with [`Fluid::add_emitter`](crate::Fluid::add_emitter) (which validates it).
+/// add it with [`crate::Fluid::add_emitter`](crate::Fluid::add_emitter) (which validates it).
 #[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub struct Emitter {
@@ -125,13 +162,14 @@ impl Emitter {
         self
     }
 
-    /// Checks every field; returns the first problem, naming it.
+    /// Checks every field; returns the first problem, naming it. The nozzle's slot count
+    /// depends on the fluid's spacing and is checked by [`crate::Fluid::add_emitter`]
+    /// ([`MAX_NOZZLE_SLOTS`]).
     ///
     /// # Errors
-    ///
-    /// [`SphError::InvalidParameter`] naming the field: a nozzle size, speed or rate that is
-    /// not positive and finite, a non-finite position (or one beyond 10,000 km), a zero
-    /// direction (except for a sphere), a negative start or a stop before the start.
+    /// [`SphError::InvalidParameter`] naming the nozzle size (`radius`, `half_width`),
+    /// `position`, `direction`, `speed`, `rate` (positive, finite, at most [`MAX_RATE`]),
+    /// `start` or `stop`.
     pub fn validate(&self) -> SphResult<()> {
         let bad = |field, value: Real, reason| {
             Err(SphError::InvalidParameter {
@@ -164,11 +202,35 @@ impl Emitter {
         if !self.rate.is_finite() || self.rate <= 0.0 {
             return bad("rate", self.rate, "must be positive and finite");
         }
+        if self.rate > MAX_RATE {
+            return bad(
+                "rate",
+                self.rate,
+                "more than MAX_RATE (2^32 particles per second: a fluid's ids would run out \
+                 within a second)",
+            );
+        }
         if !self.start.is_finite() || self.start < 0.0 {
             return bad("start", self.start, "must be finite and non-negative");
         }
         if self.stop.is_nan() || self.stop < self.start {
             return bad("stop", self.stop, "must not be before start");
+        }
+        Ok(())
+    }
+
+    /// [`Emitter::validate`], the slot count at `spacing`, and the state a snapshot carries
+    /// (the clock finite and not negative).
+    #[cfg(feature = "snapshot")]
+    pub(crate) fn validate_state(&self, spacing: Real) -> SphResult<()> {
+        self.validate()?;
+        self.check_slots(spacing)?;
+        if !(self.clock.is_finite() && self.clock >= 0.0) {
+            return Err(SphError::InvalidParameter {
+                field: "clock",
+                value: self.clock,
+                reason: "an emitter's clock must be finite and not negative",
+            });
         }
         Ok(())
     }
@@ -259,9 +321,66 @@ impl Emitter {
     }
 
     /// Largest rate (particles/s) at which slots never block: one layer of slots per
-    /// `spacing` of travel, `speed·slots/spacing`.
+    /// `spacing` of travel, `speed·slots/spacing`. For a nozzle with more than
+    /// [`MAX_NOZZLE_SLOTS`] slots at `spacing` (which [`crate::Fluid::add_emitter`] refuses), the
+    /// slots are not built and their count is estimated from the nozzle's area.
     pub fn max_rate(&self, spacing: Real) -> Real {
-        self.speed * self.slot_offsets(spacing).len() as Real / spacing
+        let slots = if self.slot_bound(spacing) <= MAX_NOZZLE_SLOTS as f64 {
+            self.slot_offsets(spacing).len() as f64
+        } else {
+            self.slot_estimate(spacing)
+        };
+        (self.speed as f64 * slots / spacing as f64) as Real
+    }
+
+    /// An upper bound of the slot count at spacing `s`, computed without building the slots:
+    /// `(2⌊r/s⌋ + 1)²` across a disk or square, the Fibonacci count for a sphere.
+    fn slot_bound(&self, s: Real) -> f64 {
+        let across = |r: Real| {
+            let n = (r / s).floor() as f64;
+            (2.0 * n + 1.0) * (2.0 * n + 1.0)
+        };
+        match self.nozzle {
+            Nozzle::Disk { radius } => across(radius),
+            Nozzle::Square { half_width } => across(half_width),
+            Nozzle::Sphere { .. } => self.slot_estimate(s),
+        }
+    }
+
+    /// The slot count from the nozzle's area (exact for a sphere).
+    fn slot_estimate(&self, s: Real) -> f64 {
+        let (s, pi) = (s as f64, std::f64::consts::PI);
+        match self.nozzle {
+            Nozzle::Disk { radius } => (pi * (radius as f64 / s).powi(2)).max(1.0),
+            Nozzle::Square { half_width } => {
+                let n = (half_width as f64 / s).floor();
+                (2.0 * n + 1.0) * (2.0 * n + 1.0)
+            }
+            Nozzle::Sphere { radius } => {
+                // As `slot_offsets` counts them (in `Real`).
+                ((4.0 * std::f32::consts::PI * radius * radius) / (s as Real * s as Real))
+                    .round()
+                    .max(1.0) as f64
+            }
+        }
+    }
+
+    /// Refuses a nozzle with more than [`MAX_NOZZLE_SLOTS`] slots at spacing `s`, naming its
+    /// size.
+    pub(crate) fn check_slots(&self, s: Real) -> SphResult<()> {
+        if self.slot_bound(s) <= MAX_NOZZLE_SLOTS as f64 {
+            return Ok(());
+        }
+        let (field, value) = match self.nozzle {
+            Nozzle::Disk { radius } | Nozzle::Sphere { radius } => ("radius", radius),
+            Nozzle::Square { half_width } => ("half_width", half_width),
+        };
+        Err(SphError::InvalidParameter {
+            field,
+            value: value as f64,
+            reason: "the nozzle has more than MAX_NOZZLE_SLOTS (2^22) slots at the fluid's \
+                     particle spacing",
+        })
     }
 
     /// Slot positions relative to the centre, with their jet directions.
@@ -491,6 +610,14 @@ impl<T> Slots<T> {
     }
     pub(crate) fn is_empty(&self) -> bool {
         self.len == 0
+    }
+    /// `true` when the count matches the entries and no generation is at its end (used when
+    /// a snapshot is restored).
+    #[cfg(feature = "snapshot")]
+    pub(crate) fn is_consistent(&self) -> bool {
+        self.entries.len() <= u32::MAX as usize
+            && self.len == self.entries.iter().filter(|e| e.1.is_some()).count()
+            && self.entries.iter().all(|e| e.0 < u32::MAX)
     }
     pub(crate) fn iter_mut(&mut self) -> impl Iterator<Item = &mut T> {
         self.entries.iter_mut().filter_map(|e| e.1.as_mut())

@@ -2,7 +2,7 @@
 //! particles due in a frame (after its substeps), its sinks remove the particles inside them
 //! (after every substep). See the module docs of [`crate::emitter`].
 
-use super::{Emitter, EmitterHandle, Sink, SinkHandle, SinkRegion};
+use super::{Emitter, EmitterHandle, MAX_ATTEMPTS_PER_FRAME, Sink, SinkHandle, SinkRegion};
 use crate::error::SphResult;
 use crate::fluid::Fluid;
 use crate::math::{Real, Vector};
@@ -24,9 +24,9 @@ impl Fluid {
     /// every step of the fluid.
     ///
     /// # Errors
-    ///
-    /// [`crate::SphError::InvalidParameter`] naming the emitter's bad field
-    /// ([`Emitter::validate`]); nothing is added.
+    /// [`Emitter::validate`]'s errors, and [`crate::SphError::InvalidParameter`] naming the
+    /// nozzle's size when it has more than [`super::MAX_NOZZLE_SLOTS`] slots at this fluid's
+    /// spacing (a nozzle of 1 km at 5 cm spacing would have 1.6·10^9); nothing is added.
     ///
     /// # Examples
     ///
@@ -50,6 +50,7 @@ impl Fluid {
     /// ```
     pub fn add_emitter(&mut self, emitter: Emitter) -> SphResult<EmitterHandle> {
         emitter.validate()?;
+        emitter.check_slots(self.params().particle_spacing)?;
         let (index, generation) = self.sources.emitters.insert(emitter);
         Ok(EmitterHandle { index, generation })
     }
@@ -211,16 +212,52 @@ impl Fluid {
             if at(e.due) > c1 || at(e.due) > e.stop as f64 {
                 continue;
             }
+            if e.check_slots(s).is_err() {
+                // Refused by `add_emitter` and `set_params`; a state restored from elsewhere
+                // cannot make a frame build billions of slots.
+                continue;
+            }
             let slots = e.slot_offsets(s);
             let travel = e.speed * dt;
             let reach = e.reach() + travel + s;
             // Particles near the nozzle (old ones; new ones are added to `near` as placed).
-            let mut near: Vec<Vector> = self
-                .positions
-                .iter()
-                .copied()
-                .filter(|x| (*x - e.position).length_squared() <= reach * reach)
-                .collect();
+            let mut near = NearGrid::new(s);
+            for x in &self.positions {
+                if (*x - e.position).length_squared() <= reach * reach {
+                    near.insert(*x);
+                }
+            }
+            // At most `attempts` due instants are tried this frame (see the module docs,
+            // "Bounds"): beyond it every `stride`-th is tried and the rest count as blocked.
+            let end = c1.min(e.stop as f64);
+            let last = ((end - start) * rate).floor();
+            let due_count = last - e.due as f64 + 1.0;
+            let layers = (e.speed as f64 * dt as f64 / (0.9 * s as f64)).floor();
+            let attempts = (4.0 * slots.len() as f64 * (layers + 1.0))
+                .min(MAX_ATTEMPTS_PER_FRAME as f64)
+                .max(1.0);
+            let stride = if due_count > attempts {
+                (due_count / attempts).ceil().min(u64::MAX as f64) as u64
+            } else {
+                1
+            };
+            // The memory the fluid would need if every try were placed: when it cannot be
+            // reserved, the emitter pauses for the frame as at the capacity.
+            let most = due_count.max(0.0).min(attempts);
+            if most >= 1.0
+                && crate::fluid::check_particle_count(
+                    (self.positions.len() + new_x.len()) as f64 + most,
+                    crate::fluid::bytes_per_particle(&p),
+                    "rate",
+                )
+                .is_err()
+            {
+                counts.capacity_reached = true;
+                counts.blocked = counts.blocked.saturating_add(due_count as usize);
+                continue;
+            }
+            let first = e.due;
+            let mut tried = 0u64;
             // Colliders near the nozzle, from rapier's broad-phase.
             let mut solids: Vec<ColliderHandle> = Vec::new();
             if let Some(bvh) = bvh {
@@ -238,8 +275,8 @@ impl Fluid {
                     }
                 }
             }
-            let placeable = |x: Vector, from: Vector, near: &[Vector]| -> bool {
-                if near.iter().any(|q| (*q - x).length_squared() < min_d2) {
+            let placeable = |x: Vector, from: Vector, near: &NearGrid| -> bool {
+                if near.any_within(x, min_d2) {
                     return false;
                 }
                 let motion = x - from;
@@ -262,6 +299,7 @@ impl Fluid {
                 if self
                     .capacity
                     .is_some_and(|cap| self.positions.len() + new_x.len() >= cap)
+                    || new_x.len() >= self.ids_left()
                 {
                     counts.capacity_reached = true;
                     break;
@@ -270,10 +308,11 @@ impl Fluid {
                 let (offset, dir) = slots[e.next_slot % slots.len()];
                 let from = e.position + offset;
                 let x = from + dir * (e.speed * age);
-                e.due += 1;
+                e.due = e.due.saturating_add(stride);
+                tried += 1;
                 e.next_slot = (e.next_slot + 1) % slots.len();
                 if placeable(x, from, &near) {
-                    near.push(x);
+                    near.insert(x);
                     new_x.push(x);
                     new_v.push(dir * e.speed);
                     e.emitted += 1;
@@ -282,6 +321,15 @@ impl Fluid {
                     counts.blocked += 1;
                 }
             }
+            if stride > 1 {
+                // The instants skipped between the tried ones were due and not emitted.
+                let next = e.due.min(last as u64 + 1);
+                e.due = next;
+                let skipped = next.saturating_sub(first).saturating_sub(tried);
+                counts.blocked = counts
+                    .blocked
+                    .saturating_add(usize::try_from(skipped).unwrap_or(usize::MAX));
+            }
         }
         self.sources.emitters = emitters;
         if !new_x.is_empty() {
@@ -289,5 +337,49 @@ impl Fluid {
             self.emitted += new_x.len();
         }
         counts
+    }
+}
+
+/// Points in cubic cells of one particle spacing, hashed: [`NearGrid::any_within`] scans the 27
+/// cells around a point, which hold every point closer than a spacing (the emitter asks for
+/// `0.9·spacing`), so it answers exactly as a scan of every point would.
+struct NearGrid {
+    inv_cell: f64,
+    cells: std::collections::HashMap<[i64; 3], Vec<Vector>>,
+}
+
+impl NearGrid {
+    fn new(cell: Real) -> Self {
+        Self {
+            inv_cell: 1.0 / cell as f64,
+            cells: std::collections::HashMap::new(),
+        }
+    }
+
+    fn key(&self, x: Vector) -> [i64; 3] {
+        let k = |v: Real| (v as f64 * self.inv_cell).floor() as i64;
+        [k(x.x), k(x.y), k(x.z)]
+    }
+
+    fn insert(&mut self, x: Vector) {
+        let key = self.key(x);
+        self.cells.entry(key).or_default().push(x);
+    }
+
+    /// Whether a point lies closer to `x` than `sqrt(d2)` (at most a cell).
+    fn any_within(&self, x: Vector, d2: Real) -> bool {
+        let [i, j, k] = self.key(x);
+        for a in i - 1..=i + 1 {
+            for b in j - 1..=j + 1 {
+                for c in k - 1..=k + 1 {
+                    if let Some(points) = self.cells.get(&[a, b, c])
+                        && points.iter().any(|q| (*q - x).length_squared() < d2)
+                    {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
     }
 }

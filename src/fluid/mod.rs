@@ -13,6 +13,69 @@ use crate::error::{SphError, SphResult};
 use crate::math::{Real, Vector, is_finite};
 use crate::params::FluidParams;
 
+/// Most particles one fluid can hold, and be given over its life: particle ids are `u32`
+/// ([`Fluid::ids`]), so a fluid hands out at most 2^32 − 1 of them. Every call that adds
+/// particles ([`Fluid::add_particles`], [`Fluid::add_block`], [`try_lattice`],
+/// [`Fluid::set_capacity`], emitters) checks it before allocating.
+pub const MAX_PARTICLES: usize = u32::MAX as usize;
+
+/// Heap bytes one particle of a fluid with these parameters costs once it has stepped: its
+/// attribute arrays, the neighbour grid and lists, the solver's buffers and the step's scratch
+/// ([`Fluid::heap_bytes`] divided by the particle count), as an upper bound
+/// `fixed + per_neighbour·N` with `N` the expected neighbour count
+/// ([`FluidParams::expected_neighbours`]): DFSPH `500 + 32·N` (it stores every pair's kernel
+/// gradient), Clavet with springs `300 + 45·N`, the others `300 + 7·N`.
+///
+/// Measured on the water dam break with 20,000 particles, largest over 20 frames (`H=2
+/// N=20000 cargo test --release --test limits -- --ignored --nocapture bytes_per_particle`,
+/// and `H=3` for a support of 3 spacings), in bytes per particle at N = 33.5 / 113.1: DFSPH
+/// 1,554 / 4,080, WCSPH 484 / 980, PBF 480 / 942, Clavet 361 / 839, Clavet with springs
+/// 1,486 / 4,897; the bounds above (with `N` rounded up) give 1,588 / 4,148 for DFSPH, 538 /
+/// 1,098 for WCSPH, PBF and Clavet, 1,830 / 5,430 for Clavet with springs.
+///
+/// Before a call adds particles, the memory the fluid will need with them
+/// (`particles × bytes_per_particle`) is reserved once and released (a probe): a request the
+/// machine cannot hold is refused with a typed error instead of aborting later. On Linux with
+/// the default overcommit policy a reservation larger than the RAM plus swap fails; with
+/// `vm.overcommit_memory = 1` every reservation succeeds, and only [`MAX_PARTICLES`] is
+/// checked.
+pub fn bytes_per_particle(params: &FluidParams) -> usize {
+    use crate::solver::Solver;
+    let (fixed, per_neighbour) = match &params.solver {
+        Solver::Dfsph(_) => (500.0, 32.0),
+        Solver::Clavet(c) if c.springs.is_some() => (300.0, 45.0),
+        _ => (300.0, 7.0),
+    };
+    let n = params.expected_neighbours().ceil() as f64;
+    (fixed + per_neighbour * n) as usize
+}
+
+/// Refuses a fluid of `total` particles that exceeds [`MAX_PARTICLES`] or whose working set
+/// (`total × bytes_each`) cannot be reserved; `field` names the argument at fault.
+pub(crate) fn check_particle_count(
+    total: f64,
+    bytes_each: usize,
+    field: &'static str,
+) -> SphResult<()> {
+    if total.is_nan() || total > MAX_PARTICLES as f64 {
+        return Err(SphError::InvalidParameter {
+            field,
+            value: total,
+            reason: "more particles than a fluid can hold (MAX_PARTICLES = 2^32 - 1: ids are u32)",
+        });
+    }
+    let bytes = (total as usize).saturating_mul(bytes_each);
+    let mut probe: Vec<u8> = Vec::new();
+    probe
+        .try_reserve_exact(bytes)
+        .map_err(|_| SphError::InvalidParameter {
+            field,
+            value: total,
+            reason: "the memory for that many particles cannot be reserved \
+                     (see `fluid::bytes_per_particle`)",
+        })
+}
+
 /// Mutable views of one fluid's particle arrays, borrowed together: the step's stages take
 /// the ones they use. Every array has one entry per particle, in the same order.
 pub(crate) struct ParticlesMut<'a> {
@@ -90,8 +153,16 @@ impl Fluid {
 
     /// Replaces the parameters (validated), e.g. to change the rest density mid-run as the
     /// paper's Figure 8 does.
+    ///
+    /// # Errors
+    /// [`FluidParams::validate`]'s errors, and the nozzle size of an emitter that would have
+    /// more than [`crate::emitter::MAX_NOZZLE_SLOTS`] slots at the new spacing. Nothing changes
+    /// on error.
     pub fn set_params(&mut self, params: FluidParams) -> SphResult<()> {
         params.validate()?;
+        for (_, e) in self.emitters() {
+            e.check_slots(params.particle_spacing)?;
+        }
         self.params = params;
         Ok(())
     }
@@ -141,12 +212,12 @@ impl Fluid {
                 }
             }
         }
-        if self.next_id.checked_add(positions.len() as u32).is_none()
-            || positions.len() > u32::MAX as usize
+        if positions.len() > MAX_PARTICLES
+            || self.next_id.checked_add(positions.len() as u32).is_none()
         {
             return Err(SphError::InvalidParticle {
                 index: 0,
-                reason: "more than 2^32 particles added over the fluid's life",
+                reason: "more than 2^32 - 1 particles added over the fluid's life (ids are u32)",
             });
         }
         if let Some(cap) = self.capacity
@@ -157,9 +228,47 @@ impl Fluid {
                 reason: "the fluid's capacity is reached (see `Fluid::set_capacity`)",
             });
         }
+        if !positions.is_empty() {
+            check_particle_count(
+                (self.positions.len() + positions.len()) as f64,
+                bytes_per_particle(&self.params),
+                "positions",
+            )?;
+            self.reserve(positions.len())
+                .map_err(|_| SphError::InvalidParameter {
+                    field: "positions",
+                    value: positions.len() as f64,
+                    reason: "cannot reserve memory for that many particles",
+                })?;
+        }
         self.append_unchecked(positions, velocities.unwrap_or(&[]));
         self.needs_depenetration = true;
         Ok(self.next_id - positions.len() as u32..self.next_id)
+    }
+
+    /// Reserves room for `extra` more particles in every per-particle array.
+    fn reserve(&mut self, extra: usize) -> Result<(), std::collections::TryReserveError> {
+        self.positions.try_reserve(extra)?;
+        self.velocities.try_reserve(extra)?;
+        self.accelerations.try_reserve(extra)?;
+        self.densities.try_reserve(extra)?;
+        self.pressures.try_reserve(extra)?;
+        self.ids.try_reserve(extra)?;
+        for v in self.attributes.values_mut() {
+            v.try_reserve(extra)?;
+        }
+        Ok(())
+    }
+
+    /// The id the next particle added gets (every id below it was handed out).
+    #[cfg_attr(not(feature = "snapshot"), allow(dead_code))]
+    pub(crate) fn next_id(&self) -> u32 {
+        self.next_id
+    }
+
+    /// Ids this fluid can still hand out (see [`MAX_PARTICLES`]).
+    pub(crate) fn ids_left(&self) -> usize {
+        (u32::MAX - self.next_id) as usize
     }
 
     /// Appends particles already checked (finite, outside solids); `velocities` empty means at
@@ -186,9 +295,13 @@ impl Fluid {
 
     /// Sets the particle capacity (`None`: unbounded). With a capacity, every per-particle
     /// array is reserved for it once (the pipeline's scratch for the fluid at its next step),
-    /// so emitting up to it never reallocates them; emitters pause when it is reached (the step report says so)
-    /// and [`Fluid::add_particles`] refuses to go beyond it. Refuses a capacity below the
-    /// current particle count, or one whose memory cannot be reserved.
+    /// so emitting up to it never reallocates them; emitters pause when it is reached (the
+    /// step report says so) and [`Fluid::add_particles`] refuses to go beyond it.
+    ///
+    /// # Errors
+    /// [`SphError::InvalidParameter`] naming `capacity` when it is below the current particle
+    /// count, above [`MAX_PARTICLES`], or when the memory for that many particles
+    /// ([`bytes_per_particle`] each) cannot be reserved.
     pub fn set_capacity(&mut self, capacity: Option<usize>) -> SphResult<()> {
         if let Some(cap) = capacity {
             if cap < self.len() {
@@ -198,6 +311,7 @@ impl Fluid {
                     reason: "below the current particle count",
                 });
             }
+            check_particle_count(cap as f64, bytes_per_particle(&self.params), "capacity")?;
             // An impossible capacity (a typo in a scene file) is an error, not an abort.
             let fail = |_| SphError::InvalidParameter {
                 field: "capacity",
@@ -236,6 +350,24 @@ impl Fluid {
 
     /// Fills the box `[min, min + size)` with particles on a cubic lattice at the fluid's
     /// particle spacing (the first particle half a spacing inside `min`). Returns the ids.
+    ///
+    /// # Errors
+    /// [`SphError::InvalidParameter`] naming `size` when the box is not finite and positive,
+    /// when it holds more particles than the fluid can ([`MAX_PARTICLES`], counting the
+    /// particles it has), or when their memory ([`bytes_per_particle`] each) cannot be
+    /// reserved: a 1 km block at 1 mm spacing (10^18 particles) is refused before anything is
+    /// allocated. Then, [`Fluid::add_particles`]'s errors (positions beyond 10,000 km, the
+    /// capacity). Nothing is added on error.
+    ///
+    /// # Examples
+    /// ```
+    /// use rapier_sph::{Fluid, FluidParamsBuilder, math::Vector};
+    /// let mut fluid = Fluid::new(FluidParamsBuilder::water(0.1).build().unwrap()).unwrap();
+    /// assert_eq!(fluid.add_block(Vector::ZERO, Vector::splat(0.5)).unwrap().len(), 125);
+    /// // A kilometre at a millimetre: refused, not an abort.
+    /// let mut fine = Fluid::new(FluidParamsBuilder::water(0.001).build().unwrap()).unwrap();
+    /// assert!(fine.add_block(Vector::ZERO, Vector::splat(1000.0)).is_err());
+    /// ```
     pub fn add_block(&mut self, min: Vector, size: Vector) -> SphResult<std::ops::Range<u32>> {
         if !is_finite(min) || !is_finite(size) || size.min_element() <= 0.0 {
             return Err(SphError::InvalidParameter {
@@ -245,14 +377,30 @@ impl Fluid {
             });
         }
         let s = self.params.particle_spacing;
-        let counts = (size / s).floor().max(Vector::ONE);
-        let points = lattice(
+        let counts = block_counts(s, size);
+        // Counted in f64 before any allocation (the per-axis counts may each fit while their
+        // product overflows).
+        let total = counts.x as f64 * counts.y as f64 * counts.z as f64;
+        check_particle_count(
+            self.len() as f64 + total,
+            bytes_per_particle(&self.params),
+            "size",
+        )?;
+        let points = try_lattice(
             min + Vector::splat(0.5 * s),
             counts.x as usize,
             counts.y as usize,
             counts.z as usize,
             s,
-        );
+        )
+        .map_err(|e| match e {
+            SphError::InvalidParameter { value, reason, .. } => SphError::InvalidParameter {
+                field: "size",
+                value,
+                reason,
+            },
+            e => e,
+        })?;
         self.add_particles(&points)
     }
 
@@ -415,10 +563,62 @@ impl Fluid {
     }
 }
 
+/// Particles along each axis of [`Fluid::add_block`]'s lattice (at least one).
+pub(crate) fn block_counts(spacing: Real, size: Vector) -> Vector {
+    (size / spacing).floor().max(Vector::ONE)
+}
+
 /// Points of an `nx × ny × nz` cubic lattice with spacing `s` starting at `origin`,
 /// x fastest.
+///
+/// # Panics
+/// When the count overflows, exceeds [`MAX_PARTICLES`] or its memory cannot be reserved (see
+/// [`try_lattice`], which returns an error instead: use it for counts from user input).
 pub fn lattice(origin: Vector, nx: usize, ny: usize, nz: usize, s: Real) -> Vec<Vector> {
-    let mut out = Vec::with_capacity(nx * ny * nz);
+    match try_lattice(origin, nx, ny, nz, s) {
+        Ok(points) => points,
+        Err(e) => panic!("lattice {nx} x {ny} x {nz}: {e}"),
+    }
+}
+
+/// [`lattice`], checked: the count `nx·ny·nz` is computed without overflow, must be at most
+/// [`MAX_PARTICLES`], and its memory (12 bytes a point) must be reservable (a fluid checks the
+/// memory its particles will need, [`bytes_per_particle`], when they are added).
+///
+/// # Errors
+/// [`SphError::InvalidParameter`] naming `counts`.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::{fluid::try_lattice, math::Vector};
+/// assert_eq!(try_lattice(Vector::ZERO, 4, 3, 2, 0.1).unwrap().len(), 24);
+/// assert!(try_lattice(Vector::ZERO, 1 << 22, 1 << 22, 1 << 22, 0.1).is_err());
+/// ```
+pub fn try_lattice(
+    origin: Vector,
+    nx: usize,
+    ny: usize,
+    nz: usize,
+    s: Real,
+) -> SphResult<Vec<Vector>> {
+    let count = nx.checked_mul(ny).and_then(|c| c.checked_mul(nz));
+    let count = match count {
+        Some(c) if c <= MAX_PARTICLES => c,
+        _ => {
+            return Err(SphError::InvalidParameter {
+                field: "counts",
+                value: nx as f64 * ny as f64 * nz as f64,
+                reason: "more particles than a fluid can hold (MAX_PARTICLES = 2^32 - 1: ids are u32)",
+            });
+        }
+    };
+    let mut out = Vec::new();
+    out.try_reserve_exact(count)
+        .map_err(|_| SphError::InvalidParameter {
+            field: "counts",
+            value: count as f64,
+            reason: "cannot reserve memory for that many points",
+        })?;
     for k in 0..nz {
         for j in 0..ny {
             for i in 0..nx {
@@ -426,5 +626,5 @@ pub fn lattice(origin: Vector, nx: usize, ny: usize, nz: usize, s: Real) -> Vec<
             }
         }
     }
-    out
+    Ok(out)
 }

@@ -4,7 +4,7 @@
 
 use super::{Attributes, Fluid};
 use crate::error::SphResult;
-use crate::math::{Real, Vector};
+use crate::math::{Real, Vector, is_finite};
 use crate::params::FluidParams;
 use serde::{Deserialize, Serialize};
 
@@ -51,9 +51,14 @@ impl FluidState {
         }
     }
 
-    /// The fluid back, checked: parameters valid, every array of the same length, positions
-    /// and velocities finite.
+    /// The fluid back, checked: parameters valid, every array of the same length, every value
+    /// finite, ids unique and below the next id, emitters and sinks valid, the capacity
+    /// reservable. (The solver's memory, Clavet's springs, is checked beside it:
+    /// `crate::snapshot`.)
     pub(crate) fn restore(self) -> SphResult<Fluid> {
+        use crate::SphError;
+        let invalid =
+            |index: usize, reason: &'static str| Err(SphError::InvalidParticle { index, reason });
         let mut f = Fluid::new(self.params)?;
         let n = self.positions.len();
         let lens = [
@@ -64,32 +69,59 @@ impl FluidState {
             self.ids.len(),
         ];
         if lens.iter().any(|&l| l != n) {
-            return Err(crate::SphError::InvalidParticle {
-                index: lens.iter().copied().min().unwrap_or(0).min(n),
-                reason: "snapshot arrays differ in length",
-            });
+            return invalid(
+                lens.iter().copied().min().unwrap_or(0).min(n),
+                "snapshot arrays differ in length",
+            );
         }
-        // Reuse the checks of `add_particles` on positions and velocities.
+        // Reuse the checks of `add_particles` on positions and velocities (finite, within
+        // 10,000 km, the id range and the memory the fluid will need).
         f.add_particles_with_velocities(&self.positions, Some(&self.velocities))?;
+        if let Some(i) = self.accelerations.iter().position(|a| !is_finite(*a)) {
+            return invalid(i, "snapshot acceleration is not finite");
+        }
+        for values in [&self.densities, &self.pressures] {
+            if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+                return invalid(i, "snapshot density or pressure is not finite");
+            }
+        }
+        let mut attributes = self.attributes;
+        if !attributes.is_consistent(n) {
+            return invalid(0, "snapshot attributes differ in length from the particles");
+        }
+        for values in attributes.values_mut() {
+            if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+                return invalid(
+                    i,
+                    "snapshot attribute (a solver's warm start) is not finite",
+                );
+            }
+        }
+        if let Some(i) = self.ids.iter().position(|&id| id >= self.next_id) {
+            return invalid(i, "snapshot particle id is not below the fluid's next id");
+        }
+        let mut sorted = self.ids.clone();
+        sorted.sort_unstable();
+        if let Some(w) = sorted.windows(2).position(|w| w[0] == w[1]) {
+            return invalid(w, "snapshot particle ids are not unique");
+        }
         f.accelerations = self.accelerations;
         f.densities = self.densities;
         f.pressures = self.pressures;
         f.ids = self.ids;
-        if !self.attributes.is_consistent(n) {
-            return Err(crate::SphError::InvalidParticle {
-                index: 0,
-                reason: "snapshot attributes differ in length from the particles",
-            });
-        }
-        f.attributes = self.attributes;
+        f.attributes = attributes;
         f.next_id = self.next_id;
         f.quarantined = self.quarantined;
         f.needs_depenetration = self.needs_depenetration;
         f.relax_pending = self.relax_pending;
         f.emitted = self.emitted;
         f.drained = self.drained;
+        if !self.sources.emitters.is_consistent() || !self.sources.sinks.is_consistent() {
+            return invalid(0, "snapshot emitter or sink slots are malformed");
+        }
+        let spacing = f.params().particle_spacing;
         for e in self.sources.emitters.iter() {
-            e.1.validate()?;
+            e.1.validate_state(spacing)?;
         }
         for s in self.sources.sinks.iter() {
             s.1.validate()?;

@@ -21,6 +21,17 @@ mod obj;
 mod ply;
 mod vtk;
 
+/// Largest file the readers of this module read (1 GiB): a binary PLY of particles of that
+/// size holds 26.8 million particles (40 bytes each), an OBJ mesh tens of millions of
+/// triangles. A larger file, or one that is not a regular file (a device such as
+/// `/dev/zero`, a pipe), is refused with [`ExportError::Io`] before it is read.
+pub const MAX_FILE_BYTES: u64 = 1 << 30;
+
+/// The bytes of `path`, read within [`MAX_FILE_BYTES`].
+fn read_bytes(path: &Path) -> Result<Vec<u8>, ExportError> {
+    crate::error::read_regular_file(path, MAX_FILE_BYTES).map_err(|e| ExportError::io(path, e))
+}
+
 pub use obj::{read_mesh_obj, write_mesh_obj};
 pub use ply::{read_mesh_ply, read_particles_ply, write_mesh_ply, write_particles_ply};
 pub use vtk::{read_mesh_vtk, read_particles_vtk, write_mesh_vtk, write_particles_vtk};

@@ -32,7 +32,8 @@ pub fn write_mesh_obj(path: impl AsRef<Path>, mesh: &TriangleMesh) -> Result<(),
 }
 
 /// Reads every model of an OBJ file into one triangle mesh (polygons are triangulated by
-/// `tobj`).
+/// `tobj`). Files beyond [`super::MAX_FILE_BYTES`], and what is not a regular file, are
+/// refused before they are read.
 pub fn read_mesh_obj(path: impl AsRef<Path>) -> Result<TriangleMesh, ExportError> {
     let path = path.as_ref();
     let options = tobj::LoadOptions {
@@ -40,12 +41,12 @@ pub fn read_mesh_obj(path: impl AsRef<Path>) -> Result<TriangleMesh, ExportError
         single_index: false,
         ..Default::default()
     };
-    let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| match e {
-        tobj::LoadError::OpenFileFailed => {
-            ExportError::io(path, std::io::Error::from(std::io::ErrorKind::NotFound))
-        }
-        e => ExportError::format(path, "obj", e),
-    })?;
+    let bytes = super::read_bytes(path)?;
+    // Materials are not read (the mesh is geometry only).
+    let (models, _materials) = tobj::load_obj_buf(&mut &bytes[..], &options, |_| {
+        Err(tobj::LoadError::OpenFileFailed)
+    })
+    .map_err(|e| ExportError::format(path, "obj", e))?;
     let mut mesh = TriangleMesh::default();
     for m in models {
         let base = mesh.vertices.len() as u32;

@@ -23,8 +23,8 @@ fn write(path: &Path, mut ply: Ply<DefaultElement>) -> Result<(), ExportError> {
 }
 
 fn read(path: &Path) -> Result<Ply<DefaultElement>, ExportError> {
-    let file = std::fs::File::open(path).map_err(|e| ExportError::io(path, e))?;
-    let mut r = std::io::BufReader::new(file);
+    let bytes = super::read_bytes(path)?;
+    let mut r = &bytes[..];
     Parser::<DefaultElement>::new()
         .read_ply(&mut r)
         .map_err(|e| ExportError::format(path, "ply", e))
@@ -105,6 +105,9 @@ pub fn write_particles_ply(path: impl AsRef<Path>, data: &ParticleData) -> Resul
 }
 
 /// Reads particles written by [`write_particles_ply`].
+///
+/// Files beyond [`super::MAX_FILE_BYTES`], and what is not a regular file (a device, a pipe),
+/// are refused with [`ExportError::Io`] before they are read.
 pub fn read_particles_ply(path: impl AsRef<Path>) -> Result<ParticleData, ExportError> {
     let path = path.as_ref();
     let ply = read(path)?;
@@ -170,6 +173,9 @@ pub fn write_mesh_ply(path: impl AsRef<Path>, mesh: &TriangleMesh) -> Result<(),
 }
 
 /// Reads a triangle mesh from PLY (faces must be triangles).
+///
+/// Files beyond [`super::MAX_FILE_BYTES`], and what is not a regular file (a device, a pipe),
+/// are refused with [`ExportError::Io`] before they are read.
 pub fn read_mesh_ply(path: impl AsRef<Path>) -> Result<TriangleMesh, ExportError> {
     let path = path.as_ref();
     let ply = read(path)?;

@@ -21,13 +21,16 @@ fn export(path: &Path, title: &str, piece: PolyDataPiece) -> Result<(), ExportEr
 }
 
 fn import(path: &Path) -> Result<PolyDataPiece, ExportError> {
-    if !path.exists() {
-        return Err(ExportError::io(
+    if path.extension().and_then(|e| e.to_str()) != Some("vtk") {
+        return Err(ExportError::format(
             path,
-            std::io::Error::from(std::io::ErrorKind::NotFound),
+            "vtk",
+            "only legacy `.vtk` files are read",
         ));
     }
-    let vtk = Vtk::import(path).map_err(|e| ExportError::format(path, "vtk", e))?;
+    let bytes = super::read_bytes(path)?;
+    // What `Vtk::import` does with a `.vtk` file, on bytes read within the size limit.
+    let vtk = Vtk::parse_legacy_be(&bytes[..]).map_err(|e| ExportError::format(path, "vtk", e))?;
     match vtk.data {
         DataSet::PolyData { mut pieces, .. } if pieces.len() == 1 => match pieces.remove(0) {
             Piece::Inline(p) => Ok(*p),
@@ -117,6 +120,9 @@ fn points(piece: &PolyDataPiece, path: &Path) -> Result<Vec<crate::math::Vector>
 }
 
 /// Reads particles written by [`write_particles_vtk`].
+///
+/// Files beyond [`super::MAX_FILE_BYTES`], and what is not a regular file (a device, a pipe),
+/// are refused with [`ExportError::Io`] before they are read.
 pub fn read_particles_vtk(path: impl AsRef<Path>) -> Result<ParticleData, ExportError> {
     let path = path.as_ref();
     let piece = import(path)?;
@@ -155,6 +161,9 @@ pub fn write_mesh_vtk(path: impl AsRef<Path>, mesh: &TriangleMesh) -> Result<(),
 }
 
 /// Reads a triangle mesh from VTK `POLYDATA` polygons (every polygon must be a triangle).
+///
+/// Files beyond [`super::MAX_FILE_BYTES`], and what is not a regular file (a device, a pipe),
+/// are refused with [`ExportError::Io`] before they are read.
 pub fn read_mesh_vtk(path: impl AsRef<Path>) -> Result<TriangleMesh, ExportError> {
     let path = path.as_ref();
     let piece = import(path)?;

@@ -19,7 +19,7 @@ mod substep;
 mod time_stepping;
 mod workspace;
 
-pub use time_stepping::TimeStepping;
+pub use time_stepping::{MAX_SUBSTEPS, TimeStepping};
 
 use crate::boundary::Coupling;
 use crate::diagnostics::{Stage, StepReport};

@@ -45,11 +45,28 @@ impl Default for TimeStepping {
     }
 }
 
+/// Most substeps [`TimeStepping::Adaptive`] may divide a frame into (`max_substeps`).
+///
+/// Why 2^16 = 65,536: 256 times the default cap (256), so a frame costs at most 256 times
+/// the worst frame of the default settings; and the substeps of a frame are summed in single
+/// precision (`Real`), whose rounding over `N` equal substeps can reach `N·2^−24` of the frame:
+/// 2^−8 (0.4 %) at this cap, more beyond it.
+pub const MAX_SUBSTEPS: u32 = 1 << 16;
+
 impl TimeStepping {
-    /// Checks the policy: a positive finite Courant number, at least one substep.
+    /// Checks the policy: a positive finite Courant number, between 1 and [`MAX_SUBSTEPS`]
+    /// substeps. [`crate::FluidPipeline::step`] calls it first.
     ///
     /// # Errors
     /// [`SphError::InvalidParameter`] naming `courant` or `max_substeps`.
+    ///
+    /// # Examples
+    /// ```
+    /// use rapier_sph::TimeStepping;
+    /// assert!(TimeStepping::default().validate().is_ok());
+    /// let endless = TimeStepping::Adaptive { courant: 1e-9, max_substeps: u32::MAX };
+    /// assert!(endless.validate().is_err());
+    /// ```
     pub fn validate(&self) -> SphResult<()> {
         if let TimeStepping::Adaptive {
             courant,
@@ -68,6 +85,13 @@ impl TimeStepping {
                     field: "max_substeps",
                     value: 0.0,
                     reason: "must be at least 1",
+                });
+            }
+            if max_substeps > MAX_SUBSTEPS {
+                return Err(SphError::InvalidParameter {
+                    field: "max_substeps",
+                    value: max_substeps as f64,
+                    reason: "more than MAX_SUBSTEPS (65,536) substeps per frame",
                 });
             }
         }

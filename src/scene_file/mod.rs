@@ -57,10 +57,16 @@
 //! Errors name the file, the line and column, and the field (`fluids[0].blocks[1].size`):
 //! unknown fields are refused (`deny_unknown_fields`), numbers are checked while they are read
 //! (a radius must be positive and finite, a position finite), and each fluid's parameters are
-//! validated as a whole when its entry ends; so are emitters, sinks and bodies (an emitter
-//! whose `stop` is before its `start`, a sink box with `max` below `min`, a velocity on a body
-//! that cannot keep one). Collider names are checked once the whole file is read: a sink that
-//! names no collider, or two colliders with one name, is reported at the name's line.
+//! validated as a whole when its entry ends; so are emitters, sinks, bodies and shapes (an
+//! emitter whose `stop` is before its `start`, a sink box with `max` below `min`, a velocity
+//! on a body that cannot keep one, a mesh index past its vertices, a degenerate hull).
+//! Collider names are checked once the whole file is read: a sink that names no collider, or
+//! two colliders with one name, is reported at the name's line. So are the bounds on the work
+//! a scene asks for ([`MAX_STEPS_PER_FRAME`], [`MAX_FRAMES`]) and on its particles (a fluid's
+//! count and memory, nozzles, capacities: see [`crate::fluid::MAX_PARTICLES`]), each at its
+//! field's line; [`SceneFile::load_and_build`] reports what fails when the scene is built (a
+//! mesh file that cannot be read) at the field's line too. Files are read only if they are
+//! regular files of at most [`MAX_FILE_BYTES`].
 //!
 //! Bodies keep a velocity only if they are `Dynamic` (initial velocity) or
 //! `KinematicVelocityBased` (constant `linvel` and `angvel`: a conveyor, a paddle wheel). A
@@ -69,6 +75,7 @@
 
 #![cfg_attr(docsrs, doc(cfg(feature = "scene")))]
 
+mod locate;
 mod shapes;
 mod sources;
 mod values;
@@ -88,6 +95,31 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeSet;
 use std::fmt;
 use std::path::{Path, PathBuf};
+
+/// Largest scene file, and largest mesh file a scene reads (1 GiB, tens of millions of
+/// triangles in OBJ). A larger file, or one that is not a regular file (a device such as
+/// `/dev/zero`, a pipe), is refused before it is read.
+pub const MAX_FILE_BYTES: u64 = 1 << 30;
+
+/// Most steps a frame may take: `ceil(1/(frame_rate·dt)) ≤ 65,536` (2^16), checked when a
+/// scene is read (the field `dt`). Each step is a rapier step and a fluid step (which the
+/// fluid pipeline may split further, within its own bound [`crate::pipeline::MAX_SUBSTEPS`]).
+/// The bound admits, at 30 frames per second, steps down to 0.5 µs: five times finer than the
+/// acoustic limit `0.4·h/c` of water at 0.1 mm spacing (2.7 µs, 12,500 steps a frame).
+pub const MAX_STEPS_PER_FRAME: usize = 1 << 16;
+
+/// Longest step a scene may take (s): the fluid pipeline divides a step into at most 256
+/// adaptive substeps by default, and the coarsest stable substep of the presets is about
+/// 5 ms (DFSPH under gravity at 5 cm spacing), so a step much longer than 256 × 5 ms = 1.28 s
+/// would run against the substep cap. A scene without `dt` steps once per frame, so this also
+/// bounds the frame (a frame rate of 10^-30 is refused).
+pub const MAX_STEP_SECONDS: Real = 1.0;
+
+/// Most frames a scene may last: `duration·frame_rate ≤ 2^24` (16,777,216; 6.5 days at 30
+/// frames per second), checked when a scene is read (the field `duration`). A frame's time,
+/// `frame/frame_rate`, is computed in single precision, which tells consecutive frames apart
+/// only up to 2^24 frames.
+pub const MAX_FRAMES: usize = 1 << 24;
 
 /// A whole scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -576,7 +608,8 @@ pub struct ColliderDesc {
     /// named sensors.
     #[serde(default)]
     pub name: Option<ColliderName>,
-    /// The shape (every parry shape; see [`ShapeDesc`]).
+    /// The shape (every parry shape; see [`ShapeDesc`]), checked as it is read.
+    #[serde(deserialize_with = "values::checked")]
     pub shape: ShapeDesc,
     /// Position relative to the body (m).
     #[serde(default)]
@@ -665,7 +698,9 @@ pub enum SceneError {
         /// The operating system's error.
         source: std::io::Error,
     },
-    /// The file is not a valid scene: bad syntax, an unknown or missing field, a bad value.
+    /// The file is not a valid scene: bad syntax, an unknown or missing field, a bad value,
+    /// or (from [`SceneFile::load_and_build`]) a scene that cannot be built (a mesh file that
+    /// cannot be read, ...). Always located: file, line, column, field.
     Parse {
         /// The file.
         path: PathBuf,
@@ -678,8 +713,10 @@ pub enum SceneError {
         /// What is wrong.
         message: String,
     },
-    /// The file parsed but the scene cannot be built (a mesh file is missing, a convex hull is
-    /// degenerate, ...).
+    /// A scene value cannot be built by [`SceneFile::build`] (a mesh file is missing or too
+    /// large). The value may not come from a text (a [`SceneFile`] made in code), so the error
+    /// names the field only; [`SceneFile::load_and_build`] reports it as a
+    /// [`SceneError::Parse`] at the field's line.
     Invalid {
         /// The scene file.
         path: PathBuf,
@@ -719,20 +756,44 @@ impl fmt::Display for SceneError {
 impl std::error::Error for SceneError {}
 
 impl SceneFile {
-    /// Reads and checks a scene file.
+    /// Reads and checks a scene file (at most [`MAX_FILE_BYTES`], a regular file).
+    ///
+    /// # Errors
+    /// [`SceneError::Io`] when the file cannot be read (missing, too large, not a regular
+    /// file, not UTF-8), else [`SceneFile::parse`]'s errors.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, SceneError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = Self::read_text(path)?;
         Self::parse(&text, path)
     }
 
+    /// The text of a scene file, read within [`MAX_FILE_BYTES`].
+    fn read_text(path: &Path) -> Result<String, SceneError> {
+        let io = |source| SceneError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let bytes = crate::error::read_regular_file(path, MAX_FILE_BYTES).map_err(io)?;
+        String::from_utf8(bytes)
+            .map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))
+    }
+
     /// Parses and checks scene text; `path` is only used in error messages.
+    ///
+    /// Besides every value, it checks what [`SceneFile::build`] would refuse without reading
+    /// a file: the steps per frame ([`MAX_STEPS_PER_FRAME`]) and the frames
+    /// ([`MAX_FRAMES`]), each fluid's particle count and its memory (a block's lattice,
+    /// [`crate::fluid::MAX_PARTICLES`], [`crate::fluid::bytes_per_particle`]), positions
+    /// within 10,000 km, emitters at the fluid's spacing, capacities, collider names.
+    ///
+    /// # Errors
+    /// [`SceneError::Parse`], naming the file, the line and column, and the field.
     pub fn parse(text: &str, path: impl AsRef<Path>) -> Result<Self, SceneError> {
         let path = path.as_ref();
         let scene = Self::read(text, path)?;
+        if let Err((field, message)) = scene.check() {
+            return Err(located(text, path, field, message));
+        }
         // Collider names can only be checked once the whole file is read (a sink may come
         // before the collider it names). When they do not match, the file is read again with
         // the names known, so the error points at the offending name.
@@ -746,6 +807,110 @@ impl SceneFile {
             });
         }
         Ok(scene)
+    }
+
+    /// What [`SceneFile::build`] would refuse that needs no file: returns the field and the
+    /// message of the first problem (see [`SceneFile::parse`]).
+    fn check(&self) -> Result<(), (String, String)> {
+        let frames = self.duration.0 as f64 * self.frame_rate.0 as f64;
+        if frames > MAX_FRAMES as f64 {
+            return Err((
+                "duration".into(),
+                format!(
+                    "{} s at {} frames/s is {frames:.3e} frames, more than MAX_FRAMES (2^24 = \
+                     {MAX_FRAMES})",
+                    self.duration.0, self.frame_rate.0
+                ),
+            ));
+        }
+        let (dt, steps) = self.time_step();
+        if dt > MAX_STEP_SECONDS {
+            return Err((
+                "dt".into(),
+                format!(
+                    "a step of {dt:e} s (one frame of 1/{} s when no dt is given) is longer than \
+                     MAX_STEP_SECONDS ({MAX_STEP_SECONDS} s): the substeps could not keep it stable",
+                    self.frame_rate.0
+                ),
+            ));
+        }
+        if steps > MAX_STEPS_PER_FRAME || !(dt > 0.0) {
+            let given = if self.dt.is_some() {
+                ""
+            } else {
+                " (the default)"
+            };
+            return Err((
+                "dt".into(),
+                format!(
+                    "a time step of {dt:e} s{given} takes {} steps per frame of 1/{} s, more \
+                     than MAX_STEPS_PER_FRAME (2^16 = {MAX_STEPS_PER_FRAME})",
+                    if steps == usize::MAX {
+                        "more than 10^19".to_string()
+                    } else {
+                        steps.to_string()
+                    },
+                    self.frame_rate.0
+                ),
+            ));
+        }
+        for (fi, f) in self.fluids.iter().enumerate() {
+            let field = |name: String| format!("fluids[{fi}]{name}");
+            let Ok(params) = f.params() else {
+                continue; // checked as the fluid was read
+            };
+            let s = params.particle_spacing;
+            let bytes = crate::fluid::bytes_per_particle(&params);
+            let far = |p: Vector| !crate::math::is_finite(p) || p.abs().max_element() > 1.0e7;
+            let mut total = 0.0f64;
+            for (k, b) in f.blocks.iter().enumerate() {
+                let counts = crate::fluid::block_counts(s, b.size.vector());
+                total += counts.x as f64 * counts.y as f64 * counts.z as f64;
+                crate::fluid::check_particle_count(total, bytes, "size")
+                    .map_err(|e| (field(format!(".blocks[{k}].size")), e.to_string()))?;
+                // The lattice's first and last points, as `Fluid::add_block` places them.
+                let first = b.min.vector() + Vector::splat(0.5 * s);
+                let last = first + (counts - Vector::ONE) * s;
+                if far(first) || far(last) {
+                    return Err((
+                        field(format!(".blocks[{k}].min")),
+                        "the block reaches beyond 10,000 km from the origin (single precision \
+                         cannot resolve particle spacing there)"
+                            .into(),
+                    ));
+                }
+            }
+            if let Some(k) = f.particles.iter().position(|p| far(p.vector())) {
+                return Err((
+                    field(format!(".particles[{k}]")),
+                    "position beyond 10,000 km from the origin (single precision cannot \
+                     resolve particle spacing there)"
+                        .into(),
+                ));
+            }
+            total += f.particles.len() as f64;
+            crate::fluid::check_particle_count(total, bytes, "particles")
+                .map_err(|e| (field(".particles".into()), e.to_string()))?;
+            for (k, e) in f.emitters.iter().enumerate() {
+                let emitter = e
+                    .emitter(s)
+                    .map_err(|m| (field(format!(".emitters[{k}]")), m))?;
+                emitter
+                    .check_slots(s)
+                    .map_err(|e| (field(format!(".emitters[{k}].nozzle")), e.to_string()))?;
+            }
+            if let Some(cap) = f.capacity {
+                if (cap as f64) < total {
+                    return Err((
+                        field(".capacity".into()),
+                        format!("{cap} is below the {total} particles the file adds"),
+                    ));
+                }
+                crate::fluid::check_particle_count(cap as f64, bytes, "capacity")
+                    .map_err(|e| (field(".capacity".into()), e.to_string()))?;
+            }
+        }
+        Ok(())
     }
 
     /// The names given to colliders.
@@ -951,12 +1116,35 @@ impl SceneFile {
     }
 
     /// [`SceneFile::load`] then [`SceneFile::build`], mesh paths relative to the file.
+    ///
+    /// # Errors
+    /// [`SceneError::Io`] when the scene file cannot be read; every other error is a
+    /// [`SceneError::Parse`] naming the file, the line and column, and the field (a build
+    /// error, such as a mesh file that cannot be read, is located at its field).
     pub fn load_and_build(path: impl AsRef<Path>) -> Result<(Self, BuiltScene), SceneError> {
         let path = path.as_ref();
-        let scene = Self::load(path)?;
+        let text = Self::read_text(path)?;
+        let scene = Self::parse(&text, path)?;
         let base = path.parent().unwrap_or(Path::new("."));
-        let built = scene.build(path, base)?;
-        Ok((scene, built))
+        match scene.build(path, base) {
+            Ok(built) => Ok((scene, built)),
+            Err(SceneError::Invalid { field, message, .. }) => {
+                Err(located(&text, path, field, message))
+            }
+            Err(e) => Err(e),
+        }
+    }
+}
+
+/// A [`SceneError::Parse`] at the place `field` is written in `text`.
+fn located(text: &str, path: &Path, field: String, message: String) -> SceneError {
+    let (line, column) = locate::locate(text, &field);
+    SceneError::Parse {
+        path: path.to_path_buf(),
+        line,
+        column,
+        field,
+        message,
     }
 }
 

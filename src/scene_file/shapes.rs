@@ -106,14 +106,18 @@ pub enum ShapeDesc {
         #[serde(default)]
         indices: Option<Vec<(u32, u32)>>,
     },
-    /// A triangle mesh given inline.
+    /// A triangle mesh given inline. It is built without parry's `TriMeshFlags::ORIENTED`: a
+    /// surface, not a solid, so a closed mesh holds fluid inside it (a tank) as well as
+    /// keeping it out (see [`crate::query::check_container`] for meshes built in code).
     TriMesh {
         /// Vertices (m).
         vertices: Vec<Vec3>,
         /// Triangles as vertex index triples.
         indices: Vec<(u32, u32, u32)>,
     },
-    /// A triangle mesh read from a Wavefront OBJ file (path relative to the scene file).
+    /// A triangle mesh read from a Wavefront OBJ file (path relative to the scene file), at
+    /// most [`super::MAX_FILE_BYTES`] long and a regular file (not a device or a pipe). Built
+    /// as [`ShapeDesc::TriMesh`] is (a surface).
     TriMeshFile {
         /// The OBJ file.
         path: String,
@@ -165,6 +169,7 @@ pub enum ShapeDesc {
 #[serde(deny_unknown_fields, rename = "Part")]
 pub struct CompoundPart {
     /// The part's shape (not itself a compound).
+    #[serde(deserialize_with = "super::values::checked")]
     pub shape: ShapeDesc,
     /// Position within the compound (m).
     #[serde(default)]
@@ -182,6 +187,36 @@ fn check_indices<const N: usize>(idx: &[[u32; N]], n: usize) -> Result<(), Strin
     match idx.iter().find(|t| t.iter().any(|&i| i as usize >= n)) {
         Some(t) => Err(format!("index {t:?} is past the {n} vertices")),
         None => Ok(()),
+    }
+}
+
+impl super::values::Validate for ShapeDesc {
+    /// Everything [`ShapeDesc::build`] checks that needs no file: the shape is built (an
+    /// inline mesh, a hull, a height field), so a bad one is reported at its own line.
+    fn validate(&self) -> Result<(), String> {
+        match self {
+            ShapeDesc::TriMeshFile { path, .. } => {
+                if path.is_empty() {
+                    return Err("the mesh file's path is empty".into());
+                }
+                Ok(())
+            }
+            // Each part was checked as it was read.
+            ShapeDesc::Compound { parts } => {
+                if parts.is_empty() {
+                    return Err("a compound needs at least one part".into());
+                }
+                match parts
+                    .iter()
+                    .position(|p| matches!(p.shape, ShapeDesc::Compound { .. }))
+                {
+                    Some(k) => Err(format!("part {k}: a compound cannot hold a compound")),
+                    None => Ok(()),
+                }
+            }
+            // No file is read for these.
+            _ => self.build(Path::new("")).map(|_| ()),
+        }
     }
 }
 
@@ -324,8 +359,13 @@ fn read_obj(path: &Path) -> Result<(Vec<Vector>, Vec<[u32; 3]>), String> {
         single_index: false,
         ..Default::default()
     };
-    let (models, _) =
-        tobj::load_obj(path, &options).map_err(|e| format!("{}: {e}", path.display()))?;
+    let bytes = crate::error::read_regular_file(path, super::MAX_FILE_BYTES)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    // Materials are not read (a collider is geometry only).
+    let (models, _) = tobj::load_obj_buf(&mut &bytes[..], &options, |_| {
+        Err(tobj::LoadError::OpenFileFailed)
+    })
+    .map_err(|e| format!("{}: {e}", path.display()))?;
     let mut vertices = Vec::new();
     let mut idx = Vec::new();
     for m in models {

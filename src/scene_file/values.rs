@@ -147,3 +147,12 @@ where
     let v: Vec<Checked<T>> = Vec::deserialize(d)?;
     Ok(v.into_iter().map(|c| c.0).collect())
 }
+
+/// A single value validated as it ends (the error points at it).
+pub(crate) fn checked<'de, D, T>(d: D) -> Result<T, D::Error>
+where
+    D: Deserializer<'de>,
+    T: Deserialize<'de> + Validate,
+{
+    Ok(Checked::<T>::deserialize(d)?.0)
+}

@@ -88,6 +88,17 @@ impl SpringSet {
             || (self.owners.is_empty() && self.offsets.is_empty() && self.partners.is_empty())
     }
 
+    /// `true` when every owner and partner is an id below `next_id` (a handed-out id: the
+    /// spring stage sizes its by-id tables by the largest id; used when a snapshot is
+    /// restored).
+    #[cfg(feature = "snapshot")]
+    pub(crate) fn ids_below(&self, next_id: u32) -> bool {
+        self.owners
+            .iter()
+            .chain(&self.partners)
+            .all(|&id| id < next_id)
+    }
+
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
         (self.owners.capacity()

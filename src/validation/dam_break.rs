@@ -41,7 +41,7 @@
 use super::data::{Curve, read_curve};
 use super::{DriveSpec, Method, Metric, RunRecord, SimCurve, TimePolicy, drive, rms_relative};
 use crate::error::{SphError, SphResult};
-use crate::fluid::{Fluid, lattice};
+use crate::fluid::{Fluid, try_lattice};
 use crate::math::{Real, Vector};
 use crate::params::{FluidParams, FluidParamsBuilder};
 use crate::scenes::add_closed_box;
@@ -254,7 +254,7 @@ impl DamBreak2d {
         add_closed_box(&mut world, Vector::ZERO, tank_max, (4.0 * s).max(0.05));
         world.physics.step();
         let mut fluid = Fluid::new(params)?;
-        fluid.add_particles(&lattice(Vector::splat(0.5 * s), nx, ny, LAYERS, s))?;
+        fluid.add_particles(&try_lattice(Vector::splat(0.5 * s), nx, ny, LAYERS, s)?)?;
         let fluid = world.fluids.insert(fluid);
         Ok(Self {
             world,

@@ -26,7 +26,7 @@
 use super::data::{Curve, read_curve};
 use super::{DriveSpec, Method, Metric, RunRecord, SimCurve, TimePolicy, drive, interpolate};
 use crate::error::{SphError, SphResult};
-use crate::fluid::{Fluid, lattice};
+use crate::fluid::{Fluid, try_lattice};
 use crate::kernel::KernelKind;
 use crate::math::{Real, Vector};
 use crate::params::FluidParamsBuilder;
@@ -137,7 +137,13 @@ pub fn run(
     world.physics.step();
     let mut fluid = Fluid::new(params.clone())?;
     let nx = (COLUMN_LENGTH / s).round() as usize;
-    fluid.add_particles(&lattice(Vector::splat(0.5 * s), nx, resolution, layers, s))?;
+    fluid.add_particles(&try_lattice(
+        Vector::splat(0.5 * s),
+        nx,
+        resolution,
+        layers,
+        s,
+    )?)?;
     let particles = fluid.len();
     let energy_bound: f64 = fluid
         .positions()

@@ -38,6 +38,37 @@ impl Default for Clavet {
     }
 }
 
+impl Clavet {
+    /// Checks the settings (and the springs'); returns the first problem, naming its field.
+    ///
+    /// # Errors
+    /// [`crate::SphError::InvalidParameter`] naming the first bad field.
+    pub fn validate(&self) -> crate::SphResult<()> {
+        let non_negative = |field, v: Real| {
+            if !v.is_finite() || v < 0.0 {
+                Err(crate::SphError::InvalidParameter {
+                    field,
+                    value: v as f64,
+                    reason: "must be finite and non-negative",
+                })
+            } else {
+                Ok(())
+            }
+        };
+        non_negative("stiffness", self.stiffness)?;
+        non_negative("cohesion", self.cohesion)?;
+        if let Some(k) = self.near_stiffness {
+            non_negative("near_stiffness", k)?;
+        }
+        if let Some(sp) = &self.springs {
+            non_negative("spring_stiffness", sp.stiffness)?;
+            non_negative("yield_ratio", sp.yield_ratio)?;
+            non_negative("plasticity", sp.plasticity)?;
+        }
+        Ok(())
+    }
+}
+
 #[cfg(feature = "snapshot")]
 fn default_cohesion() -> Real {
     1.0

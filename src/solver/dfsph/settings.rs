@@ -69,3 +69,56 @@ impl Default for Dfsph {
         }
     }
 }
+
+impl Dfsph {
+    /// Checks the settings; returns the first problem, naming its field. `max_iterations`
+    /// must be between 1 and [`crate::params::MAX_SOLVER_ITERATIONS`] and at least both
+    /// minimum counts (the cap bounds a substep's work).
+    ///
+    /// # Errors
+    /// [`crate::SphError::InvalidParameter`] naming the first bad field.
+    pub fn validate(&self) -> crate::SphResult<()> {
+        use crate::error::SphError;
+        for (field, v) in [
+            ("max_density_error", self.max_density_error),
+            ("max_divergence_error", self.max_divergence_error),
+        ] {
+            if !v.is_finite() || v <= 0.0 {
+                return Err(SphError::InvalidParameter {
+                    field,
+                    value: v as f64,
+                    reason: if v.is_finite() {
+                        "must be positive"
+                    } else {
+                        "must be finite"
+                    },
+                });
+            }
+        }
+        if !(0.0..=1.0).contains(&self.warm_start) {
+            return Err(SphError::InvalidParameter {
+                field: "warm_start",
+                value: self.warm_start as f64,
+                reason: "must be a fraction in [0, 1]",
+            });
+        }
+        if self.max_iterations == 0
+            || self.min_iterations > self.max_iterations
+            || self.min_divergence_iterations > self.max_iterations
+        {
+            return Err(SphError::InvalidParameter {
+                field: "max_iterations",
+                value: self.max_iterations as f64,
+                reason: "must be at least 1 and at least both minimum iteration counts",
+            });
+        }
+        if self.max_iterations > crate::params::MAX_SOLVER_ITERATIONS {
+            return Err(SphError::InvalidParameter {
+                field: "max_iterations",
+                value: self.max_iterations as f64,
+                reason: "more than MAX_SOLVER_ITERATIONS (2048) iterations per solve",
+            });
+        }
+        Ok(())
+    }
+}

@@ -57,6 +57,71 @@ impl Default for Pbf {
     }
 }
 
+impl Pbf {
+    /// Checks the settings; returns the first problem, naming its field. `iterations` must be
+    /// between 1 and [`crate::params::MAX_SOLVER_ITERATIONS`] (each iteration is two passes
+    /// over the neighbours: the cap bounds a substep's work).
+    ///
+    /// # Errors
+    /// [`crate::SphError::InvalidParameter`] naming the first bad field.
+    pub fn validate(&self) -> crate::SphResult<()> {
+        use crate::error::SphError;
+        let bad = |field, value: f64, reason| {
+            Err(SphError::InvalidParameter {
+                field,
+                value,
+                reason,
+            })
+        };
+        if self.iterations == 0 {
+            return bad("iterations", 0.0, "PBF needs at least one iteration");
+        }
+        if self.iterations > crate::params::MAX_SOLVER_ITERATIONS {
+            return bad(
+                "iterations",
+                self.iterations as f64,
+                "more than MAX_SOLVER_ITERATIONS (2048) Jacobi iterations per substep",
+            );
+        }
+        if !self.relaxation.is_finite() || self.relaxation < 0.0 {
+            return bad(
+                "relaxation",
+                self.relaxation as f64,
+                "must be finite and non-negative",
+            );
+        }
+        if !self.artificial_pressure.is_finite() || self.artificial_pressure < 0.0 {
+            return bad(
+                "artificial_pressure",
+                self.artificial_pressure as f64,
+                "must be finite and non-negative",
+            );
+        }
+        if !(self.artificial_pressure_distance > 0.0 && self.artificial_pressure_distance < 1.0) {
+            return bad(
+                "artificial_pressure_distance",
+                self.artificial_pressure_distance as f64,
+                "must be a fraction of the support radius, in (0, 1)",
+            );
+        }
+        if self.max_density_error.is_nan() || self.max_density_error <= 0.0 {
+            return bad(
+                "max_density_error",
+                self.max_density_error as f64,
+                "must be positive (infinity switches the time step control off)",
+            );
+        }
+        if !(1..=16).contains(&self.artificial_pressure_exponent) {
+            return bad(
+                "artificial_pressure_exponent",
+                self.artificial_pressure_exponent as f64,
+                "must be between 1 and 16",
+            );
+        }
+        Ok(())
+    }
+}
+
 #[cfg(feature = "snapshot")]
 fn default_max_density_error() -> Real {
     Pbf::default().max_density_error
