@@ -352,7 +352,7 @@ fn an_oriented_closed_tank_is_detected() {
 /// Heap bytes per particle once a fluid has stepped: the figure behind
 /// `rapier_sph::fluid::BYTES_PER_PARTICLE`. Prints; run with `--ignored --nocapture`.
 #[test]
-#[ignore]
+#[ignore = "a measurement, not a check: prints the heap bytes per particle behind BYTES_PER_PARTICLE (run with --ignored --nocapture)"]
 fn bytes_per_particle() {
     for solver in [
         Solver::dfsph(),

@@ -218,7 +218,7 @@ fn the_unmutated_reference_builds() {
 
 /// Counts what many mutations give and shows a few errors (prints; `--ignored --nocapture`).
 #[test]
-#[ignore]
+#[ignore = "a measurement, not a check: prints what many mutations give (run with --ignored --nocapture)"]
 fn mutation_outcomes() {
     use rand::{Rng, SeedableRng};
     let n: usize = std::env::var("N").map_or(2000, |v| v.parse().unwrap());

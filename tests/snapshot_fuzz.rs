@@ -221,7 +221,7 @@ fn the_fuzzed_snapshot_loads() {
 
 /// Counts the outcomes of many resealed corruptions (prints; `--ignored --nocapture`).
 #[test]
-#[ignore]
+#[ignore = "a measurement, not a check: prints the outcomes of many resealed corruptions (run with --ignored --nocapture)"]
 fn resealed_corruption_outcomes() {
     use rand::{Rng, SeedableRng};
     let n: usize = std::env::var("N").map_or(20_000, |v| v.parse().unwrap());
