@@ -57,7 +57,7 @@
 //! `E = Σ_i F(ρ_i) + G(ρ_i^near)`, `F' = h·P/4`, `G' = h·P^near/6` (the pair terms above are
 //! exactly `−dt²·∇_i E`); a wall's density enters only its particle's own `F` and `G`, so its
 //! term is `Δx_i = −dt²·h·(P_i/4·∇ρ_wall + P_i^near/6·∇ρ^near_wall)`, half of what mirroring
-//! the particle's pressures into the wall would give. Mirrored fully (tried in session 14),
+//! the particle's pressures into the wall would give. Mirrored fully,
 //! a column at rest in a closed tank gained energy and never settled (no cohesion: still
 //! 1.0 m/s after 2 s at `h = 2s`, 5.3 m/s at `3s`), as WCSPH's walls did
 //! (`src/pressure/wcsph.rs`). Dynamic bodies are left to contact, whose impulses they

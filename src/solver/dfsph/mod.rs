@@ -51,7 +51,7 @@ use rayon::prelude::*;
 /// Weight `γ` of the wall's pressure force, `a_i −= γ·π_i·∇ρ_wall`, by default. `γ = 1` is the
 /// energy-consistent (variational) choice: the force is the gradient of the same internal
 /// energy whose fluid part gives `(π_i + π_j)`. Full mirroring (`γ = 2`) alone was tried: a
-/// column at rest in a closed tank sloshed (measured again in session 5: kinetic energy
+/// column at rest in a closed tank sloshed (kinetic energy
 /// 9e-3 J on a 10 × 20 × 10 column at 1 cm, against 2e-4 J with `γ = 1`): without the
 /// hydrostatic part of the wall's pressure, nothing holds the fluid next to the side walls
 /// up. [`Dfsph::hydrostatic_walls`] adds that part and mirrors fully
@@ -68,7 +68,7 @@ pub const WALL_MIRROR: Real = 1.0;
 /// hydrostatic field the two are equal (total weight 2): the zeroth-order term
 /// `2π_i Σ_j m∇W_ij` the missing neighbours leave next to a wall is cancelled, and the
 /// hydrostatic part supplies the wall's share of the first-order term (the kernel's first
-/// moment), vertical support next to side walls included. Session 7: mirroring the
+/// moment), vertical support next to side walls included. Mirroring the
 /// particle's own value twice instead left its distance to the wall tied to nothing (a
 /// bottom layer whose pressure fell below the layer above was pressed into the floor and
 /// held by contact, which then carried 10 % of a resting column's weight) and kept a
@@ -119,7 +119,7 @@ pub(crate) struct DfsphBuffers {
     /// Next to the strongly non-uniform pressure that follows the overlap relaxation (a
     /// block spawned at half spacing, particles pushed out of a body) the Jacobi iteration
     /// then diverged, stopped at its cap and threw the fluid (stability cases 6 and 7 at
-    /// full size, session 12: KE 3.2× the initial energy). So once a solve's error grows
+    /// full size: KE 3.2× the initial energy). So once a solve's error grows
     /// from one iteration to the next, the rest of that solve runs with the particle's own
     /// pressure mirrored, as without hydrostatic walls; the next solve starts with it again.
     /// A settling column stays within 2 % (bottom error −0.1 / +1.5 / +0.3 % at N = 6 / 8 /
@@ -132,7 +132,7 @@ pub(crate) struct DfsphBuffers {
 /// factor converges while `ω·λ_max < 2`, `λ_max` the largest eigenvalue of the diagonally
 /// scaled system; at the presets' support of 2 spacings `ω = 1` is inside that bound, but
 /// `λ_max` grows with the neighbour count and, with walls counting in the density, a support
-/// of 3 spacings goes past it (measured in session 10: a column at rest thrown within a
+/// of 3 spacings goes past it (measured: a column at rest thrown within a
 /// frame). So when a solve's average error grows from one iteration to the next (the
 /// iteration diverging), the fluid's `ω` is halved, for good: letting it creep back
 /// (× 1.1 or × 1.01 per solve) let the blow-up return. At 2 spacings it did not trigger in

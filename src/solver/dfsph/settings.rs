@@ -35,7 +35,7 @@ pub struct Dfsph {
     /// trade-off (at 1.0 a column at rest in a closed tank kept jittering).
     #[cfg_attr(feature = "snapshot", serde(default = "default_warm_start"))]
     pub warm_start: Real,
-    /// Walls with hydrostatic pressure (default true since session 12): the wall's pressure
+    /// Walls with hydrostatic pressure (default true): the wall's pressure
     /// is the fluid's around the particle carried to the wall, `ρ0·g·(x_b − x_i)` included
     /// (see [`HYDROSTATIC_WALL_MIRROR`](crate::solver::HYDROSTATIC_WALL_MIRROR)), instead of the particle's own weighted by
     /// [`WALL_MIRROR`](crate::solver::WALL_MIRROR). The pressure next to walls then comes out hydrostatic: a settled

@@ -66,7 +66,7 @@ pub(crate) struct PbfBuffers {
 /// DFSPH's ([`crate::solver::dfsph::MAX_RELAXATION_HALVINGS`]): Jacobi iterations on the
 /// density constraints converge while `ω·λ_max < 2`, and `λ_max` grows with the neighbour
 /// count. At the presets' support of 2 spacings `ω = 1` converges; at 3 spacings with walls
-/// counting in the density it does not (measured in session 11: a column at rest reached
+/// counting in the density it does not (measured: a column at rest reached
 /// 1.48× its initial energy, stability case 12). When the average compression grows from one
 /// iteration to the next (see [`DIVERGENCE_FLOOR`]), `ω` is halved for the fluid, for good;
 /// the step report says so ([`crate::StepReport::solver_relaxation_halvings`]). At 2 spacings
@@ -95,7 +95,7 @@ pub(crate) use step::PbfState;
 /// can push neighbours that were not compressed into compression: in a converging solve the
 /// average can grow between iterations, from zero too (a jet meeting a plate: 0 → 5.7e-5; a
 /// block spawned at half spacing: 5.0e-6 → 2.5e-5). Measured at the presets' 2 spacings
-/// (5,000- and 20,000-particle PBF dam breaks, 400 steps each, session 11): 129 growths, none
+/// (5,000- and 20,000-particle PBF dam breaks, 400 steps each): 129 growths, none
 /// from an average above 4.7e-6. At 3 spacings (stability case 12) the first step's second
 /// iteration grows 3.7e-4 → 4.5e-4 (+21 %). `1e-5` is a thousandth of PBF's default target
 /// (`Pbf::max_density_error`, 1 %).

@@ -32,7 +32,7 @@ pub struct Pbf {
     #[cfg_attr(feature = "snapshot", serde(default = "default_max_density_error"))]
     pub max_density_error: Real,
     /// Walls with hydrostatic pressure, as DFSPH's ([`crate::Dfsph::hydrostatic_walls`];
-    /// default false, session 14): the wall's `λ` is the particle's own plus the average of its
+    /// default false): the wall's `λ` is the particle's own plus the average of its
     /// fluid-side neighbours' (`λ_i + λ̂_i` in eq. 14's wall term), and the hydrostatic
     /// difference `ρ0·g·(x_b − x_i)` moves the predicted position by `a_h·dt²`
     /// (`boundary::WallWorkspace::hydrostatic`). Measured in the hydrostatic scene
