@@ -2,8 +2,14 @@
 //! default): medians are robust to the preemptions of a shared machine, where sums are not.
 //!
 //! ```text
-//! cargo run --release --example stage_medians -- 2500 1000 [threads]
+//! cargo run --release --example stage_medians -- 2500 1000 [threads] [solver] [walls] [box]
 //! ```
+//!
+//! `solver` is `wcsph` (default), `dfsph`, `pbf` or `clavet`; `walls` is `true` or `false`
+//! (default: false), whether the walls count in the density; `box` (`true`: a dynamic box
+//! of 500 kg/m³ floats on the column and rapier steps with the fluid) runs contact with a
+//! moving body. The last line is the run's state hash (as `examples/dam_break.rs` prints
+//! it): equal hashes, bitwise equal runs.
 
 use rapier_sph::scenes::{DamBreakConfig, dam_break};
 use rapier_sph::{FluidParamsBuilder, Solver, Stage};
@@ -19,33 +25,68 @@ fn main() {
     let particles: usize = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(2500);
     let steps: usize = args.get(2).and_then(|a| a.parse().ok()).unwrap_or(1000);
     let threads: usize = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(1);
+    let solver = match args.get(4).map_or("wcsph", String::as_str) {
+        "wcsph" => Solver::Wcsph,
+        "dfsph" => Solver::Dfsph(Default::default()),
+        "pbf" => Solver::Pbf(Default::default()),
+        "clavet" => Solver::Clavet(Default::default()),
+        other => panic!("unknown solver {other}: wcsph, dfsph, pbf or clavet"),
+    };
+    let walls: bool = args.get(5).is_some_and(|a| a == "true");
+    let floating_box: bool = args.get(6).is_some_and(|a| a == "true");
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap();
     pool.install(|| {
         let params = FluidParamsBuilder::water(0.02)
-            .solver(Solver::Wcsph)
-            .wall_density(false)
+            .solver(solver)
+            .wall_density(walls)
             .build()
             .unwrap();
         let config = DamBreakConfig::tower(params.clone(), DamBreakConfig::scale_for(particles));
         let mut scene = dam_break(&config).unwrap();
+        if floating_box {
+            use rapier_sph::rapier3d::prelude::*;
+            let half = 0.25 * scene.column_width;
+            let centre = Vector::new(
+                0.5 * scene.column_width,
+                scene.column_height,
+                0.5 * scene.tank_max.z,
+            );
+            let body = scene
+                .world
+                .physics
+                .insert_body(RigidBodyBuilder::dynamic().translation(centre));
+            let half_z = half.min(0.4 * scene.tank_max.z);
+            scene.world.physics.insert_collider(
+                ColliderBuilder::cuboid(half, half, half_z).density(500.0),
+                Some(body),
+            );
+        }
         scene.world.physics.integration_parameters.dt = params.acoustic_time_step();
         scene.world.pipeline.time_stepping = rapier_sph::TimeStepping::Fixed;
         scene.world.physics.step();
         let w = &mut scene.world;
+        let step = |w: &mut rapier_sph::FluidWorld| {
+            if floating_box {
+                w.step()
+            } else {
+                w.step_fluids()
+            }
+            .map(|r| r.timings)
+        };
         for _ in 0..20 {
-            w.step_fluids().unwrap();
+            step(w).unwrap();
         }
         let mut per_stage: Vec<Vec<f64>> = vec![Vec::new(); Stage::ALL.len()];
         let mut whole = Vec::new();
         for _ in 0..steps {
             let t0 = Instant::now();
-            let r = w.step_fluids().unwrap();
+            let timings = step(w).unwrap();
             whole.push(t0.elapsed().as_secs_f64() * 1e6);
             for (k, s) in Stage::ALL.iter().enumerate() {
-                per_stage[k].push(r.timings.get(*s).as_secs_f64() * 1e6);
+                per_stage[k].push(timings.get(*s).as_secs_f64() * 1e6);
             }
         }
         let n = w.fluids.num_particles();
@@ -61,5 +102,31 @@ fn main() {
             }
         }
         println!();
+        // The run's end state, to check that a change kept the results bit for bit.
+        println!("state hash {:016x}", state_hash(&w.fluids[scene.fluid]));
     });
+}
+
+/// 64-bit FNV-1a over the bits of every particle's id, position and velocity, in order (as
+/// `examples/dam_break.rs` prints it).
+fn state_hash(fluid: &rapier_sph::Fluid) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |w: u32| {
+        for b in w.to_le_bytes() {
+            h ^= b as u64;
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    };
+    for ((p, v), &id) in fluid
+        .positions()
+        .iter()
+        .zip(fluid.velocities())
+        .zip(fluid.ids())
+    {
+        eat(id);
+        for c in [p.x, p.y, p.z, v.x, v.y, v.z] {
+            eat(c.to_bits());
+        }
+    }
+    h
 }
