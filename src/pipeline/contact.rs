@@ -4,7 +4,7 @@
 
 use super::workspace::Workspace;
 use crate::boundary::Coupling;
-use crate::boundary::contact::{self, ContactResponse, Movers};
+use crate::boundary::contact::{self, ContactInput, ContactResponse, Movers};
 use crate::diagnostics::{Stage, StepReport};
 use crate::fluid::Fluid;
 use parry3d::partitioning::Bvh;
@@ -62,21 +62,20 @@ pub(super) fn collider_contact(
             restitution: p.restitution,
             friction: p.friction,
         };
-        contact::resolve(
-            &search.grid,
-            contact,
-            scene.colliders,
+        let input = ContactInput {
+            grid: &search.grid,
+            candidates: contact,
+            colliders: scene.colliders,
             response,
-            depenetrate,
-            previous_positions,
-            positions,
-            velocities,
-            coupling.as_deref().map(|c| Movers {
-                table: c.table(),
-                mass: p.particle_mass,
-                records: impulses,
-            }),
-        )
+            depenetrate_first: depenetrate,
+            previous: previous_positions,
+        };
+        let movers = coupling.as_deref().map(|c| Movers {
+            table: c.table(),
+            mass: p.particle_mass,
+            records: impulses,
+        });
+        contact::resolve(&input, positions, velocities, movers)
     });
     if let Some(c) = coupling
         && !c.table().is_empty()
