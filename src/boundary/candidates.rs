@@ -26,21 +26,37 @@ pub struct ContactWorkspace {
     any: bool,
 }
 
+/// The colliders a fluid may meet: those of rapier's broad-phase tree whose collision groups
+/// pass the fluid's, and the colliders of moving bodies from the coupling table.
+#[derive(Copy, Clone)]
+pub struct ColliderQuery<'a> {
+    /// The broad-phase's tree.
+    pub bvh: &'a Bvh,
+    /// The colliders.
+    pub colliders: &'a ColliderSet,
+    /// The fluid's collision groups.
+    pub groups: InteractionGroups,
+    /// The moving bodies of the substep, if any.
+    pub coupling: Option<&'a super::Coupling>,
+}
+
 impl ContactWorkspace {
     /// Finds the candidate colliders of every cell of `grid`. `previous` and `positions` are
     /// the particles' positions at the start and end of the step; `radius` the contact radius.
-    #[allow(clippy::too_many_arguments)]
     pub fn gather(
         &mut self,
         grid: &NeighborGrid,
         previous: &[Vector],
         positions: &[Vector],
         radius: Real,
-        bvh: &Bvh,
-        colliders: &ColliderSet,
-        groups: InteractionGroups,
-        coupling: Option<&super::Coupling>,
+        query: &ColliderQuery<'_>,
     ) {
+        let ColliderQuery {
+            bvh,
+            colliders,
+            groups,
+            coupling,
+        } = *query;
         let coupling = coupling.filter(|c| !c.is_off());
         let n_cells = grid.num_cells();
         self.chunks

@@ -38,6 +38,8 @@
 //! `pipeline::wall_viscosity`), and a dynamic body takes the opposite impulse.
 
 use super::ContactWorkspace;
+use super::bodies::{MovingCollider, entry_of};
+use super::candidates::ColliderQuery;
 use crate::kernel::{HalfSpaceTable, KernelKind};
 use crate::math::{Real, Vector};
 use crate::neighbors::{NeighborGrid, NeighborLists};
@@ -65,6 +67,19 @@ pub(crate) struct WallQuery<'a> {
     pub viscous: bool,
     /// The positions are predicted to the substep's end (moving bodies are taken there).
     pub predicted: bool,
+}
+
+impl WallQuery<'_> {
+    /// The colliders the fluid may meet (see [`ColliderQuery`]).
+    fn colliders(&self) -> ColliderQuery<'_> {
+        let (bvh, colliders, _) = self.scene;
+        ColliderQuery {
+            bvh,
+            colliders,
+            groups: self.params.collision_groups,
+            coupling: self.coupling,
+        }
+    }
 }
 
 /// A particle's wall terms due to dynamic bodies (see [`WallWorkspace::coupled`]).
@@ -261,59 +276,37 @@ impl WallWorkspace {
         positions: &[Vector],
         query: &WallQuery<'_>,
     ) -> usize {
-        let (grid, neighbors) = (&search.grid, &search.lists);
         let p = query.params;
-        let (density_kernel, force_kernel) = (p.density_kernel, query.force_kernel);
-        let (h, spacing, rest_density) = (p.smoothing_length, p.particle_spacing, p.rest_density);
-        let (bvh, colliders, bodies) = query.scene;
-        let groups = p.collision_groups;
-        let (coupling, hydrostatic) = (query.coupling, query.hydrostatic);
-        let (viscous, predicted) = (query.viscous, query.predicted);
-        let n = positions.len();
-        self.tables(density_kernel, force_kernel, h, spacing);
-        self.candidates.gather(
-            grid, positions, positions, h, bvh, colliders, groups, coupling,
-        );
-        let table = coupling.map_or(&[][..], |c| c.table());
-        self.density.resize(n, 0.0);
-        self.gradient.resize(n, Vector::ZERO);
-        self.motion.resize(n, 0.0);
-        self.coverage.resize(n, 0.0);
-        self.mirror = crate::solver::WALL_MIRROR;
-        self.neighbour_pressure = hydrostatic.is_some();
-        let gravity = hydrostatic.unwrap_or(Vector::ZERO);
-        let hydro = gravity != Vector::ZERO;
-        self.hydrostatic_on = hydro;
-        // Sized always so the chunks line up (zeros when off; allocated once, like `coupled`).
-        self.hydrostatic.resize(n, Vector::ZERO);
-        let any_dynamic = table.iter().any(|m| m.dynamic);
-        self.coupled_any = any_dynamic;
-        // Read only when `coupled_any`; sized always so the chunks line up.
-        self.coupled.resize(n, Coupled::default());
-        // Written and read only when asked for (a fluid without wall viscosity does no work
-        // for them); sized always so the chunks line up.
-        self.viscous.resize(n, 0.0);
-        self.viscous_velocity.resize(n, Vector::ZERO);
-        let lap = crate::kernel::ViscosityLaplacian::new(h);
+        let (h, spacing) = (p.smoothing_length, p.particle_spacing);
+        self.tables(p.density_kernel, query.force_kernel, h, spacing);
+        self.candidates
+            .gather(&search.grid, positions, positions, h, &query.colliders());
+        let table = query.coupling.map_or(&[][..], |c| c.table());
+        self.size_for(positions.len(), query, table);
         if !self.candidates.any() {
-            self.density.fill(0.0);
-            self.gradient.fill(Vector::ZERO);
-            self.motion.fill(0.0);
-            self.coverage.fill(0.0);
-            self.hydrostatic.fill(Vector::ZERO);
-            if viscous {
-                self.viscous.fill(0.0);
-                self.viscous_velocity.fill(Vector::ZERO);
-            }
-            self.near = 0;
+            self.zero(query.viscous);
             return 0;
         }
         let Some((_, _, _, _, td, tf)) = &self.tables else {
             unreachable!("tables are made above")
         };
-        let candidates = &self.candidates;
-        let (full_d, full_f) = (td.full(), tf.full());
-        let counts = crate::par_chunks_mut!(self.density, CHUNK)
+        let gravity = query.hydrostatic.unwrap_or(Vector::ZERO);
+        let terms = Terms {
+            query,
+            grid: &search.grid,
+            neighbors: &search.lists,
+            positions,
+            candidates: &self.candidates,
+            table,
+            td,
+            tf,
+            full: (td.full(), tf.full()),
+            lap: crate::kernel::ViscosityLaplacian::new(h),
+            gravity,
+            hydro: self.hydrostatic_on,
+            any_dynamic: self.coupled_any,
+        };
+        let near = crate::par_chunks_mut!(self.density, CHUNK)
             .zip(crate::par_chunks_mut!(self.gradient, CHUNK))
             .zip(crate::par_chunks_mut!(self.motion, CHUNK))
             .zip(crate::par_chunks_mut!(self.coverage, CHUNK))
@@ -323,152 +316,67 @@ impl WallWorkspace {
             .zip(crate::par_chunks_mut!(self.viscous_velocity, CHUNK))
             .enumerate()
             .map(
-                |(c, (((((((dens, grad), motion), cover), coupled), hyd), visc), visc_v))| {
-                    let base = c * CHUNK;
-                    let mut near = 0usize;
-                    for k in 0..dens.len() {
-                        let i = base + k;
-                        let x = positions[i];
-                        // Union of half-spaces: U' = 1 − (1 − U)(1 − a), ∇U' = ∇U·(1 − a) + ∇a·(1 − U).
-                        let mut u: Real = 0.0;
-                        let mut g = Vector::ZERO;
-                        let mut m: Real = 0.0;
-                        let mut hs = Vector::ZERO;
-                        // Share of the gradient from dynamic bodies, and the largest one's entry.
-                        let mut gc = Vector::ZERO;
-                        let mut hc = Vector::ZERO;
-                        let mut main: (Real, u32, Vector) = (0.0, u32::MAX, Vector::ZERO);
-                        // Viscous sums: all walls, and the dynamic bodies' share.
-                        let (mut ls, mut lv, mut lc, mut lvc) =
-                            (0.0, Vector::ZERO, 0.0, Vector::ZERO);
-                        for &handle in candidates.of_cell(grid.cell_of(i)) {
-                            let Some(co) = colliders.get(handle) else {
-                                continue;
-                            };
-                            // A moving body stands at its pose of the substep's start, or
-                            // of its end for positions predicted to the end.
-                            let found = super::bodies::entry_of(table, handle);
-                            let entry = found.map(|(_, m)| m);
-                            let pose = match entry {
-                                Some(m) if m.moving && predicted => &m.stop,
-                                Some(m) if m.moving => &m.start,
-                                _ => co.position(),
-                            };
-                            let Some((d, normal, point)) = surface_near(co, pose, x, h) else {
-                                continue;
-                            };
-                            let (phi, _) = td.eval(d);
-                            let (_, area) = tf.eval(d);
-                            let a = (phi / full_d).min(1.0);
-                            let lk = if viscous {
-                                lap.half_space_integral(d) * (1.0 - u)
-                            } else {
-                                0.0
-                            };
-                            if a <= 0.0 && area <= 0.0 && lk <= 0.0 {
-                                continue;
-                            }
-                            // The wall's velocity at the closest point (static: none).
-                            let wall_velocity = match entry {
-                                Some(mc) if mc.moving && predicted => {
-                                    Some(mc.velocity_at_stop(point))
-                                }
-                                Some(mc) if mc.moving => Some(mc.velocity_at_start(point)),
-                                Some(_) => None,
-                                None => co
-                                    .parent()
-                                    .and_then(|b| bodies.get(b))
-                                    .filter(|b| !b.is_fixed())
-                                    .map(|b| b.velocity_at_point(point)),
-                            };
-                            // ∇Φ = −A(d)·n (into the wall), in units of the whole kernel.
-                            let ga = -normal * (area / full_f);
-                            let gk = ga * (1.0 - u);
-                            let mut hk = Vector::ZERO;
-                            if hydro {
-                                let (phi_f, mom) = tf.eval_moment(d);
-                                let gn = normal * normal.dot(gravity);
-                                hk = -(gn * mom + (gravity - gn) * phi_f) * (1.0 - u);
-                                hs = hs * (1.0 - a) + hk;
-                            }
-                            g = g * (1.0 - a) + gk;
-                            u = 1.0 - (1.0 - u) * (1.0 - a);
-                            ls += lk;
-                            if let Some(v) = wall_velocity {
-                                lv += v * lk;
-                            }
-                            if any_dynamic {
-                                gc *= 1.0 - a;
-                                hc *= 1.0 - a;
-                                if let Some((e, mc)) = found
-                                    && mc.dynamic
-                                {
-                                    gc += gk;
-                                    hc += hk;
-                                    lc += lk;
-                                    lvc += wall_velocity.unwrap_or(Vector::ZERO) * lk;
-                                    let l = gk.length_squared();
-                                    // The first dynamic body always (its viscous share may come
-                                    // without a gradient at the support's edge), then the one
-                                    // with the largest gradient.
-                                    if l > main.0 || main.1 == u32::MAX {
-                                        main = (l, e, point);
-                                    }
-                                }
-                            }
-                            if let Some(v) = wall_velocity {
-                                m += v.dot(gk);
-                            }
-                        }
-                        if hydro && g != Vector::ZERO {
-                            // The neighbours' pressure is carried back to the particle by the
-                            // hydrostatic difference from their weighted centre (the same weights
-                            // as DFSPH's average); ∇ρ_wall = g·ρ0·full_f.
-                            let off = neighbour_centre(
-                                grid,
-                                neighbors,
-                                positions,
-                                i,
-                                -g.normalize(),
-                                force_kernel,
-                                h,
-                            );
-                            let c = full_f * gravity.dot(off);
-                            hs += g * c;
-                            if any_dynamic {
-                                hc += gc * c;
-                            }
-                        }
-                        dens[k] = rest_density * full_d * u;
-                        grad[k] = g * (rest_density * full_f);
-                        motion[k] = m * rest_density * full_f;
-                        cover[k] = u;
-                        hyd[k] = hs;
-                        if viscous {
-                            visc[k] = ls;
-                            visc_v[k] = lv;
-                        }
-                        if any_dynamic {
-                            coupled[k] = Coupled {
-                                gradient: gc * (rest_density * full_f),
-                                hydrostatic: hc,
-                                entry: main.1,
-                                point: main.2,
-                                viscous: lc,
-                                viscous_velocity: lvc,
-                            };
-                        }
-                        near += (u > 0.0 || g != Vector::ZERO || ls > 0.0) as usize;
-                    }
-                    near
+                |(
+                    c,
+                    (
+                        (
+                            (((((density, gradient), motion), coverage), coupled), hydrostatic),
+                            viscous,
+                        ),
+                        viscous_velocity,
+                    ),
+                )| {
+                    let mut rows = Rows {
+                        density,
+                        gradient,
+                        motion,
+                        coverage,
+                        coupled,
+                        hydrostatic,
+                        viscous,
+                        viscous_velocity,
+                    };
+                    (0..rows.density.len())
+                        .map(|k| rows.set(k, &terms, &terms.particle(c * CHUNK + k)))
+                        .sum::<usize>()
                 },
-            );
-        #[cfg(feature = "parallel")]
-        let near: usize = counts.sum();
-        #[cfg(not(feature = "parallel"))]
-        let near: usize = counts.sum();
+            )
+            .sum();
         self.near = near;
         near
+    }
+
+    /// Sizes every per-particle array for `n` particles and sets the flags of this update
+    /// (`table`: the coupling table). Arrays a fluid does not use this update are sized all
+    /// the same, so the chunks line up (allocated once); they are read only when their flag
+    /// says so (`hydrostatic_on`, `coupled_any`, an update asked for the viscous sums).
+    fn size_for(&mut self, n: usize, query: &WallQuery<'_>, table: &[MovingCollider]) {
+        self.density.resize(n, 0.0);
+        self.gradient.resize(n, Vector::ZERO);
+        self.motion.resize(n, 0.0);
+        self.coverage.resize(n, 0.0);
+        self.mirror = crate::solver::WALL_MIRROR;
+        self.neighbour_pressure = query.hydrostatic.is_some();
+        self.hydrostatic_on = query.hydrostatic.is_some_and(|g| g != Vector::ZERO);
+        self.hydrostatic.resize(n, Vector::ZERO);
+        self.coupled_any = table.iter().any(|m| m.dynamic);
+        self.coupled.resize(n, Coupled::default());
+        self.viscous.resize(n, 0.0);
+        self.viscous_velocity.resize(n, Vector::ZERO);
+    }
+
+    /// No wall near any particle: every contribution zero.
+    fn zero(&mut self, viscous: bool) {
+        self.density.fill(0.0);
+        self.gradient.fill(Vector::ZERO);
+        self.motion.fill(0.0);
+        self.coverage.fill(0.0);
+        self.hydrostatic.fill(Vector::ZERO);
+        if viscous {
+            self.viscous.fill(0.0);
+            self.viscous_velocity.fill(Vector::ZERO);
+        }
+        self.near = 0;
     }
 
     /// Clavet's wall densities ([`Self::clavet`], [`Self::clavet_gradient`]) of every particle
@@ -485,9 +393,35 @@ impl WallWorkspace {
         query: &WallQuery<'_>,
     ) {
         let (h, spacing) = (query.params.smoothing_length, query.params.particle_spacing);
-        let (_, colliders, bodies) = query.scene;
-        let coupling = query.coupling;
         let n = positions.len();
+        self.clavet_tables(h, spacing);
+        self.clavet.resize(n, [0.0; 2]);
+        self.clavet_gradient.resize(n, [Vector::ZERO; 2]);
+        if !self.candidates.any() {
+            self.clavet.fill([0.0; 2]);
+            self.clavet_gradient.fill([Vector::ZERO; 2]);
+            return;
+        }
+        let Some((_, _, t2, t3)) = &self.clavet_tables else {
+            unreachable!("tables are made above")
+        };
+        let table = query.coupling.map_or(&[][..], |c| c.table());
+        let candidates = &self.candidates;
+        crate::par_chunks_mut!(self.clavet, CHUNK)
+            .zip(crate::par_chunks_mut!(self.clavet_gradient, CHUNK))
+            .enumerate()
+            .for_each(|(c, (dens, grad))| {
+                for k in 0..dens.len() {
+                    let i = c * CHUNK + k;
+                    let cands = candidates.of_cell(grid.cell_of(i));
+                    (dens[k], grad[k]) = clavet_walls(query, table, cands, (t2, t3), positions[i]);
+                }
+            });
+    }
+
+    /// Clavet's half-space tables for support `h` and spacing `spacing` (made again only
+    /// when these change).
+    fn clavet_tables(&mut self, h: Real, spacing: Real) {
         let fresh = match &self.clavet_tables {
             Some((th, ts, ..)) => *th != h || *ts != spacing,
             None => true,
@@ -501,64 +435,6 @@ impl WallWorkspace {
                 HalfSpaceTable::new::<Cubic>(h, spacing),
             ));
         }
-        self.clavet.resize(n, [0.0; 2]);
-        self.clavet_gradient.resize(n, [Vector::ZERO; 2]);
-        if !self.candidates.any() {
-            self.clavet.fill([0.0; 2]);
-            self.clavet_gradient.fill([Vector::ZERO; 2]);
-            return;
-        }
-        let Some((_, _, t2, t3)) = &self.clavet_tables else {
-            unreachable!("tables are made above")
-        };
-        // Number density of the lattice rows behind the wall.
-        let per_volume = 1.0 / (spacing * spacing * spacing);
-        let (full2, full3) = (t2.full(), t3.full());
-        let table = coupling.map_or(&[][..], |c| c.table());
-        let candidates = &self.candidates;
-        crate::par_chunks_mut!(self.clavet, CHUNK)
-            .zip(crate::par_chunks_mut!(self.clavet_gradient, CHUNK))
-            .enumerate()
-            .for_each(|(c, (dens, grad))| {
-                for k in 0..dens.len() {
-                    let i = c * CHUNK + k;
-                    let x = positions[i];
-                    // Union of half-spaces, per kernel, as in `update`.
-                    let (mut u, mut g): ([Real; 2], [Vector; 2]) = ([0.0; 2], [Vector::ZERO; 2]);
-                    for &handle in candidates.of_cell(grid.cell_of(i)) {
-                        let Some(co) = colliders.get(handle) else {
-                            continue;
-                        };
-                        let found = super::bodies::entry_of(table, handle).map(|(_, m)| m);
-                        let dynamic = match found {
-                            Some(m) => m.dynamic,
-                            None => co
-                                .parent()
-                                .and_then(|b| bodies.get(b))
-                                .is_some_and(|b| b.is_dynamic()),
-                        };
-                        if dynamic {
-                            continue;
-                        }
-                        let pose = match found {
-                            Some(m) if m.moving => &m.stop,
-                            _ => co.position(),
-                        };
-                        let Some((d, normal, _)) = surface_near(co, pose, x, h) else {
-                            continue;
-                        };
-                        for (t, (table, full)) in [(t2, full2), (t3, full3)].into_iter().enumerate()
-                        {
-                            let (phi, area) = table.eval(d);
-                            let a = (phi / full).min(1.0);
-                            g[t] = g[t] * (1.0 - a) - normal * (area / full * (1.0 - u[t]));
-                            u[t] = 1.0 - (1.0 - u[t]) * (1.0 - a);
-                        }
-                    }
-                    dens[k] = [u[0] * full2 * per_volume, u[1] * full3 * per_volume];
-                    grad[k] = [g[0] * (full2 * per_volume), g[1] * (full3 * per_volume)];
-                }
-            });
     }
 
     /// The impulse each particle's wall term gave the dynamic bodies this substep, recorded
@@ -614,40 +490,307 @@ impl WallWorkspace {
     }
 }
 
-/// `x̄_i − x_i`, the centre of the neighbours of sorted particle `i` weighted by
-/// `max(0, ∇W_ij·û)` (the weights of the wall's pressure, see
-/// [`WallWorkspace::neighbour_pressure`]); zero when none has weight, or in a
-/// periodic grid (the separations would need the minimum image).
-fn neighbour_centre(
-    grid: &NeighborGrid,
-    neighbors: &NeighborLists,
-    positions: &[Vector],
-    i: usize,
-    away: Vector,
-    kernel: KernelKind,
-    h: Real,
-) -> Vector {
-    if grid.is_periodic() {
-        return Vector::ZERO;
-    }
-    crate::with_kernel!(kernel, K => {
-        use crate::kernel::Kernel;
-        let k = K::new(h);
-        let xi = positions[i];
-        let (mut sw, mut sx) = (0.0, Vector::ZERO);
-        for &j in neighbors.of(i) {
-            let r = xi - positions[j as usize];
-            let d = r.length();
-            // Coincident particles have no direction.
-            if d >= h || d <= 0.0 {
-                continue;
+/// What [`WallWorkspace::update`] reads for every particle.
+struct Terms<'a> {
+    query: &'a WallQuery<'a>,
+    grid: &'a NeighborGrid,
+    neighbors: &'a NeighborLists,
+    positions: &'a [Vector],
+    candidates: &'a ContactWorkspace,
+    /// The coupling table of the substep (empty without moving bodies).
+    table: &'a [MovingCollider],
+    /// Half-space tables of the density and force kernels, and their full values.
+    td: &'a HalfSpaceTable,
+    tf: &'a HalfSpaceTable,
+    full: (Real, Real),
+    lap: crate::kernel::ViscosityLaplacian,
+    /// Gravity, when the solver asked for the walls' hydrostatic pressure (else zero).
+    gravity: Vector,
+    /// The hydrostatic terms are computed (asked for, under gravity).
+    hydro: bool,
+    /// Some entry of the table is a dynamic body.
+    any_dynamic: bool,
+}
+
+/// One particle's wall terms, summed over its walls as a union of independent half-spaces:
+/// `U' = 1 − (1 − U)(1 − a)`, `∇U' = ∇U·(1 − a) + ∇a·(1 − U)`.
+struct Sum {
+    /// Coverage `U`, its gradient (in units of the whole force kernel), `Σ v_wall·∇U`, and
+    /// the hydrostatic acceleration.
+    u: Real,
+    g: Vector,
+    m: Real,
+    hs: Vector,
+    /// The dynamic bodies' share of `g` and of `hs`, and `(|∇|², entry, point)` of the body
+    /// contributing most.
+    gc: Vector,
+    hc: Vector,
+    main: (Real, u32, Vector),
+    /// Viscous sums `Σ L_k` and `Σ L_k·v_k`: all walls, and the dynamic bodies' share.
+    ls: Real,
+    lv: Vector,
+    lc: Real,
+    lvc: Vector,
+}
+
+impl Terms<'_> {
+    /// The wall terms of sorted particle `i`.
+    #[inline(always)]
+    fn particle(&self, i: usize) -> Sum {
+        let x = self.positions[i];
+        let mut s = Sum {
+            u: 0.0,
+            g: Vector::ZERO,
+            m: 0.0,
+            hs: Vector::ZERO,
+            gc: Vector::ZERO,
+            hc: Vector::ZERO,
+            main: (0.0, u32::MAX, Vector::ZERO),
+            ls: 0.0,
+            lv: Vector::ZERO,
+            lc: 0.0,
+            lvc: Vector::ZERO,
+        };
+        let (_, colliders, _) = self.query.scene;
+        for &handle in self.candidates.of_cell(self.grid.cell_of(i)) {
+            if let Some(co) = colliders.get(handle) {
+                self.add_wall(&mut s, co, entry_of(self.table, handle), x);
             }
-            let w = (r * (k.dw(d) / d)).dot(away).max(0.0);
-            sw += w;
-            sx -= r * w;
         }
-        if sw > 0.0 { sx / sw } else { Vector::ZERO }
-    })
+        if self.hydro && s.g != Vector::ZERO {
+            // The neighbours' pressure is carried back to the particle by the hydrostatic
+            // difference from their weighted centre (the same weights as DFSPH's average);
+            // ∇ρ_wall = g·ρ0·full_f.
+            let off = self.neighbour_centre(i, -s.g.normalize());
+            let c = self.full.1 * self.gravity.dot(off);
+            s.hs += s.g * c;
+            if self.any_dynamic {
+                s.hc += s.gc * c;
+            }
+        }
+        s
+    }
+
+    /// Adds collider `co` (coupling-table entry `found`, if any) to the terms `s` of the
+    /// particle at `x`.
+    #[inline(always)]
+    fn add_wall(
+        &self,
+        s: &mut Sum,
+        co: &rapier3d::geometry::Collider,
+        found: Option<(u32, &MovingCollider)>,
+        x: Vector,
+    ) {
+        let (h, predicted) = (self.query.params.smoothing_length, self.query.predicted);
+        let (full_d, full_f) = self.full;
+        // A moving body stands at its pose of the substep's start, or of its end for
+        // positions predicted to the end.
+        let entry = found.map(|(_, m)| m);
+        let pose = match entry {
+            Some(m) if m.moving && predicted => &m.stop,
+            Some(m) if m.moving => &m.start,
+            _ => co.position(),
+        };
+        let Some((d, normal, point)) = surface_near(co, pose, x, h) else {
+            return;
+        };
+        let (phi, _) = self.td.eval(d);
+        let (_, area) = self.tf.eval(d);
+        let a = (phi / full_d).min(1.0);
+        let lk = if self.query.viscous {
+            self.lap.half_space_integral(d) * (1.0 - s.u)
+        } else {
+            0.0
+        };
+        if a <= 0.0 && area <= 0.0 && lk <= 0.0 {
+            return;
+        }
+        let wall_velocity = self.wall_velocity(co, entry, point);
+        // ∇Φ = −A(d)·n (into the wall), in units of the whole kernel.
+        let ga = -normal * (area / full_f);
+        let gk = ga * (1.0 - s.u);
+        let mut hk = Vector::ZERO;
+        if self.hydro {
+            let gravity = self.gravity;
+            let (phi_f, mom) = self.tf.eval_moment(d);
+            let gn = normal * normal.dot(gravity);
+            hk = -(gn * mom + (gravity - gn) * phi_f) * (1.0 - s.u);
+            s.hs = s.hs * (1.0 - a) + hk;
+        }
+        s.g = s.g * (1.0 - a) + gk;
+        s.u = 1.0 - (1.0 - s.u) * (1.0 - a);
+        s.ls += lk;
+        if let Some(v) = wall_velocity {
+            s.lv += v * lk;
+        }
+        if self.any_dynamic {
+            s.gc *= 1.0 - a;
+            s.hc *= 1.0 - a;
+            if let Some((e, mc)) = found
+                && mc.dynamic
+            {
+                s.gc += gk;
+                s.hc += hk;
+                s.lc += lk;
+                s.lvc += wall_velocity.unwrap_or(Vector::ZERO) * lk;
+                let l = gk.length_squared();
+                // The first dynamic body always (its viscous share may come without a
+                // gradient at the support's edge), then the one with the largest gradient.
+                if l > s.main.0 || s.main.1 == u32::MAX {
+                    s.main = (l, e, point);
+                }
+            }
+        }
+        if let Some(v) = wall_velocity {
+            s.m += v.dot(gk);
+        }
+    }
+
+    /// The wall's velocity at its closest point `point` (static: none).
+    #[inline(always)]
+    fn wall_velocity(
+        &self,
+        co: &rapier3d::geometry::Collider,
+        entry: Option<&MovingCollider>,
+        point: Vector,
+    ) -> Option<Vector> {
+        let (_, _, bodies) = self.query.scene;
+        match entry {
+            Some(mc) if mc.moving && self.query.predicted => Some(mc.velocity_at_stop(point)),
+            Some(mc) if mc.moving => Some(mc.velocity_at_start(point)),
+            Some(_) => None,
+            None => co
+                .parent()
+                .and_then(|b| bodies.get(b))
+                .filter(|b| !b.is_fixed())
+                .map(|b| b.velocity_at_point(point)),
+        }
+    }
+
+    /// `x̄_i − x_i`, the centre of the neighbours of sorted particle `i` weighted by
+    /// `max(0, ∇W_ij·û)` (the weights of the wall's pressure, see
+    /// [`WallWorkspace::neighbour_pressure`]); zero when none has weight, or in a periodic
+    /// grid (the separations would need the minimum image).
+    fn neighbour_centre(&self, i: usize, away: Vector) -> Vector {
+        if self.grid.is_periodic() {
+            return Vector::ZERO;
+        }
+        let h = self.query.params.smoothing_length;
+        let positions = self.positions;
+        crate::with_kernel!(self.query.force_kernel, K => {
+            use crate::kernel::Kernel;
+            let k = K::new(h);
+            let xi = positions[i];
+            let (mut sw, mut sx) = (0.0, Vector::ZERO);
+            for &j in self.neighbors.of(i) {
+                let r = xi - positions[j as usize];
+                let d = r.length();
+                // Coincident particles have no direction.
+                if d >= h || d <= 0.0 {
+                    continue;
+                }
+                let w = (r * (k.dw(d) / d)).dot(away).max(0.0);
+                sw += w;
+                sx -= r * w;
+            }
+            if sw > 0.0 { sx / sw } else { Vector::ZERO }
+        })
+    }
+}
+
+/// One chunk of [`WallWorkspace`]'s per-particle arrays.
+struct Rows<'c> {
+    density: &'c mut [Real],
+    gradient: &'c mut [Vector],
+    motion: &'c mut [Real],
+    coverage: &'c mut [Real],
+    coupled: &'c mut [Coupled],
+    hydrostatic: &'c mut [Vector],
+    viscous: &'c mut [Real],
+    viscous_velocity: &'c mut [Vector],
+}
+
+impl Rows<'_> {
+    /// Writes the terms `s` into row `k`; returns 1 when a wall is within the particle's
+    /// support, else 0.
+    #[inline(always)]
+    fn set(&mut self, k: usize, t: &Terms<'_>, s: &Sum) -> usize {
+        let rest_density = t.query.params.rest_density;
+        let (full_d, full_f) = t.full;
+        self.density[k] = rest_density * full_d * s.u;
+        self.gradient[k] = s.g * (rest_density * full_f);
+        self.motion[k] = s.m * rest_density * full_f;
+        self.coverage[k] = s.u;
+        self.hydrostatic[k] = s.hs;
+        if t.query.viscous {
+            self.viscous[k] = s.ls;
+            self.viscous_velocity[k] = s.lv;
+        }
+        if t.any_dynamic {
+            self.coupled[k] = Coupled {
+                gradient: s.gc * (rest_density * full_f),
+                hydrostatic: s.hc,
+                entry: s.main.1,
+                point: s.main.2,
+                viscous: s.lc,
+                viscous_velocity: s.lvc,
+            };
+        }
+        (s.u > 0.0 || s.g != Vector::ZERO || s.ls > 0.0) as usize
+    }
+}
+
+/// Clavet's two wall densities and their gradients at `x` from the static and kinematic
+/// colliders among `cands` (dynamic bodies are left to contact), with the tables `(t2, t3)`
+/// of the kernels `(1 − q)²` and `(1 − q)³`: the union of half-spaces per kernel, as in
+/// [`WallWorkspace::update`], per volume of the lattice rows behind the wall.
+#[inline(always)]
+fn clavet_walls(
+    query: &WallQuery<'_>,
+    table: &[MovingCollider],
+    cands: &[rapier3d::geometry::ColliderHandle],
+    (t2, t3): (&HalfSpaceTable, &HalfSpaceTable),
+    x: Vector,
+) -> ([Real; 2], [Vector; 2]) {
+    let (_, colliders, bodies) = query.scene;
+    let (h, spacing) = (query.params.smoothing_length, query.params.particle_spacing);
+    // Number density of the lattice rows behind the wall.
+    let per_volume = 1.0 / (spacing * spacing * spacing);
+    let (full2, full3) = (t2.full(), t3.full());
+    let (mut u, mut g): ([Real; 2], [Vector; 2]) = ([0.0; 2], [Vector::ZERO; 2]);
+    for &handle in cands {
+        let Some(co) = colliders.get(handle) else {
+            continue;
+        };
+        let found = entry_of(table, handle).map(|(_, m)| m);
+        let dynamic = match found {
+            Some(m) => m.dynamic,
+            None => co
+                .parent()
+                .and_then(|b| bodies.get(b))
+                .is_some_and(|b| b.is_dynamic()),
+        };
+        if dynamic {
+            continue;
+        }
+        let pose = match found {
+            Some(m) if m.moving => &m.stop,
+            _ => co.position(),
+        };
+        let Some((d, normal, _)) = surface_near(co, pose, x, h) else {
+            continue;
+        };
+        for (t, (table, full)) in [(t2, full2), (t3, full3)].into_iter().enumerate() {
+            let (phi, area) = table.eval(d);
+            let a = (phi / full).min(1.0);
+            g[t] = g[t] * (1.0 - a) - normal * (area / full * (1.0 - u[t]));
+            u[t] = 1.0 - (1.0 - u[t]) * (1.0 - a);
+        }
+    }
+    (
+        [u[0] * full2 * per_volume, u[1] * full3 * per_volume],
+        [g[0] * (full2 * per_volume), g[1] * (full3 * per_volume)],
+    )
 }
 
 /// The surface of collider `co` (at `pose`) near `x`: the signed distance `d` to its closest

@@ -4,6 +4,7 @@
 
 use super::workspace::Workspace;
 use crate::boundary::Coupling;
+use crate::boundary::candidates::ColliderQuery;
 use crate::boundary::contact::{self, ContactInput, ContactResponse, Movers};
 use crate::diagnostics::{Stage, StepReport};
 use crate::fluid::Fluid;
@@ -44,15 +45,18 @@ pub(super) fn collider_contact(
     } = ws;
     let (positions, velocities) = (particles.positions, particles.velocities);
     let counts = report.timed(Stage::Contact, || {
+        let query = ColliderQuery {
+            bvh: scene.bvh,
+            colliders: scene.colliders,
+            groups: p.collision_groups,
+            coupling: coupling.as_deref(),
+        };
         contact.gather(
             &search.grid,
             previous_positions,
             positions,
             p.particle_radius,
-            scene.bvh,
-            scene.colliders,
-            p.collision_groups,
-            coupling.as_deref(),
+            &query,
         );
         if !contact.any() {
             return contact::ContactCounts::default();

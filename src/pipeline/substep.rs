@@ -74,15 +74,8 @@ pub(crate) fn substep(
         )
     });
     report.neighbour_pairs += ws.search.lists.total_pairs();
-    walls(
-        params,
-        &particles,
-        ws,
-        &rt.solver,
-        input,
-        coupling.as_deref(),
-        report,
-    );
+    let query = wall_query(params, &rt.solver, input, coupling.as_deref());
+    walls(query, particles.positions, ws, report);
     let (outcome, mean_error) = solve(
         params,
         particles,
@@ -175,21 +168,15 @@ fn predict(
     });
 }
 
-/// The walls' density and pressure-gradient tables (when walls count in the density and a
-/// collider is near), as the solver asks for them.
-fn walls(
-    params: &FluidParams,
-    particles: &ParticlesMut<'_>,
-    ws: &mut Workspace,
+/// What the wall stage reads, as the solver asks for it, when walls count in the density and
+/// the scene has colliders; with whether the solver asks for Clavet's two densities too.
+fn wall_query<'a>(
+    params: &'a FluidParams,
     solver: &SolverState,
-    input: &SubstepInput<'_>,
-    coupling: Option<&Coupling>,
-    report: &mut StepReport,
-) {
-    let Some(scene) = input.scene.filter(|_| params.wall_density) else {
-        ws.wall.clear();
-        return;
-    };
+    input: &SubstepInput<'a>,
+    coupling: Option<&'a Coupling>,
+) -> Option<(WallQuery<'a>, bool)> {
+    let scene = input.scene.filter(|_| params.wall_density)?;
     let request = solver.walls(params);
     let query = WallQuery {
         params,
@@ -202,11 +189,25 @@ fn walls(
         // bodies are taken there too.
         predicted: solver.predicts_positions(),
     };
-    let positions = &particles.positions[..];
+    Some((query, request.double_density))
+}
+
+/// The walls' density and pressure-gradient tables (and Clavet's densities when
+/// `double_density`) for the sorted `positions`; none without a query.
+fn walls(
+    query: Option<(WallQuery<'_>, bool)>,
+    positions: &[Vector],
+    ws: &mut Workspace,
+    report: &mut StepReport,
+) {
+    let Some((query, double_density)) = query else {
+        ws.wall.clear();
+        return;
+    };
     let near = report.timed(Stage::WallDensity, || {
         ws.wall.update(&ws.search, positions, &query)
     });
-    if request.double_density {
+    if double_density {
         report.timed(Stage::WallDensity, || {
             ws.wall.update_clavet(&ws.search.grid, positions, &query)
         });
