@@ -3,51 +3,23 @@
 
 use crate::domain::Separation;
 use crate::kernel::Kernel;
-use crate::math::{Real, Vector};
-use crate::neighbors::NeighborLists;
+use crate::math::Real;
+use crate::neighbors::Pairs;
 use crate::par::{CHUNK, LANES, lane_sum};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
-#[cfg(test)]
 /// Computes `densities[i]` for every particle, plus `wall[i]` (the walls' density, see
 /// [`crate::boundary::wall`]) when given, and `inv_densities[i] = 1/ρ_i` (the force
 /// stages multiply by it instead of dividing once per pair).
-pub fn compute<K: Kernel>(
-    positions: &[Vector],
-    neighbors: &NeighborLists,
-    mass: Real,
-    h: Real,
+pub fn compute<K: Kernel, S: Separation>(
+    pairs: &Pairs<'_, S>,
     wall: Option<&[Real]>,
     densities: &mut [Real],
     inv_densities: &mut [Real],
 ) {
-    compute_in::<K, crate::domain::Open>(
-        positions,
-        neighbors,
-        mass,
-        h,
-        wall,
-        densities,
-        inv_densities,
-        crate::domain::Open,
-    );
-}
-
-/// [`compute`] with the separations formed by `sep` (see [`crate::domain`]).
-#[allow(clippy::too_many_arguments)]
-pub fn compute_in<K: Kernel, S: Separation>(
-    positions: &[Vector],
-    neighbors: &NeighborLists,
-    mass: Real,
-    h: Real,
-    wall: Option<&[Real]>,
-    densities: &mut [Real],
-    inv_densities: &mut [Real],
-    sep: S,
-) {
-    let kernel = K::new(h);
-    let self_term = mass * kernel.w(0.0);
+    let kernel = K::new(pairs.h);
+    let self_term = pairs.mass * kernel.w(0.0);
     crate::par_chunks_mut!(densities, CHUNK)
         .zip(crate::par_chunks_mut!(inv_densities, CHUNK))
         .enumerate()
@@ -58,31 +30,38 @@ pub fn compute_in<K: Kernel, S: Separation>(
                     let base = c * CHUNK;
                     for (k, (rho, inv)) in out.iter_mut().zip(inv_out.iter_mut()).enumerate() {
                         let i = base + k;
-                        let xi = positions[i];
-                        let nb = neighbors.of(i);
-                        // LANES neighbours per iteration, each stage a loop over plain lane arrays:
-                        // LLVM turns the square roots and kernel polynomials into packed SIMD.
-                        let mut acc = [0.0; LANES];
-                        let mut blocks = nb.chunks_exact(LANES);
-                        for block in &mut blocks {
-                            let mut d = [0.0; LANES];
-                            for l in 0..LANES {
-                                d[l] = sep.sep(xi, positions[block[l] as usize]).length_squared();
-                            }
-                            for l in 0..LANES {
-                                acc[l] += kernel.w(d[l].sqrt());
-                            }
-                        }
-                        let mut sum = lane_sum(acc);
-                        for &j in blocks.remainder() {
-                            sum += kernel.w(sep.sep(xi, positions[j as usize]).length());
-                        }
-                        *rho = self_term + mass * sum + wall.map_or(0.0, |w| w[i]);
+                        let sum = kernel_sum(pairs, &kernel, i);
+                        *rho = self_term + pairs.mass * sum + wall.map_or(0.0, |w| w[i]);
                         *inv = 1.0 / *rho;
                     }
                 },
             );
         });
+}
+
+/// `Σ_j W(|x_i − x_j|)` over the neighbours of particle `i`: [`LANES`] neighbours per
+/// iteration, each stage a loop over plain lane arrays (LLVM turns the square roots and
+/// kernel polynomials into packed SIMD), then the rest one by one.
+#[inline(always)]
+fn kernel_sum<K: Kernel, S: Separation>(pairs: &Pairs<'_, S>, kernel: &K, i: usize) -> Real {
+    let (positions, sep) = (pairs.positions, &pairs.sep);
+    let xi = positions[i];
+    let mut acc = [0.0; LANES];
+    let mut blocks = pairs.neighbors.of(i).chunks_exact(LANES);
+    for block in &mut blocks {
+        let mut d = [0.0; LANES];
+        for l in 0..LANES {
+            d[l] = sep.sep(xi, positions[block[l] as usize]).length_squared();
+        }
+        for l in 0..LANES {
+            acc[l] += kernel.w(d[l].sqrt());
+        }
+    }
+    let mut sum = lane_sum(acc);
+    for &j in blocks.remainder() {
+        sum += kernel.w(sep.sep(xi, positions[j as usize]).length());
+    }
+    sum
 }
 
 /// Largest and mean relative compression `max(ρ − ρ0, 0)/ρ0`, reduced chunk by chunk and then

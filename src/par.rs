@@ -234,24 +234,20 @@ mod tests {
         let run = |ceiling: u8| {
             CEILING.store(ceiling, Ordering::Relaxed);
             let (mut rho, mut inv) = (vec![0.0; n], vec![0.0; n]);
-            crate::density::compute::<CubicSpline>(
-                &positions, &lists, m, h, None, &mut rho, &mut inv,
-            );
+            let pairs = crate::neighbors::Pairs {
+                positions: &positions,
+                neighbors: &lists,
+                mass: m,
+                h,
+                sep: crate::domain::Open,
+            };
+            crate::density::compute::<CubicSpline, _>(&pairs, None, &mut rho, &mut inv);
             let pressures: Vec<Real> = rho.iter().map(|r| 100.0 * (r - 1000.0)).collect();
             let mut acc = vec![Vector::ZERO; n];
-            crate::pressure::wcsph::pressure_accelerations::<CubicSpline>(
-                &positions, &inv, &pressures, &lists, m, h, None, &mut acc,
+            crate::pressure::wcsph::pressure_accelerations::<CubicSpline, _>(
+                &pairs, &inv, &pressures, None, &mut acc,
             );
-            crate::forces::viscosity::add_accelerations(
-                &positions,
-                &velocities,
-                &inv,
-                &lists,
-                m,
-                0.5,
-                h,
-                &mut acc,
-            );
+            crate::forces::viscosity::add_accelerations(&pairs, &velocities, &inv, 0.5, &mut acc);
             CEILING.store(0, Ordering::Relaxed);
             let mut bits: Vec<u32> = rho.iter().map(|v| v.to_bits()).collect();
             bits.extend(

@@ -101,3 +101,20 @@ impl NeighbourSearch {
             + (self.reals.capacity() + self.ids.capacity()) * 4
     }
 }
+
+/// What a pass over every particle's neighbours reads: the sorted positions, their neighbour
+/// lists, the particle mass, the support radius `h`, and how separations are formed (open
+/// or periodic domain, see [`crate::domain`]).
+#[derive(Copy, Clone)]
+pub(crate) struct Pairs<'a, S> {
+    /// Sorted positions.
+    pub positions: &'a [Vector],
+    /// Their neighbour lists.
+    pub neighbors: &'a NeighborLists,
+    /// Particle mass (kg).
+    pub mass: Real,
+    /// Support radius (m).
+    pub h: Real,
+    /// Forms the separations `x_i − x_j`.
+    pub sep: S,
+}

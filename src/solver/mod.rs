@@ -311,16 +311,19 @@ pub(crate) fn finish_position_step<S: Separation>(ctx: &mut StepContext<'_>, sep
     if p.viscosity > 0.0 {
         ctx.report.timed(crate::Stage::ViscosityForce, || {
             ctx.accelerations.fill(Vector::ZERO);
-            crate::forces::viscosity::add_accelerations_in(
-                ctx.positions,
+            let pairs = crate::neighbors::Pairs {
+                positions: ctx.positions,
+                neighbors: ctx.neighbors,
+                mass: p.particle_mass,
+                h: p.smoothing_length,
+                sep,
+            };
+            crate::forces::viscosity::add_accelerations(
+                &pairs,
                 ctx.velocities,
                 ctx.inv_densities,
-                ctx.neighbors,
-                p.particle_mass,
                 p.viscosity,
-                p.smoothing_length,
                 ctx.accelerations,
-                sep,
             );
             crate::integrate::add_accelerations(dt, ctx.accelerations, ctx.velocities);
         });

@@ -8,6 +8,7 @@ use super::{PressureSolver, WallReaction, WallRequest};
 use crate::diagnostics::Stage;
 use crate::domain::Separation;
 use crate::math::{Real, Vector};
+use crate::neighbors::Pairs;
 use crate::params::FluidParams;
 use crate::{density, forces, integrate, pressure};
 
@@ -30,12 +31,17 @@ impl PressureSolver for WcsphState {
 
     fn step<S: Separation>(&mut self, _: &(), ctx: &mut StepContext<'_>, sep: S) -> Outcome {
         let p = ctx.params;
-        let h = p.smoothing_length;
         let wall = ctx.wall;
+        let pairs = Pairs {
+            positions: ctx.positions,
+            neighbors: ctx.neighbors,
+            mass: p.particle_mass,
+            h: p.smoothing_length,
+            sep,
+        };
         ctx.report.timed(Stage::Density, || {
-            crate::with_kernel!(p.density_kernel, K => density::compute_in::<K, S>(
-                ctx.positions, ctx.neighbors, p.particle_mass, h,
-                wall.map(|w| &w.density[..]), ctx.densities, ctx.inv_densities, sep));
+            crate::with_kernel!(p.density_kernel, K => density::compute::<K, S>(
+                &pairs, wall.map(|w| &w.density[..]), ctx.densities, ctx.inv_densities));
         });
         ctx.report.timed(Stage::Pressure, || {
             pressure::eos::compute(
@@ -48,22 +54,18 @@ impl PressureSolver for WcsphState {
         });
         // Overwrites the accelerations.
         ctx.report.timed(Stage::PressureForce, || {
-            crate::with_kernel!(p.pressure_kernel, K => pressure::wcsph::pressure_accelerations_in::<K, S>(
-                ctx.positions, ctx.inv_densities, ctx.pressures, ctx.neighbors, p.particle_mass,
-                h, wall.map(|w| &w.gradient[..]), ctx.accelerations, sep));
+            crate::with_kernel!(p.pressure_kernel, K => pressure::wcsph::pressure_accelerations::<K, S>(
+                &pairs, ctx.inv_densities, ctx.pressures, wall.map(|w| &w.gradient[..]),
+                ctx.accelerations));
         });
         if p.viscosity > 0.0 {
             ctx.report.timed(Stage::ViscosityForce, || {
-                forces::viscosity::add_accelerations_in(
-                    ctx.positions,
+                forces::viscosity::add_accelerations(
+                    &pairs,
                     ctx.velocities,
                     ctx.inv_densities,
-                    ctx.neighbors,
-                    p.particle_mass,
                     p.viscosity,
-                    h,
                     ctx.accelerations,
-                    sep,
                 );
             });
         }
