@@ -6,7 +6,8 @@
 use crate::domain::Separation;
 use crate::kernel::Kernel;
 use crate::math::{Real, Vector};
-use crate::par::{CHUNK, LANES};
+use crate::neighbors::Pairs;
+use crate::par::{CHUNK, LANES, lane_sum};
 use rapier3d::glamx::Vec3A;
 
 /// A block of [`LANES`] neighbours of one particle: separations, distances, gradients.
@@ -75,6 +76,78 @@ pub(crate) fn gradient_one<K: Kernel, S: Separation>(
     let r = sep.sep(xi, positions[j as usize]);
     let d = r.length();
     (kernel.gradient(r, d, i as u32, j), d)
+}
+
+/// A particle's kernel sums over its neighbours: `Σ_j W_ij`, `Σ_j ∇W_ij` and `Σ_j |∇W_ij|²`
+/// (the density and the DFSPH factor's or PBF's constraint gradient need all three).
+pub(crate) struct KernelSums {
+    pub w: Real,
+    pub g: Vector,
+    pub g2: Real,
+}
+
+/// Where [`kernel_sums`] hands the pair values it computes (DFSPH's density pass stores them;
+/// `()` drops them).
+pub(crate) trait PairSink {
+    /// The block of pairs `o..o + LANES`, before it is summed.
+    fn block(&mut self, o: usize, b: &Block);
+    /// Remaining pair `t`: its gradient and distance.
+    fn one(&mut self, t: usize, gradient: Vector, d: Real);
+}
+
+impl PairSink for () {
+    #[inline(always)]
+    fn block(&mut self, _: usize, _: &Block) {}
+    #[inline(always)]
+    fn one(&mut self, _: usize, _: Vector, _: Real) {}
+}
+
+/// [`KernelSums`] of particle `i` over its neighbours `nb`: [`LANES`] at a time through
+/// [`gradient_block`] (lane accumulators summed by [`lane_sum`]), then the rest one by one,
+/// every pair's values handed to `sink` on the way.
+#[inline(always)]
+pub(crate) fn kernel_sums<K: Kernel, S: Separation>(
+    pairs: &Pairs<'_, S>,
+    kernel: &K,
+    i: usize,
+    nb: &[u32],
+    sink: &mut impl PairSink,
+) -> KernelSums {
+    let (positions, sep) = (pairs.positions, &pairs.sep);
+    let xi = positions[i];
+    let (mut w, mut sx, mut sy, mut sz, mut s2) = (
+        [0.0; LANES],
+        [0.0; LANES],
+        [0.0; LANES],
+        [0.0; LANES],
+        [0.0; LANES],
+    );
+    let full = nb.len() / LANES * LANES;
+    for (t, bl) in nb[..full].chunks_exact(LANES).enumerate() {
+        let b = gradient_block(sep, kernel, i, xi, positions, bl);
+        sink.block(t * LANES, &b);
+        // A separate loop: mixed with the sink's stores it did not vectorise.
+        for l in 0..LANES {
+            w[l] += kernel.w(b.d[l]);
+            sx[l] += b.gx[l];
+            sy[l] += b.gy[l];
+            sz[l] += b.gz[l];
+            s2[l] += b.gx[l] * b.gx[l] + b.gy[l] * b.gy[l] + b.gz[l] * b.gz[l];
+        }
+    }
+    let mut sums = KernelSums {
+        w: lane_sum(w),
+        g: Vector::new(lane_sum(sx), lane_sum(sy), lane_sum(sz)),
+        g2: lane_sum(s2),
+    };
+    for t in full..nb.len() {
+        let (gr, d) = gradient_one(sep, kernel, i, xi, positions, nb[t]);
+        sink.one(t, gr, d);
+        sums.w += kernel.w(d);
+        sums.g += gr;
+        sums.g2 += gr.length_squared();
+    }
+    sums
 }
 
 /// Sum of per-chunk `(f64 sum, max)` partials in a fixed order.

@@ -37,13 +37,13 @@
 //! The solver uses the fluid's *density* kernel for every gradient, so the factor is exact for
 //! the forces it predicts (the pressure-kernel setting is used by WCSPH only).
 
-use super::pairs::{PairGradients, gradient_block, gradient_one, reduce_partials};
+use super::pairs::{Block, KernelSums, PairGradients, PairSink, kernel_sums, reduce_partials};
 use crate::boundary::WallWorkspace;
 use crate::domain::Separation;
 use crate::kernel::{Kernel, ViscosityLaplacian};
 use crate::math::{Real, Vector};
-use crate::neighbors::NeighborLists;
-use crate::par::{CHUNK, LANES, lane_sum};
+use crate::neighbors::{NeighborLists, Pairs};
+use crate::par::{CHUNK, LANES};
 use rapier3d::glamx::Vec3A;
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
@@ -217,23 +217,60 @@ pub(crate) struct WarmPush<'a> {
     pub dt: Real,
 }
 
-/// [`density_and_factors`] with the separations formed by `sep` (see [`crate::domain`]).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn density_and_factors_in<K: Kernel, S: Separation>(
-    positions: &[Vector],
-    neighbors: &NeighborLists,
-    mass: Real,
-    h: Real,
-    wall: Option<&WallWorkspace>,
-    viscosity: Option<ViscosityLaplacian>,
-    push: Option<WarmPush<'_>>,
-    densities: &mut [Real],
-    inv_densities: &mut [Real],
-    alpha: &mut [Real],
-    grads: &mut PairGradients,
-    pushed: &mut [Vec3A],
-    sep: S,
+impl WarmPush<'_> {
+    /// How the warm start pushes particles of mass `mass` (walls' neighbour part included).
+    fn pusher<'w>(&self, mass: Real, wall: Option<&'w WallWorkspace>) -> Pusher<'w> {
+        Pusher {
+            mass,
+            wall,
+            neighbour: true,
+            dt: self.dt,
+        }
+    }
+}
+
+/// What [`density_and_factors`] reads besides the pairs.
+pub(crate) struct FactorInput<'a> {
+    /// Wall contributions, if any wall is near.
+    pub wall: Option<&'a WallWorkspace>,
+    /// The viscosity Laplacian, when the fluid is viscous (its pair values are stored).
+    pub viscosity: Option<ViscosityLaplacian>,
+    /// The divergence solve's warm start, when there is one to apply.
+    pub push: Option<WarmPush<'a>>,
+}
+
+/// What [`density_and_factors`] writes (indexed like the sorted particles).
+pub(crate) struct Factors<'a> {
+    /// Densities.
+    pub densities: &'a mut [Real],
+    /// `1/ρ`.
+    pub inv_densities: &'a mut [Real],
+    /// DFSPH factors `α`.
+    pub alpha: &'a mut [Real],
+    /// Kernel gradients (and Laplacians) of every neighbour pair.
+    pub grads: &'a mut PairGradients,
+    /// The velocities after the warm start's push (16 bytes wide; written only with a push).
+    pub pushed: &'a mut [Vec3A],
+}
+
+/// Density, `1/ρ` and the DFSPH factor `α` of every particle, the kernel gradients (and,
+/// for a viscous fluid, the viscosity Laplacians) of every pair, and the divergence solve's
+/// warm start applied to the velocities (`input.push`), in one pass over the neighbours.
+pub(crate) fn density_and_factors<K: Kernel, S: Separation>(
+    pairs: &Pairs<'_, S>,
+    input: &FactorInput<'_>,
+    out: Factors<'_>,
 ) {
+    let (positions, neighbors, mass, h) = (pairs.positions, pairs.neighbors, pairs.mass, pairs.h);
+    let (wall, viscosity) = (input.wall, input.viscosity);
+    let Factors {
+        densities,
+        inv_densities,
+        alpha,
+        grads,
+        pushed,
+    } = out;
+    let push = input.push.map(|push| (push, push.pusher(mass, wall)));
     let kernel = K::new(h);
     let self_term = mass * kernel.w(0.0);
     let n = positions.len();
@@ -251,12 +288,11 @@ pub(crate) fn density_and_factors_in<K: Kernel, S: Separation>(
                 || {
                     let base = c * CHUNK;
                     let (offsets, indices) = neighbors.chunk(c);
-                    let pairs = offsets[dens.len()] as usize;
-                    gc.grad.resize(pairs, Vec3A::ZERO);
-                    gc.laplacian.resize(viscosity.map_or(0, |_| pairs), 0.0);
+                    let in_chunk = offsets[dens.len()] as usize;
+                    gc.grad.resize(in_chunk, Vec3A::ZERO);
+                    gc.laplacian.resize(viscosity.map_or(0, |_| in_chunk), 0.0);
                     for k in 0..dens.len() {
                         let i = base + k;
-                        let xi = positions[i];
                         let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
                         let nb = &indices[s..e];
                         let out = &mut gc.grad[s..e];
@@ -264,47 +300,13 @@ pub(crate) fn density_and_factors_in<K: Kernel, S: Separation>(
                             Some(_) => &mut gc.laplacian[s..e],
                             None => &mut [],
                         };
-                        let (mut w, mut sx, mut sy, mut sz, mut s2) = (
-                            [0.0; LANES],
-                            [0.0; LANES],
-                            [0.0; LANES],
-                            [0.0; LANES],
-                            [0.0; LANES],
-                        );
-                        let full = nb.len() / LANES * LANES;
-                        for (t, block) in nb[..full].chunks_exact(LANES).enumerate() {
-                            let b = gradient_block(&sep, &kernel, i, xi, positions, block);
-                            let o = t * LANES;
-                            to_vectors(&b.gx, &b.gy, &b.gz, &mut out[o..o + LANES]);
-                            if let Some(lap) = &viscosity {
-                                let lap_out: &mut [Real; LANES] =
-                                    (&mut lap_out[o..o + LANES]).try_into().unwrap();
-                                for (o, &d) in lap_out.iter_mut().zip(&b.d) {
-                                    *o = lap.laplacian(d);
-                                }
-                            }
-                            // A separate loop: mixed with the stores above it did not vectorise.
-                            for l in 0..LANES {
-                                w[l] += kernel.w(b.d[l]);
-                                sx[l] += b.gx[l];
-                                sy[l] += b.gy[l];
-                                sz[l] += b.gz[l];
-                                s2[l] += b.gx[l] * b.gx[l] + b.gy[l] * b.gy[l] + b.gz[l] * b.gz[l];
-                            }
-                        }
-                        let mut wsum = lane_sum(w);
-                        let mut g = Vector::new(lane_sum(sx), lane_sum(sy), lane_sum(sz));
-                        let mut g2 = lane_sum(s2);
-                        for t in full..nb.len() {
-                            let (gr, d) = gradient_one(&sep, &kernel, i, xi, positions, nb[t]);
-                            out[t] = Vec3A::from(gr);
-                            if let Some(lap) = &viscosity {
-                                lap_out[t] = lap.laplacian(d);
-                            }
-                            wsum += kernel.w(d);
-                            g += gr;
-                            g2 += gr.length_squared();
-                        }
+                        let mut store = StorePairs {
+                            grad: &mut *out,
+                            lap: lap_out,
+                            viscosity,
+                        };
+                        let KernelSums { w: wsum, g, g2 } =
+                            kernel_sums(pairs, &kernel, i, nb, &mut store);
                         let mut rho = self_term + mass * wsum;
                         let grad = g * mass;
                         // Own pressure's effect on own density: the push Σm∇W + γ∇ρ_wall dotted with the
@@ -315,10 +317,9 @@ pub(crate) fn density_and_factors_in<K: Kernel, S: Separation>(
                             let gw = wall.gradient[i];
                             denom = (grad + gw * wall.mirror).dot(grad + gw) + mass * mass * g2;
                         }
-                        if let Some(push) = &push {
+                        if let Some((push, pusher)) = &push {
                             let v = Vec3A::from(push.velocities[i]);
-                            pushed[k] =
-                                v - pressure_push(nb, out, push.pi, i, mass, wall, true, push.dt);
+                            pushed[k] = v - pusher.push(nb, out, push.pi, i);
                         }
                         dens[k] = rho;
                         inv[k] = 1.0 / rho;
@@ -334,24 +335,69 @@ pub(crate) fn density_and_factors_in<K: Kernel, S: Separation>(
         });
 }
 
+/// The density pass's pair values of one particle: gradients (16 bytes wide) and, for a
+/// viscous fluid, the viscosity Laplacians.
+struct StorePairs<'a> {
+    grad: &'a mut [Vec3A],
+    lap: &'a mut [Real],
+    viscosity: Option<ViscosityLaplacian>,
+}
+
+impl PairSink for StorePairs<'_> {
+    #[inline(always)]
+    fn block(&mut self, o: usize, b: &Block) {
+        to_vectors(&b.gx, &b.gy, &b.gz, &mut self.grad[o..o + LANES]);
+        if let Some(l) = &self.viscosity {
+            let lap: &mut [Real; LANES] = (&mut self.lap[o..o + LANES]).try_into().unwrap();
+            for (o, &d) in lap.iter_mut().zip(&b.d) {
+                *o = l.laplacian(d);
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn one(&mut self, t: usize, gradient: Vector, d: Real) {
+        self.grad[t] = Vec3A::from(gradient);
+        if let Some(l) = &self.viscosity {
+            self.lap[t] = l.laplacian(d);
+        }
+    }
+}
+
+/// `Σ_t term(nb[t], values[t])` over a particle's pairs, pair `t` into accumulator
+/// `t % ACC`, summed as `(a0 + a1) + (a2 + a3)`: independent add chains, and a fixed order,
+/// so the result depends on the data only. The terms run over 16-byte vectors (one packed
+/// operation per component-wise step).
+#[inline(always)]
+fn pair_sum<T: Copy>(nb: &[u32], values: &[T], term: impl Fn(usize, T) -> Vec3A) -> Vec3A {
+    let mut acc = [Vec3A::ZERO; ACC];
+    let full = nb.len() / ACC * ACC;
+    for (j, v) in nb[..full]
+        .chunks_exact(ACC)
+        .zip(values[..full].chunks_exact(ACC))
+    {
+        for l in 0..ACC {
+            acc[l] += term(j[l] as usize, v[l]);
+        }
+    }
+    for (l, (&j, &v)) in nb[full..].iter().zip(&values[full..]).enumerate() {
+        acc[l] += term(j as usize, v);
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3])
+}
+
 /// Pass A of an iteration: the rate of change of every particle's density under the current
 /// velocities, `Dρ_i/Dt = Σ_j m (v_i − v_j)·∇W_ij + (v_i − v_wall)·∇ρ_wall,i` (eq. 6), handed to
 /// `finish(i, rate)`, which returns `(π_i, error_i)`. Writes `π`; returns the per-chunk error
 /// sums into `partials`.
-///
-/// The pair sum runs over 16-byte vectors (one packed subtract, multiply and add per pair)
-/// into [`ACC`] accumulators taken in a fixed order, so the result depends on the data only.
-#[allow(clippy::too_many_arguments)]
 fn rate_pass<F: Fn(usize, Real) -> (Real, Real) + Sync>(
+    ctx: &SolveContext<'_>,
     velocities: &[Vec3A],
-    neighbors: &NeighborLists,
-    grads: &PairGradients,
-    mass: Real,
-    wall: Option<&WallWorkspace>,
     pi: &mut [Real],
     partials: &mut [(f64, Real)],
     finish: F,
 ) {
+    let (mass, wall) = (ctx.mass, ctx.wall);
     crate::par_chunks_mut!(pi, CHUNK)
         .zip(crate::par_iter_mut!(partials))
         .enumerate()
@@ -359,30 +405,16 @@ fn rate_pass<F: Fn(usize, Real) -> (Real, Real) + Sync>(
             crate::par::wide(
                 #[inline(always)]
                 || {
-                    let base = c * CHUNK;
-                    let (offsets, indices) = neighbors.chunk(c);
-                    let gc = &grads.chunk(c).grad;
+                    let (offsets, indices) = ctx.neighbors.chunk(c);
+                    let gc = &ctx.gradients.chunk(c).grad;
                     let mut err_sum = 0.0f64;
                     let mut err_max: Real = 0.0;
                     for k in 0..pi.len() {
-                        let i = base + k;
+                        let i = c * CHUNK + k;
                         let vi = velocities[i];
                         let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
-                        let (nb, g) = (&indices[s..e], &gc[s..e]);
-                        let mut acc = [Vec3A::ZERO; ACC];
-                        let full = nb.len() / ACC * ACC;
-                        for (j, g) in nb[..full]
-                            .chunks_exact(ACC)
-                            .zip(g[..full].chunks_exact(ACC))
-                        {
-                            for l in 0..ACC {
-                                acc[l] += (vi - velocities[j[l] as usize]) * g[l];
-                            }
-                        }
-                        for (l, (&j, &g)) in nb[full..].iter().zip(&g[full..]).enumerate() {
-                            acc[l] += (vi - velocities[j as usize]) * g;
-                        }
-                        let a = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+                        let a =
+                            pair_sum(&indices[s..e], &gc[s..e], |j, g| (vi - velocities[j]) * g);
                         let mut rate = (a.x + a.y + a.z) * mass;
                         if let Some(wall) = wall {
                             let vi = Vector::from(vi);
@@ -399,45 +431,35 @@ fn rate_pass<F: Fn(usize, Real) -> (Real, Real) + Sync>(
         });
 }
 
-/// `dt·(Σ_j m (π_i + π_j) ∇W_ij + γ π_i ∇ρ_wall,i)`: how much the pressure values `pi`
-/// change particle `i`'s velocity over `dt` (subtracted), from its neighbours `nb` and
-/// their gradients `g`. The pair sum runs like [`rate_pass`]'s.
-#[inline(always)]
-fn pressure_push(
-    nb: &[u32],
-    g: &[Vec3A],
-    pi: &[Real],
-    i: usize,
+/// How pressure values push a particle: particle mass, walls, whether the walls take their
+/// pressure from the neighbours (hydrostatic walls, unless the solve dropped that part), and
+/// the time step.
+struct Pusher<'a> {
     mass: Real,
-    wall: Option<&WallWorkspace>,
+    wall: Option<&'a WallWorkspace>,
     neighbour: bool,
     dt: Real,
-) -> Vec3A {
-    let pii = pi[i];
-    let mut acc = [Vec3A::ZERO; ACC];
-    let full = nb.len() / ACC * ACC;
-    for (j, g) in nb[..full]
-        .chunks_exact(ACC)
-        .zip(g[..full].chunks_exact(ACC))
-    {
-        for l in 0..ACC {
-            acc[l] += g[l] * (pii + pi[j[l] as usize]);
+}
+
+impl Pusher<'_> {
+    /// `dt·(Σ_j m (π_i + π_j) ∇W_ij + γ π_i ∇ρ_wall,i)`: how much the pressure values `pi`
+    /// change particle `i`'s velocity over `dt` (subtracted), from its neighbours `nb` and
+    /// their gradients `g`.
+    #[inline(always)]
+    fn push(&self, nb: &[u32], g: &[Vec3A], pi: &[Real], i: usize) -> Vec3A {
+        let pii = pi[i];
+        let f = pair_sum(nb, g, |j, g| g * (pii + pi[j]));
+        let mut dv = Vector::from(f) * (self.dt * self.mass);
+        if let Some(wall) = self.wall {
+            let gw = wall.gradient[i];
+            let mut wall_pi = wall.mirror * pii;
+            if self.neighbour && wall.neighbour_pressure {
+                wall_pi += neighbour_average(nb, g, gw, |j| pi[j]);
+            }
+            dv += gw * (wall_pi * self.dt);
         }
+        Vec3A::from(dv)
     }
-    for (l, (&j, &g)) in nb[full..].iter().zip(&g[full..]).enumerate() {
-        acc[l] += g * (pii + pi[j as usize]);
-    }
-    let f = (acc[0] + acc[1]) + (acc[2] + acc[3]);
-    let mut dv = Vector::from(f) * (dt * mass);
-    if let Some(wall) = wall {
-        let gw = wall.gradient[i];
-        let mut wall_pi = wall.mirror * pii;
-        if neighbour && wall.neighbour_pressure {
-            wall_pi += neighbour_average(nb, g, gw, |j| pi[j]);
-        }
-        dv += gw * (wall_pi * dt);
-    }
-    Vec3A::from(dv)
 }
 
 /// The wall's pressure value `π̂_i` with hydrostatic walls: the average of the neighbours'
@@ -485,39 +507,26 @@ pub(crate) fn wall_neighbour_pressure(
     )
 }
 
-/// Pass B of an iteration: `v_i −= dt·(Σ_j m (π_i + π_j) ∇W_ij + π_i ∇ρ_wall,i)`.
-#[allow(clippy::too_many_arguments)]
-fn apply_pressure(
-    neighbors: &NeighborLists,
-    grads: &PairGradients,
-    mass: Real,
-    wall: Option<&WallWorkspace>,
-    neighbour: bool,
-    pi: &[Real],
-    dt: Real,
-    velocities: &mut [Vec3A],
-) {
+/// Pass B of an iteration: `v_i −= dt·(Σ_j m (π_i + π_j) ∇W_ij + π_i ∇ρ_wall,i)` (the walls'
+/// neighbour part with `neighbour`).
+fn apply_pressure(ctx: &SolveContext<'_>, neighbour: bool, pi: &[Real], velocities: &mut [Vec3A]) {
+    let pusher = Pusher {
+        mass: ctx.mass,
+        wall: ctx.wall,
+        neighbour,
+        dt: ctx.dt,
+    };
     crate::par_chunks_mut!(velocities, CHUNK)
         .enumerate()
         .for_each(|(c, out)| {
             crate::par::wide(
                 #[inline(always)]
                 || {
-                    let base = c * CHUNK;
-                    let (offsets, indices) = neighbors.chunk(c);
-                    let gc = &grads.chunk(c).grad;
+                    let (offsets, indices) = ctx.neighbors.chunk(c);
+                    let gc = &ctx.gradients.chunk(c).grad;
                     for (k, v) in out.iter_mut().enumerate() {
                         let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
-                        *v -= pressure_push(
-                            &indices[s..e],
-                            &gc[s..e],
-                            pi,
-                            base + k,
-                            mass,
-                            wall,
-                            neighbour,
-                            dt,
-                        );
+                        *v -= pusher.push(&indices[s..e], &gc[s..e], pi, c * CHUNK + k);
                     }
                 },
             );
@@ -526,55 +535,35 @@ fn apply_pressure(
 
 /// Adds the viscosity acceleration (Müller et al. 2003, as
 /// [`crate::forces::viscosity::add_accelerations`]) to `accelerations`,
-/// `a_i += ε m/ρ_i Σ_j (v_j − v_i)/ρ_j ∇²W_v(|x_i − x_j|)`, from the Laplacians stored by
-/// [`density_and_factors`] (called with `Some` viscosity): a gather of velocities and
-/// densities, with no distance or kernel evaluated. `wide` is scratch for a 16-byte copy of
-/// the velocities.
-#[allow(clippy::too_many_arguments)]
+/// `a_i += ε m/ρ_i Σ_j (v_j − v_i)/ρ_j ∇²W_v(|x_i − x_j|)` (`em` = `ε·m`), from the
+/// Laplacians stored by [`density_and_factors`] (with viscosity) in `pairs`: a gather of
+/// velocities and densities, with no distance or kernel evaluated. `wide` is scratch for a
+/// 16-byte copy of the velocities.
 pub(crate) fn viscosity(
-    neighbors: &NeighborLists,
-    pairs: &PairGradients,
-    velocities: &[Vector],
-    inv_densities: &[Real],
-    mass: Real,
-    viscosity: Real,
+    (neighbors, pairs): (&NeighborLists, &PairGradients),
+    (velocities, inv_densities): (&[Vector], &[Real]),
+    em: Real,
     wide: &mut Vec<Vec3A>,
     accelerations: &mut [Vector],
 ) {
     wide.clear();
     wide.extend(velocities.iter().map(|&v| Vec3A::from(v)));
     let velocities: &[Vec3A] = wide;
-    let em = viscosity * mass;
     crate::par_chunks_mut!(accelerations, CHUNK)
         .enumerate()
         .for_each(|(c, out)| {
             crate::par::wide(
                 #[inline(always)]
                 || {
-                    let base = c * CHUNK;
                     let (offsets, indices) = neighbors.chunk(c);
                     let lap = &pairs.chunk(c).laplacian;
                     for (k, a) in out.iter_mut().enumerate() {
-                        let i = base + k;
+                        let i = c * CHUNK + k;
                         let vi = velocities[i];
                         let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
-                        let (nb, lap) = (&indices[s..e], &lap[s..e]);
-                        let mut acc = [Vec3A::ZERO; ACC];
-                        let full = nb.len() / ACC * ACC;
-                        for (j, lap) in nb[..full]
-                            .chunks_exact(ACC)
-                            .zip(lap[..full].chunks_exact(ACC))
-                        {
-                            for l in 0..ACC {
-                                let j = j[l] as usize;
-                                acc[l] += (velocities[j] - vi) * (lap[l] * inv_densities[j]);
-                            }
-                        }
-                        for (l, (&j, &lap)) in nb[full..].iter().zip(&lap[full..]).enumerate() {
-                            let j = j as usize;
-                            acc[l] += (velocities[j] - vi) * (lap * inv_densities[j]);
-                        }
-                        let f = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+                        let f = pair_sum(&indices[s..e], &lap[s..e], |j, lap| {
+                            (velocities[j] - vi) * (lap * inv_densities[j])
+                        });
                         *a += Vector::from(f) * (em * inv_densities[i]);
                     }
                 },
@@ -664,155 +653,193 @@ enum WarmStart {
     WhereCompressing(Real),
 }
 
+/// What a solve asks of [`jacobi`].
+struct Solve {
+    /// How the previous step's values are reused.
+    warm_start: WarmStart,
+    /// Iterations run at least, and at most.
+    iterations: (u32, u32),
+    /// Average error to reach.
+    target: Real,
+    /// Turns `Σ error_i / n` into the error compared with `target`.
+    error_scale: Real,
+    /// `1/dt²` (density) or `1/dt` (divergence): a closed box's increments
+    /// ([`closed_increments`]).
+    gain: Real,
+}
+
 /// The Jacobi loop both solves share: warm start from the previous pressure values (section
-/// 4.4) as `warm_start` says (never all of them: the increments are never negative, so the
-/// whole value could only grow; a closed box carries all of them, see
-/// [`SolveContext::closed`]), then rate pass → error check → velocity update until the average error, `Σ error_i / n` times
-/// `error_scale`, is at most `target` (after at least `min_iterations`), or the cap binds.
-/// `finish(i, Dρ_i/Dt) = (π increment, error_i)`. `warm` ends as this step's summed pressure.
-#[allow(clippy::too_many_arguments)]
+/// 4.4) as `solve.warm_start` says (never all of them: the increments are never negative,
+/// so the whole value could only grow; a closed box carries all of them, see
+/// [`SolveContext::closed`]), then rate pass → error check → velocity update until the
+/// average error, `Σ error_i / n` times `error_scale`, is at most `target` (after the least
+/// number of iterations), or the cap binds. `finish(α, i, Dρ_i/Dt) = (π increment,
+/// error_i)`. `warm` ends as this step's summed pressure.
 fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
     ctx: &SolveContext<'_>,
-    settings: &Dfsph,
-    warm_start: WarmStart,
-    min_iterations: u32,
-    target: Real,
-    error_scale: Real,
+    solve: Solve,
     buffers: &mut DfsphBuffers,
     warm: &mut [Real],
     velocities: &mut [Vector],
-    gain: Real,
     finish: F,
 ) -> SolveStats {
     let n = ctx.positions.len();
     buffers.resize(n);
+    // Hydrostatic walls: track what the walls' neighbour part is applied with.
+    let track = ctx.wall.is_some_and(|w| w.neighbour_pressure);
+    if track {
+        buffers.applied_neighbour.resize(n, 0.0);
+    }
     let DfsphBuffers {
         alpha,
         pi,
         partials,
         velocities: wide,
-        relaxation_halvings: halvings,
+        relaxation_halvings,
         applied_neighbour,
     } = buffers;
-    // Hydrostatic walls: track what the walls' neighbour part is applied with.
-    let track = ctx.wall.is_some_and(|w| w.neighbour_pressure);
-    if track {
-        applied_neighbour.resize(n, 0.0);
-    }
-    let mut neighbour = true;
     // The passes work on a 16-byte copy of the velocities (see [`PairGradients`]).
-    if !matches!(warm_start, WarmStart::Pushed(true)) {
+    if !matches!(solve.warm_start, WarmStart::Pushed(true)) {
         for (w, &v) in wide.iter_mut().zip(velocities.iter()) {
             *w = Vec3A::from(v);
         }
     }
-    let apply = |pi: &[Real], velocities: &mut [Vec3A], neighbour: bool| {
-        apply_pressure(
-            ctx.neighbors,
-            ctx.gradients,
-            ctx.mass,
-            ctx.wall,
-            neighbour,
-            pi,
-            ctx.dt,
-            velocities,
-        )
+    let mut it = Jacobi {
+        ctx,
+        alpha,
+        pi,
+        partials,
+        wide,
+        applied: track.then_some(&mut applied_neighbour[..]),
+        finish,
     };
-    let alpha: &[Real] = alpha;
-    let rate = |velocities: &[Vec3A], pi: &mut [Real], partials: &mut [(f64, Real)]| {
-        rate_pass(
-            velocities,
-            ctx.neighbors,
-            ctx.gradients,
-            ctx.mass,
-            ctx.wall,
-            pi,
-            partials,
-            |i, r| finish(alpha, i, r),
-        )
-    };
-    match warm_start {
-        // Applied with the density pass (a closed box's mean removed before it).
-        WarmStart::Pushed(_) => {}
-        // Closed: the solve takes back what over-corrects, so every value is carried.
-        WarmStart::WhereCompressing(fraction) if ctx.closed => {
-            for w in warm.iter_mut() {
-                *w *= fraction;
-            }
-            remove_mean(warm);
-            if warm.iter().any(|&w| w != 0.0) {
-                apply(warm, wide, true);
-                if track {
-                    add_to(applied_neighbour, warm);
-                }
-            }
+    it.warm_start(solve.warm_start, warm);
+    let stats = it.iterate(&solve, relaxation_halvings, warm);
+    for (v, &w) in velocities.iter_mut().zip(it.wide.iter()) {
+        *v = Vector::from(w);
+    }
+    stats
+}
+
+/// One solve's iteration state: the context, the factors, the iteration's values `π`, the
+/// per-chunk partial sums, the 16-byte velocities being corrected, and with hydrostatic walls
+/// the values the walls' neighbour part has been applied with.
+struct Jacobi<'a, F> {
+    ctx: &'a SolveContext<'a>,
+    alpha: &'a [Real],
+    pi: &'a mut [Real],
+    partials: &'a mut [(f64, Real)],
+    wide: &'a mut [Vec3A],
+    applied: Option<&'a mut [Real]>,
+    finish: F,
+}
+
+impl<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync> Jacobi<'_, F> {
+    /// Pass A into `π` (see [`rate_pass`]).
+    fn rate(&mut self) {
+        let (alpha, finish) = (self.alpha, &self.finish);
+        rate_pass(self.ctx, self.wide, self.pi, self.partials, |i, r| {
+            finish(alpha, i, r)
+        });
+    }
+
+    /// Pass B with the previous step's `values` (the walls' neighbour part included).
+    fn apply_warm(&mut self, values: &[Real]) {
+        apply_pressure(self.ctx, true, values, self.wide);
+        if let Some(a) = self.applied.as_deref_mut() {
+            add_to(a, values);
         }
-        WarmStart::WhereCompressing(fraction) => {
-            if warm.iter().any(|&w| w != 0.0) {
-                // One rate pass without any pressure: which particles still compress.
-                rate(wide, pi, partials);
-                for (w, &p) in warm.iter_mut().zip(pi.iter()) {
-                    *w = if p > 0.0 { *w * fraction } else { 0.0 };
+    }
+
+    /// The warm start (see [`WarmStart`]), applied to the velocities.
+    fn warm_start(&mut self, warm_start: WarmStart, warm: &mut [Real]) {
+        match warm_start {
+            // Applied with the density pass (a closed box's mean removed before it).
+            WarmStart::Pushed(_) => {}
+            // Closed: the solve takes back what over-corrects, so every value is carried.
+            WarmStart::WhereCompressing(fraction) if self.ctx.closed => {
+                for w in warm.iter_mut() {
+                    *w *= fraction;
                 }
+                remove_mean(warm);
                 if warm.iter().any(|&w| w != 0.0) {
-                    apply(warm, wide, true);
-                    if track {
-                        add_to(applied_neighbour, warm);
+                    self.apply_warm(warm);
+                }
+            }
+            WarmStart::WhereCompressing(fraction) => {
+                if warm.iter().any(|&w| w != 0.0) {
+                    // One rate pass without any pressure: which particles still compress.
+                    self.rate();
+                    for (w, &p) in warm.iter_mut().zip(self.pi.iter()) {
+                        *w = if p > 0.0 { *w * fraction } else { 0.0 };
+                    }
+                    if warm.iter().any(|&w| w != 0.0) {
+                        self.apply_warm(warm);
                     }
                 }
             }
         }
     }
-    let mut stats = SolveStats::default();
-    let mut previous = Real::INFINITY;
-    loop {
-        rate(wide, pi, partials);
-        let sum = if ctx.closed {
-            closed_increments(pi, alpha, gain)
-        } else {
-            reduce_partials(partials).0
-        };
-        stats.error = (sum / n as f64) as Real * error_scale;
-        // The iteration diverging: halve the relaxation (see `MAX_RELAXATION_HALVINGS`). A
-        // closed box's update is relaxed already (`CLOSED_RELAXATION`).
-        if !ctx.closed {
-            // Diverging with hydrostatic walls: the rest of the solve without the walls'
-            // neighbour part (see `DfsphBuffers::applied_neighbour`).
-            if stats.error > previous && track && neighbour {
-                neighbour = false;
-                stats.neighbour_dropped = true;
-            }
-            if stats.error > previous && *halvings < MAX_RELAXATION_HALVINGS {
-                *halvings += 1;
-            }
-            previous = stats.error;
-            if *halvings > 0 {
-                let omega = super::relaxation(*halvings);
-                for p in pi.iter_mut() {
-                    *p *= omega;
+
+    /// Rate pass → error check → velocity update until the target or the cap (see
+    /// [`jacobi`]); `halvings` is the fluid's relaxation count, `warm` sums the values.
+    fn iterate(&mut self, solve: &Solve, halvings: &mut u32, warm: &mut [Real]) -> SolveStats {
+        let ctx = self.ctx;
+        let n = ctx.positions.len();
+        let mut stats = SolveStats::default();
+        let mut previous = Real::INFINITY;
+        let mut neighbour = true;
+        loop {
+            self.rate();
+            let sum = if ctx.closed {
+                closed_increments(self.pi, self.alpha, solve.gain)
+            } else {
+                reduce_partials(self.partials).0
+            };
+            stats.error = (sum / n as f64) as Real * solve.error_scale;
+            // A closed box's update is relaxed already (`CLOSED_RELAXATION`).
+            if !ctx.closed {
+                let diverging = stats.error > previous;
+                previous = stats.error;
+                // Diverging with hydrostatic walls: the rest of the solve without the walls'
+                // neighbour part (see `DfsphBuffers::applied_neighbour`).
+                if diverging && self.applied.is_some() && neighbour {
+                    neighbour = false;
+                    stats.neighbour_dropped = true;
                 }
+                self.relax(diverging, halvings);
+            }
+            let done = stats.error <= solve.target;
+            let (min_iterations, max_iterations) = solve.iterations;
+            if (done && stats.iterations >= min_iterations) || stats.iterations >= max_iterations {
+                stats.capped = !done;
+                break;
+            }
+            apply_pressure(ctx, neighbour, self.pi, self.wide);
+            for (w, p) in warm.iter_mut().zip(self.pi.iter()) {
+                *w += p;
+            }
+            if neighbour && let Some(a) = self.applied.as_deref_mut() {
+                add_to(a, self.pi);
+            }
+            stats.iterations += 1;
+        }
+        stats
+    }
+
+    /// The iteration diverging: halve the relaxation (see `MAX_RELAXATION_HALVINGS`); the
+    /// increments `π` scaled by the relaxation.
+    fn relax(&mut self, diverging: bool, halvings: &mut u32) {
+        if diverging && *halvings < MAX_RELAXATION_HALVINGS {
+            *halvings += 1;
+        }
+        if *halvings > 0 {
+            let omega = super::relaxation(*halvings);
+            for p in self.pi.iter_mut() {
+                *p *= omega;
             }
         }
-        let done = stats.error <= target;
-        if (done && stats.iterations >= min_iterations)
-            || stats.iterations >= settings.max_iterations
-        {
-            stats.capped = !done;
-            break;
-        }
-        apply(pi, wide, neighbour);
-        for (w, p) in warm.iter_mut().zip(pi.iter()) {
-            *w += p;
-        }
-        if track && neighbour {
-            add_to(applied_neighbour, pi);
-        }
-        stats.iterations += 1;
     }
-    for (v, &w) in velocities.iter_mut().zip(wide.iter()) {
-        *v = Vector::from(w);
-    }
-    stats
 }
 
 /// `sum[i] += values[i]`.
@@ -851,37 +878,31 @@ pub(crate) fn divergence_solve(
     let dt = ctx.dt;
     let coverage = ctx.wall.map(|w| &w.coverage[..]);
     let expected = ctx.expected_neighbours;
-    jacobi(
-        ctx,
-        settings,
-        WarmStart::Pushed(pushed),
-        settings.min_divergence_iterations,
-        settings.max_divergence_error,
-        dt / ctx.rest_density,
-        buffers,
-        warm,
-        velocities,
-        1.0 / dt,
-        |alpha, i, rate| {
-            if ctx.closed {
-                return (rate, rate);
-            }
-            // Surface particles (few neighbours, walls counted by their coverage) are left
-            // out: their density deficit is not compression.
-            let count =
-                ctx.neighbors.of(i).len() as Real + coverage.map_or(0.0, |c| c[i] * expected);
-            // Pinched particles (see `WallWorkspace::pinched`) are left out too.
-            let pinched = ctx
-                .wall
-                .is_some_and(|w| w.pinched(i, ctx.self_density, ctx.rest_density));
-            let r = if count < 0.6 * expected || pinched {
-                0.0
-            } else {
-                rate.max(0.0)
-            };
-            (r * alpha[i] / dt, r)
-        },
-    )
+    let solve = Solve {
+        warm_start: WarmStart::Pushed(pushed),
+        iterations: (settings.min_divergence_iterations, settings.max_iterations),
+        target: settings.max_divergence_error,
+        error_scale: dt / ctx.rest_density,
+        gain: 1.0 / dt,
+    };
+    jacobi(ctx, solve, buffers, warm, velocities, |alpha, i, rate| {
+        if ctx.closed {
+            return (rate, rate);
+        }
+        // Surface particles (few neighbours, walls counted by their coverage) are left
+        // out: their density deficit is not compression.
+        let count = ctx.neighbors.of(i).len() as Real + coverage.map_or(0.0, |c| c[i] * expected);
+        // Pinched particles (see `WallWorkspace::pinched`) are left out too.
+        let pinched = ctx
+            .wall
+            .is_some_and(|w| w.pinched(i, ctx.self_density, ctx.rest_density));
+        let r = if count < 0.6 * expected || pinched {
+            0.0
+        } else {
+            rate.max(0.0)
+        };
+        (r * alpha[i] / dt, r)
+    })
 }
 
 /// Constant-density solve (Alg. 3): corrects the predicted `velocities` until the density they
@@ -897,35 +918,30 @@ pub(crate) fn density_solve(
 ) -> SolveStats {
     let (dt, rho0, densities) = (ctx.dt, ctx.rest_density, ctx.densities);
     let inv_dt2 = 1.0 / (dt * dt);
-    jacobi(
-        ctx,
-        settings,
-        WarmStart::WhereCompressing(settings.warm_start),
-        settings.min_iterations,
-        settings.max_density_error,
-        1.0 / rho0,
-        buffers,
-        warm,
-        velocities,
-        inv_dt2,
-        |alpha, i, rate| {
-            if ctx.closed {
-                let e = densities[i] + dt * rate - rho0;
-                return (e, e);
-            }
-            // A pinched particle (see `WallWorkspace::pinched`) is left out.
-            if ctx
-                .wall
-                .is_some_and(|w| w.pinched(i, ctx.self_density, rho0))
-            {
-                return (0.0, 0.0);
-            }
-            // Predicted density, clamped below at ρ0: only compression is corrected (a free
-            // surface is allowed to be under-dense).
-            let excess = (densities[i] + dt * rate - rho0).max(0.0);
-            (excess * alpha[i] * inv_dt2, excess)
-        },
-    )
+    let solve = Solve {
+        warm_start: WarmStart::WhereCompressing(settings.warm_start),
+        iterations: (settings.min_iterations, settings.max_iterations),
+        target: settings.max_density_error,
+        error_scale: 1.0 / rho0,
+        gain: inv_dt2,
+    };
+    jacobi(ctx, solve, buffers, warm, velocities, |alpha, i, rate| {
+        if ctx.closed {
+            let e = densities[i] + dt * rate - rho0;
+            return (e, e);
+        }
+        // A pinched particle (see `WallWorkspace::pinched`) is left out.
+        if ctx
+            .wall
+            .is_some_and(|w| w.pinched(i, ctx.self_density, rho0))
+        {
+            return (0.0, 0.0);
+        }
+        // Predicted density, clamped below at ρ0: only compression is corrected (a free
+        // surface is allowed to be under-dense).
+        let excess = (densities[i] + dt * rate - rho0).max(0.0);
+        (excess * alpha[i] * inv_dt2, excess)
+    })
 }
 
 /// Relaxation `ω` of the closed-box Jacobi update (see `SolveContext::closed`). With signed

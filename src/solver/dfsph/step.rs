@@ -5,11 +5,12 @@
 //! the particles from one step to the next, so they are kept as the fluid's attributes
 //! [`WARM_DENSITY`] and [`WARM_DIVERGENCE`].
 
-use super::{Dfsph, DfsphBuffers, SolveContext, WarmPush};
+use super::{Dfsph, DfsphBuffers, FactorInput, Factors, SolveContext, WarmPush};
 use crate::diagnostics::Stage;
 use crate::domain::Separation;
 use crate::kernel::ViscosityLaplacian;
 use crate::math::{Real, Vector};
+use crate::neighbors::Pairs;
 use crate::params::FluidParams;
 use crate::solver::context::{Outcome, StepContext};
 use crate::solver::pairs::PairGradients;
@@ -198,10 +199,27 @@ impl DfsphState {
                 velocities,
                 dt,
             });
-            crate::with_kernel!(p.density_kernel, K => super::density_and_factors_in::<K, S>(
-                ctx.positions, ctx.neighbors, p.particle_mass, h, wall, viscosity, push,
-                ctx.densities, ctx.inv_densities, &mut buffers.alpha, gradients,
-                &mut buffers.velocities, sep));
+            let pairs = Pairs {
+                positions: ctx.positions,
+                neighbors: ctx.neighbors,
+                mass: p.particle_mass,
+                h,
+                sep,
+            };
+            let input = FactorInput {
+                wall,
+                viscosity,
+                push,
+            };
+            let out = Factors {
+                densities: ctx.densities,
+                inv_densities: ctx.inv_densities,
+                alpha: &mut buffers.alpha,
+                grads: gradients,
+                pushed: &mut buffers.velocities,
+            };
+            crate::with_kernel!(p.density_kernel, K =>
+                super::density_and_factors::<K, S>(&pairs, &input, out));
         });
     }
 
@@ -245,12 +263,9 @@ impl DfsphState {
                 ctx.accelerations.fill(Vector::ZERO);
                 // From the pair Laplacians stored by the density pass.
                 super::viscosity(
-                    ctx.neighbors,
-                    gradients,
-                    ctx.velocities,
-                    ctx.inv_densities,
-                    p.particle_mass,
-                    p.viscosity,
+                    (ctx.neighbors, gradients),
+                    (ctx.velocities, ctx.inv_densities),
+                    p.viscosity * p.particle_mass,
                     velocities,
                     ctx.accelerations,
                 );
