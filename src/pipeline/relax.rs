@@ -185,6 +185,7 @@ fn project(
         ..Pbf::default()
     };
     let ctx = PbfContext {
+        settings: &settings,
         neighbors: &ws.search.lists,
         wall,
         mass: p.particle_mass,
@@ -198,8 +199,8 @@ fn project(
     let (buffers, inv) = (&mut ws.relax, &mut ws.inv_densities);
     let stats = report.timed(Stage::Relaxation, || {
         crate::with_separation!(p.domain, S, sep =>
-            crate::with_kernel!(p.density_kernel, K => crate::solver::pbf::solve_in::<K, S>(
-                &ctx, &settings, buffers, particles.positions, particles.densities, inv, sep)))
+            crate::with_kernel!(p.density_kernel, K => crate::solver::pbf::solve::<K, S>(
+                &ctx, buffers, particles.positions, particles.densities, inv, sep)))
     });
     stats.moved
 }

@@ -35,8 +35,9 @@ use crate::par::{CHUNK, LANES, lane_sum};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
-use super::pairs::{gradient_block, gradient_one, reduce_partials};
+use super::pairs::{gradient_block, gradient_one, kernel_sums, reduce_partials};
 use crate::domain::Separation;
+use crate::neighbors::Pairs;
 
 /// Buffers of the PBF solver (indexed like the sorted particles).
 #[derive(Clone, Debug, Default)]
@@ -151,6 +152,8 @@ fn lattice_denominator<K: Kernel>(kernel: &K, mass: Real, s: Real) -> Real {
 
 /// Inputs of a PBF solve.
 pub(crate) struct PbfContext<'a> {
+    /// The solver's settings (iterations, relaxation, artificial pressure).
+    pub settings: &'a Pbf,
     /// Neighbour lists of the predicted positions.
     pub neighbors: &'a NeighborLists,
     /// Walls counting in the density, evaluated at the predicted positions, if any.
@@ -174,10 +177,11 @@ pub(crate) struct PbfContext<'a> {
     pub safeguard: bool,
 }
 
-/// [`solve`] with the separations formed by `sep` (see [`crate::domain`]).
-pub(crate) fn solve_in<K: Kernel, S: Separation>(
+/// Solves the density constraints on the predicted `positions` (moved in place): a fixed
+/// number of Jacobi iterations of λ (pass 1, which also measures `densities` and
+/// `inv_densities`) and position corrections (pass 2).
+pub(crate) fn solve<K: Kernel, S: Separation>(
     ctx: &PbfContext<'_>,
-    settings: &Pbf,
     buffers: &mut PbfBuffers,
     positions: &mut [Vector],
     densities: &mut [Real],
@@ -185,7 +189,8 @@ pub(crate) fn solve_in<K: Kernel, S: Separation>(
     sep: S,
 ) -> PbfStats {
     let n = positions.len();
-    let kernel = K::new(ctx.h);
+    buffers.prepare(n, ctx.wall.is_some().then_some(&*positions));
+    let passes = Passes::new(ctx, K::new(ctx.h), sep);
     let PbfBuffers {
         lambda,
         lambda_sum,
@@ -195,119 +200,16 @@ pub(crate) fn solve_in<K: Kernel, S: Separation>(
         wall_lambda_sum,
         relaxation_halvings,
     } = buffers;
-    lambda.resize(n, 0.0);
-    lambda_sum.clear();
-    lambda_sum.resize(n, 0.0);
-    correction.resize(n, Vector::ZERO);
-    // The neighbours' part of the walls' λ (hydrostatic walls: `WallWorkspace::neighbour_pressure`).
-    let hydrostatic = ctx.wall.is_some_and(|w| w.neighbour_pressure);
-    // Written (not read) by the first iteration's corrections where walls are: no O(n)
-    // zeroing per solve, and without walls it is never read.
-    wall_lambda_sum.resize(n, 0.0);
-    partials.resize(n.div_ceil(CHUNK), (0.0, 0.0));
-    if ctx.wall.is_some() {
-        wall_origin.clear();
-        wall_origin.extend_from_slice(positions);
-    }
-    let rho0 = ctx.rest_density;
-    let inv_rho0 = 1.0 / rho0;
-    let lattice = lattice_denominator(&kernel, ctx.mass, ctx.spacing);
-    let eps = settings.relaxation * lattice;
-    // λ carries units (m²); the paper's artificial pressure is written in its own unit system.
-    // It is taken here relative to `λ` of a lattice particle with C = 1, so `k` means "a
-    // correction like that of a compression of k·(W/W(Δq))^n".
-    let lambda_scale = rho0 * rho0 / lattice;
-    let self_term = ctx.mass * kernel.w(0.0);
-    let w_dq = kernel.w(settings.artificial_pressure_distance * ctx.h);
-    let s_k = if w_dq > 0.0 {
-        settings.artificial_pressure * lambda_scale
-    } else {
-        0.0
-    };
-    let inv_w_dq = if w_dq > 0.0 { 1.0 / w_dq } else { 0.0 };
-    let s_n = settings.artificial_pressure_exponent;
     let mut stats = PbfStats::default();
-    for _ in 0..settings.iterations {
-        // Pass 1: density, constraint and λ.
-        {
-            let positions: &[Vector] = positions;
-            let wall_origin: &[Vector] = wall_origin;
-            crate::par_chunks_mut!(lambda, CHUNK)
-                .zip(crate::par_chunks_mut!(densities, CHUNK))
-                .zip(crate::par_chunks_mut!(inv_densities, CHUNK))
-                .zip(crate::par_chunks_mut!(lambda_sum, CHUNK))
-                .zip(crate::par_iter_mut!(partials))
-                .enumerate()
-                .for_each(|(c, ((((lam, dens), inv), lsum), partial))| {
-                    crate::par::wide(
-                        #[inline(always)]
-                        || {
-                            let base = c * CHUNK;
-                            let mut err_sum = 0.0f64;
-                            let mut err_max: Real = 0.0;
-                            for k in 0..lam.len() {
-                                let i = base + k;
-                                let xi = positions[i];
-                                let nb = ctx.neighbors.of(i);
-                                let (mut w, mut sx, mut sy, mut sz, mut s2) = (
-                                    [0.0; LANES],
-                                    [0.0; LANES],
-                                    [0.0; LANES],
-                                    [0.0; LANES],
-                                    [0.0; LANES],
-                                );
-                                let mut blocks = nb.chunks_exact(LANES);
-                                for block in &mut blocks {
-                                    let b = gradient_block(&sep, &kernel, i, xi, positions, block);
-                                    for l in 0..LANES {
-                                        w[l] += kernel.w(b.d[l]);
-                                        sx[l] += b.gx[l];
-                                        sy[l] += b.gy[l];
-                                        sz[l] += b.gz[l];
-                                        s2[l] += b.gx[l] * b.gx[l]
-                                            + b.gy[l] * b.gy[l]
-                                            + b.gz[l] * b.gz[l];
-                                    }
-                                }
-                                let mut wsum = lane_sum(w);
-                                let mut g = Vector::new(lane_sum(sx), lane_sum(sy), lane_sum(sz));
-                                let mut g2 = lane_sum(s2);
-                                for &j in blocks.remainder() {
-                                    let (gr, d) = gradient_one(&sep, &kernel, i, xi, positions, j);
-                                    wsum += kernel.w(d);
-                                    g += gr;
-                                    g2 += gr.length_squared();
-                                }
-                                let mut rho = self_term + ctx.mass * wsum;
-                                let mut grad = g * ctx.mass;
-                                if let Some(wall) = ctx.wall {
-                                    // Linearised about the positions the walls were evaluated at.
-                                    let gw = wall.gradient[i];
-                                    rho += (wall.density[i] + gw.dot(xi - wall_origin[i])).max(0.0);
-                                    grad += gw;
-                                }
-                                let denom = grad.length_squared() + ctx.mass * ctx.mass * g2;
-                                // A pinched particle (see `WallWorkspace::pinched`) is left out.
-                                let pinched =
-                                    ctx.wall.is_some_and(|w| w.pinched(i, self_term, rho0));
-                                let constraint = if pinched {
-                                    0.0
-                                } else {
-                                    (rho * inv_rho0 - 1.0 - ctx.tolerance).max(0.0)
-                                };
-                                let l = -constraint * rho0 * rho0 / (denom + eps);
-                                lam[k] = l;
-                                lsum[k] += l;
-                                dens[k] = rho;
-                                inv[k] = 1.0 / rho;
-                                err_sum += constraint as f64;
-                                err_max = err_max.max(constraint);
-                            }
-                            *partial = (err_sum, err_max);
-                        },
-                    );
-                });
-        }
+    for _ in 0..ctx.settings.iterations {
+        let out = LambdaOut {
+            lambda,
+            densities,
+            inv_densities,
+            lambda_sum,
+            partials,
+        };
+        passes.lambdas(positions, wall_origin, out);
         let (sum, _) = reduce_partials(partials);
         let previous = stats.error;
         stats.error = (sum / n as f64) as Real;
@@ -325,116 +227,291 @@ pub(crate) fn solve_in<K: Kernel, S: Separation>(
         } else {
             1.0
         };
-        // Pass 2: corrections (eqs. 12–14).
         let first = stats.iterations == 0;
-        {
-            let positions: &[Vector] = positions;
-            let lambda: &[Real] = lambda;
-            crate::par_chunks_mut!(correction, CHUNK)
-                .zip(crate::par_chunks_mut!(wall_lambda_sum, CHUNK))
-                .enumerate()
-                .for_each(|(c, (out, hat))| {
-                    crate::par::wide(
-                        #[inline(always)]
-                        || {
-                            let base = c * CHUNK;
-                            for (k, dx) in out.iter_mut().enumerate() {
-                                let i = base + k;
-                                let xi = positions[i];
-                                let li = lambda[i];
-                                let nb = ctx.neighbors.of(i);
-                                let (mut fx, mut fy, mut fz) =
-                                    ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
-                                // Hydrostatic walls: the fluid-side neighbours' λ, weighted by
-                                // `max(0, ∇W_ij·û)`, `û` away from the walls (DFSPH's
-                                // `neighbour_average`, gathered in this pass).
-                                let hw = ctx
-                                    .wall
-                                    .filter(|w| hydrostatic && w.gradient[i] != Vector::ZERO);
-                                let away = hw.map_or(Vector::ZERO, |w| -w.gradient[i].normalize());
-                                let (mut sw, mut swl): (Real, Real) = (0.0, 0.0);
-                                let mut blocks = nb.chunks_exact(LANES);
-                                for block in &mut blocks {
-                                    let b = gradient_block(&sep, &kernel, i, xi, positions, block);
-                                    if hw.is_some() {
-                                        for l in 0..LANES {
-                                            let wgt = (b.gx[l] * away.x
-                                                + b.gy[l] * away.y
-                                                + b.gz[l] * away.z)
-                                                .max(0.0);
-                                            sw += wgt;
-                                            swl += wgt * lambda[block[l] as usize];
-                                        }
-                                    }
-                                    for l in 0..LANES {
-                                        let s_corr = if s_k > 0.0 {
-                                            -s_k * (kernel.w(b.d[l]) * inv_w_dq).powi(s_n)
-                                        } else {
-                                            0.0
-                                        };
-                                        let s = li + lambda[block[l] as usize] + s_corr;
-                                        fx[l] += s * b.gx[l];
-                                        fy[l] += s * b.gy[l];
-                                        fz[l] += s * b.gz[l];
-                                    }
-                                }
-                                let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
-                                for &j in blocks.remainder() {
-                                    let (g, d) = gradient_one(&sep, &kernel, i, xi, positions, j);
-                                    let s_corr = if s_k > 0.0 {
-                                        -s_k * (kernel.w(d) * inv_w_dq).powi(s_n)
-                                    } else {
-                                        0.0
-                                    };
-                                    f += g * (li + lambda[j as usize] + s_corr);
-                                    if hw.is_some() {
-                                        let wgt = g.dot(away).max(0.0);
-                                        sw += wgt;
-                                        swl += wgt * lambda[j as usize];
-                                    }
-                                }
-                                let mut d = f * ctx.mass;
-                                if let Some(wall) = ctx.wall {
-                                    let lw = if hydrostatic {
-                                        li + if sw > 0.0 { swl / sw } else { 0.0 }
-                                    } else {
-                                        li
-                                    };
-                                    // What the wall term applies, relaxation included.
-                                    if first {
-                                        hat[k] = lw * omega;
-                                    } else {
-                                        hat[k] += lw * omega;
-                                    }
-                                    d += wall.gradient[i] * lw;
-                                }
-                                let d = d * (inv_rho0 * omega);
-                                let len = d.length();
-                                *dx = if len > ctx.max_move {
-                                    d * (ctx.max_move / len)
-                                } else {
-                                    d
-                                };
-                            }
-                        },
-                    );
-                });
-        }
-        crate::par_chunks_mut!(positions, CHUNK)
-            .zip(crate::par_iter_mut!(partials))
-            .enumerate()
-            .for_each(|(c, (x, partial))| {
-                let base = c * CHUNK;
-                let mut moved = 0usize;
-                for (k, x) in x.iter_mut().enumerate() {
-                    let d = correction[base + k];
-                    moved += (d != Vector::ZERO) as usize;
-                    *x += d;
-                }
-                *partial = (moved as f64, 0.0);
-            });
-        stats.moved = reduce_partials(partials).0 as usize;
+        passes.corrections(
+            positions,
+            lambda,
+            (omega, first),
+            (correction, wall_lambda_sum),
+        );
+        stats.moved = apply_corrections(positions, correction, partials);
         stats.iterations += 1;
     }
     stats
+}
+
+impl PbfBuffers {
+    /// Sizes the buffers for `n` particles; `positions`: the walls' evaluation positions,
+    /// when walls count.
+    fn prepare(&mut self, n: usize, positions: Option<&[Vector]>) {
+        self.lambda.resize(n, 0.0);
+        self.lambda_sum.clear();
+        self.lambda_sum.resize(n, 0.0);
+        self.correction.resize(n, Vector::ZERO);
+        // Written (not read) by the first iteration's corrections where walls are: no O(n)
+        // zeroing per solve, and without walls it is never read.
+        self.wall_lambda_sum.resize(n, 0.0);
+        self.partials.resize(n.div_ceil(CHUNK), (0.0, 0.0));
+        if let Some(positions) = positions {
+            self.wall_origin.clear();
+            self.wall_origin.extend_from_slice(positions);
+        }
+    }
+}
+
+/// What pass 1 writes (indexed like the sorted particles; `partials` per chunk).
+struct LambdaOut<'a> {
+    lambda: &'a mut [Real],
+    densities: &'a mut [Real],
+    inv_densities: &'a mut [Real],
+    lambda_sum: &'a mut [Real],
+    partials: &'a mut [(f64, Real)],
+}
+
+/// The two passes of a PBF iteration, with the constants of the solve.
+struct Passes<'a, K, S> {
+    ctx: &'a PbfContext<'a>,
+    kernel: K,
+    sep: S,
+    /// `ρ0` and `1/ρ0`.
+    rho0: Real,
+    inv_rho0: Real,
+    /// The constraint's relaxation `ε`, absolute.
+    eps: Real,
+    /// A particle's own share of its density, `m·W(0)`.
+    self_term: Real,
+    /// Artificial pressure (eq. 13): `k` in units of λ, `1/W(Δq)`, and `n`.
+    s_k: Real,
+    inv_w_dq: Real,
+    s_n: i32,
+}
+
+impl<'a, K: Kernel, S: Separation> Passes<'a, K, S> {
+    fn new(ctx: &'a PbfContext<'a>, kernel: K, sep: S) -> Self {
+        let settings = ctx.settings;
+        let rho0 = ctx.rest_density;
+        let lattice = lattice_denominator(&kernel, ctx.mass, ctx.spacing);
+        // λ carries units (m²); the paper's artificial pressure is written in its own unit
+        // system. It is taken here relative to `λ` of a lattice particle with C = 1, so `k`
+        // means "a correction like that of a compression of k·(W/W(Δq))^n".
+        let lambda_scale = rho0 * rho0 / lattice;
+        let w_dq = kernel.w(settings.artificial_pressure_distance * ctx.h);
+        Self {
+            ctx,
+            rho0,
+            inv_rho0: 1.0 / rho0,
+            eps: settings.relaxation * lattice,
+            self_term: ctx.mass * kernel.w(0.0),
+            s_k: if w_dq > 0.0 {
+                settings.artificial_pressure * lambda_scale
+            } else {
+                0.0
+            },
+            inv_w_dq: if w_dq > 0.0 { 1.0 / w_dq } else { 0.0 },
+            s_n: settings.artificial_pressure_exponent,
+            kernel,
+            sep,
+        }
+    }
+
+    /// Pass 1: density, constraint and λ of every particle (walls linearised about the
+    /// positions `wall_origin` they were evaluated at); the per-chunk sums of the constraint
+    /// into `out.partials`.
+    fn lambdas(&self, positions: &[Vector], wall_origin: &[Vector], out: LambdaOut<'_>) {
+        let ctx = self.ctx;
+        let pairs = Pairs {
+            positions,
+            neighbors: ctx.neighbors,
+            mass: ctx.mass,
+            h: ctx.h,
+            sep: self.sep,
+        };
+        crate::par_chunks_mut!(out.lambda, CHUNK)
+            .zip(crate::par_chunks_mut!(out.densities, CHUNK))
+            .zip(crate::par_chunks_mut!(out.inv_densities, CHUNK))
+            .zip(crate::par_chunks_mut!(out.lambda_sum, CHUNK))
+            .zip(crate::par_iter_mut!(out.partials))
+            .enumerate()
+            .for_each(|(c, ((((lam, dens), inv), lsum), partial))| {
+                crate::par::wide(
+                    #[inline(always)]
+                    || {
+                        let mut err_sum = 0.0f64;
+                        let mut err_max: Real = 0.0;
+                        for k in 0..lam.len() {
+                            let i = c * CHUNK + k;
+                            let nb = ctx.neighbors.of(i);
+                            let sums = kernel_sums(&pairs, &self.kernel, i, nb, &mut ());
+                            let mut rho = self.self_term + ctx.mass * sums.w;
+                            let mut grad = sums.g * ctx.mass;
+                            if let Some(wall) = ctx.wall {
+                                // Linearised about the positions the walls were evaluated at.
+                                let gw = wall.gradient[i];
+                                let moved = positions[i] - wall_origin[i];
+                                rho += (wall.density[i] + gw.dot(moved)).max(0.0);
+                                grad += gw;
+                            }
+                            let denom = grad.length_squared() + ctx.mass * ctx.mass * sums.g2;
+                            let constraint = self.constraint(i, rho);
+                            let l = -constraint * self.rho0 * self.rho0 / (denom + self.eps);
+                            lam[k] = l;
+                            lsum[k] += l;
+                            dens[k] = rho;
+                            inv[k] = 1.0 / rho;
+                            err_sum += constraint as f64;
+                            err_max = err_max.max(constraint);
+                        }
+                        *partial = (err_sum, err_max);
+                    },
+                );
+            });
+    }
+
+    /// The unilateral constraint `max(ρ/ρ0 − 1 − tolerance, 0)` of particle `i` at density
+    /// `rho`; 0 for a pinched particle (see `WallWorkspace::pinched`), which is left out.
+    #[inline(always)]
+    fn constraint(&self, i: usize, rho: Real) -> Real {
+        let ctx = self.ctx;
+        if ctx
+            .wall
+            .is_some_and(|w| w.pinched(i, self.self_term, self.rho0))
+        {
+            0.0
+        } else {
+            (rho * self.inv_rho0 - 1.0 - ctx.tolerance).max(0.0)
+        }
+    }
+
+    /// Pass 2: the position corrections (eqs. 12–14) of `lambda`, relaxed by `omega`, into
+    /// `correction`, and what the walls applied into `wall_lambda_sum` (assigned on the
+    /// `first` iteration, added to after). Per particle: `Σ_j (λ_i + λ_j + s_corr) ∇W_ij`,
+    /// [`LANES`] neighbours at a time, and with hydrostatic walls the fluid-side neighbours'
+    /// average λ, weighted by `max(0, ∇W_ij·û)`, `û` away from the walls (DFSPH's
+    /// `neighbour_average`, gathered in the same loop).
+    ///
+    /// Kept whole (88 lines): the pair sum as a function of its own measured PBF's density
+    /// solve 1853 [1827-1870] µs against main's 1827 [1809-1854], written in this loop 1795
+    /// [1766-1833] against 1825 [1800-1850] (`cargo run --release --example stage_medians --
+    /// 2500 1000 1 pbf true`, 8 runs each alternated with main's build on one core).
+    fn corrections(
+        &self,
+        positions: &[Vector],
+        lambda: &[Real],
+        (omega, first): (Real, bool),
+        (correction, wall_lambda_sum): (&mut [Vector], &mut [Real]),
+    ) {
+        let ctx = self.ctx;
+        let hydrostatic = ctx.wall.is_some_and(|w| w.neighbour_pressure);
+        crate::par_chunks_mut!(correction, CHUNK)
+            .zip(crate::par_chunks_mut!(wall_lambda_sum, CHUNK))
+            .enumerate()
+            .for_each(|(c, (out, hat))| {
+                crate::par::wide(
+                    #[inline(always)]
+                    || {
+                        let base = c * CHUNK;
+                        for (k, dx) in out.iter_mut().enumerate() {
+                            let i = base + k;
+                            let li = lambda[i];
+                            let (kernel, sep) = (&self.kernel, &self.sep);
+                            let xi = positions[i];
+                            let hw = ctx
+                                .wall
+                                .filter(|w| hydrostatic && w.gradient[i] != Vector::ZERO);
+                            let away = hw.map_or(Vector::ZERO, |w| -w.gradient[i].normalize());
+                            let (mut sw, mut swl): (Real, Real) = (0.0, 0.0);
+                            let (mut fx, mut fy, mut fz) =
+                                ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+                            let mut blocks = ctx.neighbors.of(i).chunks_exact(LANES);
+                            for block in &mut blocks {
+                                let b = gradient_block(sep, kernel, i, xi, positions, block);
+                                if hw.is_some() {
+                                    for l in 0..LANES {
+                                        let wgt = (b.gx[l] * away.x
+                                            + b.gy[l] * away.y
+                                            + b.gz[l] * away.z)
+                                            .max(0.0);
+                                        sw += wgt;
+                                        swl += wgt * lambda[block[l] as usize];
+                                    }
+                                }
+                                for l in 0..LANES {
+                                    let s_corr = if self.s_k > 0.0 {
+                                        -self.s_k
+                                            * (kernel.w(b.d[l]) * self.inv_w_dq).powi(self.s_n)
+                                    } else {
+                                        0.0
+                                    };
+                                    let s = li + lambda[block[l] as usize] + s_corr;
+                                    fx[l] += s * b.gx[l];
+                                    fy[l] += s * b.gy[l];
+                                    fz[l] += s * b.gz[l];
+                                }
+                            }
+                            let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
+                            for &j in blocks.remainder() {
+                                let (g, d) = gradient_one(sep, kernel, i, xi, positions, j);
+                                f += g * (li + lambda[j as usize] + self.s_corr(d));
+                                if hw.is_some() {
+                                    let wgt = g.dot(away).max(0.0);
+                                    sw += wgt;
+                                    swl += wgt * lambda[j as usize];
+                                }
+                            }
+                            let neighbours = if sw > 0.0 { swl / sw } else { 0.0 };
+                            let mut d = f * ctx.mass;
+                            if let Some(wall) = ctx.wall {
+                                let lw = if hydrostatic { li + neighbours } else { li };
+                                // What the wall term applies, relaxation included.
+                                if first {
+                                    hat[k] = lw * omega;
+                                } else {
+                                    hat[k] += lw * omega;
+                                }
+                                d += wall.gradient[i] * lw;
+                            }
+                            let d = d * (self.inv_rho0 * omega);
+                            let len = d.length();
+                            *dx = if len > ctx.max_move {
+                                d * (ctx.max_move / len)
+                            } else {
+                                d
+                            };
+                        }
+                    },
+                );
+            });
+    }
+
+    /// The artificial pressure `s_corr = −k·(W(d)/W(Δq))^n` (eq. 13) at distance `d`.
+    #[inline(always)]
+    fn s_corr(&self, d: Real) -> Real {
+        if self.s_k > 0.0 {
+            -self.s_k * (self.kernel.w(d) * self.inv_w_dq).powi(self.s_n)
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Moves `positions` by `correction`; returns how many moved (`partials`: per-chunk scratch).
+fn apply_corrections(
+    positions: &mut [Vector],
+    correction: &[Vector],
+    partials: &mut [(f64, Real)],
+) -> usize {
+    crate::par_chunks_mut!(positions, CHUNK)
+        .zip(crate::par_iter_mut!(partials))
+        .enumerate()
+        .for_each(|(c, (x, partial))| {
+            let base = c * CHUNK;
+            let mut moved = 0usize;
+            for (k, x) in x.iter_mut().enumerate() {
+                let d = correction[base + k];
+                moved += (d != Vector::ZERO) as usize;
+                *x += d;
+            }
+            *partial = (moved as f64, 0.0);
+        });
+    reduce_partials(partials).0 as usize
 }

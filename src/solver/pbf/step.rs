@@ -52,6 +52,7 @@ impl PressureSolver for PbfState {
             });
         }
         let solve = PbfContext {
+            settings,
             neighbors: ctx.neighbors,
             wall: ctx.wall,
             mass: p.particle_mass,
@@ -65,8 +66,8 @@ impl PressureSolver for PbfState {
         // The position solve (densities are measured in its first pass).
         let buffers = &mut self.buffers;
         let stats = ctx.report.timed(Stage::DensitySolve, || {
-            crate::with_kernel!(p.density_kernel, K => super::solve_in::<K, S>(
-                &solve, settings, buffers, ctx.positions, ctx.densities, ctx.inv_densities, sep))
+            crate::with_kernel!(p.density_kernel, K => super::solve::<K, S>(
+                &solve, buffers, ctx.positions, ctx.densities, ctx.inv_densities, sep))
         });
         let report = &mut *ctx.report;
         report.solver_relaxation_halvings = report
