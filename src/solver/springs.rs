@@ -177,136 +177,43 @@ pub(crate) fn apply_in<S: Separation>(
     let h = ctx.h;
     let k = settings.stiffness * ctx.speed_of_sound * ctx.speed_of_sound
         / (h * h * ctx.expected_neighbours.max(1.0));
-    let (gamma, alpha, dt) = (settings.yield_ratio, settings.plasticity, ctx.dt);
-    let dt2k_half = 0.5 * dt * dt * k;
-    let ids = ctx.ids;
-    let max_id = ids
-        .iter()
-        .chain(springs.owners.iter())
-        .copied()
-        .max()
-        .map_or(0, |m| m as usize + 1);
+    let dt = ctx.dt;
+    buffers.index(springs, ctx.ids);
     let SpringBuffers {
         row_of_id,
         index_of_id,
         chunks,
         displacement,
     } = buffers;
-    if row_of_id.len() < max_id {
-        row_of_id.resize(max_id, NONE);
-        index_of_id.resize(max_id, NONE);
-    }
-    for (r, &o) in springs.owners.iter().enumerate() {
-        row_of_id[o as usize] = r as u32;
-    }
-    for (i, &id) in ids.iter().enumerate() {
-        index_of_id[id as usize] = i as u32;
-    }
     displacement.resize(n, Vector::ZERO);
     chunks.resize_with(n.div_ceil(CHUNK), SpringChunk::default);
-    {
-        let old: &SpringSet = springs;
-        let (row_of_id, index_of_id): (&[u32], &[u32]) = (row_of_id, index_of_id);
-        let positions: &[Vector] = positions;
-        crate::par_iter_mut!(chunks)
-            .zip(crate::par_chunks_mut!(displacement, CHUNK))
-            .enumerate()
-            .for_each(|(c, (chunk, out))| {
-                chunk.offsets.clear();
-                chunk.partners.clear();
-                chunk.rest.clear();
-                chunk.offsets.push(0);
-                let base = c * CHUNK;
-                for (k_, dx) in out.iter_mut().enumerate() {
-                    let i = base + k_;
-                    let xi = positions[i];
-                    let old_row = match row_of_id[ids[i] as usize] {
-                        NONE => 0..0,
-                        r => old.offsets[r as usize] as usize..old.offsets[r as usize + 1] as usize,
-                    };
-                    let (old_partners, old_rest) =
-                        (&old.partners[old_row.clone()], &old.rest[old_row]);
-                    // Pairs within h, by partner id, then one merge with the old row (also by
-                    // partner id): existing springs flow, new ones start at L = h (Alg. 4);
-                    // springs to particles now beyond h keep their rest length (Alg. 4 only
-                    // adjusts pairs within h), springs to removed particles are dropped.
-                    let row = &mut chunk.row;
-                    row.clear();
-                    for &j in ctx.neighbors.of(i) {
-                        let r = sep.sep(xi, positions[j as usize]).length();
-                        if r < h {
-                            row.push((ids[j as usize], r, j));
-                        }
-                    }
-                    row.sort_unstable_by_key(|e| e.0);
-                    let mut acc = Vector::ZERO;
-                    let (mut a, mut b) = (0, 0);
-                    while a < row.len() || b < old_partners.len() {
-                        let next_new = row.get(a).map_or(u32::MAX, |e| e.0);
-                        let next_old = old_partners.get(b).copied().unwrap_or(u32::MAX);
-                        let (partner, l, j) = if next_new <= next_old {
-                            let (partner, r, j) = row[a];
-                            a += 1;
-                            let mut l = if next_new == next_old {
-                                b += 1;
-                                old_rest[b - 1]
-                            } else {
-                                h
-                            };
-                            let band = gamma * l;
-                            if r > l + band {
-                                l += dt * alpha * (r - l - band);
-                            } else if r < l - band {
-                                l -= dt * alpha * (l - band - r);
-                            }
-                            (partner, l, j)
-                        } else {
-                            b += 1;
-                            match index_of_id.get(next_old as usize).copied() {
-                                Some(j) if j != NONE => (next_old, old_rest[b - 1], j),
-                                _ => continue,
-                            }
-                        };
-                        if l > h {
-                            continue;
-                        }
-                        let d = sep.sep(positions[j as usize], xi);
-                        let r = d.length();
-                        if r > 1e-6 * h {
-                            // −D/2 for particle i, D along r̂ from i to j.
-                            acc -= d * (dt2k_half * (1.0 - l / h) * (l - r) / r);
-                        }
-                        chunk.partners.push(partner);
-                        chunk.rest.push(l);
-                    }
-                    *dx = acc;
-                    chunk.offsets.push(chunk.partners.len() as u32);
-                }
-            });
-    }
-    // Reset the id tables for the next step (only the entries set above).
-    for &o in &springs.owners {
-        row_of_id[o as usize] = NONE;
-    }
-    for &id in ids {
-        index_of_id[id as usize] = NONE;
-    }
-    // The new set, rows in the current particle order.
-    springs.owners.clear();
-    springs.owners.extend_from_slice(ids);
-    springs.offsets.clear();
-    springs.partners.clear();
-    springs.rest.clear();
-    springs.offsets.push(0);
-    for chunk in chunks.iter() {
-        let start = springs.partners.len() as u32;
-        springs
-            .offsets
-            .extend(chunk.offsets[1..].iter().map(|&o| start + o));
-        springs.partners.extend_from_slice(&chunk.partners);
-        springs.rest.extend_from_slice(&chunk.rest);
-    }
-    let displacement: &[Vector] = displacement;
+    let rows = Rows {
+        ctx,
+        sep,
+        positions,
+        old: springs,
+        row_of_id,
+        index_of_id,
+        gamma: settings.yield_ratio,
+        alpha: settings.plasticity,
+        dt2k_half: 0.5 * dt * dt * k,
+    };
+    crate::par_iter_mut!(chunks)
+        .zip(crate::par_chunks_mut!(displacement, CHUNK))
+        .enumerate()
+        .for_each(|(c, (chunk, out))| {
+            chunk.offsets.clear();
+            chunk.partners.clear();
+            chunk.rest.clear();
+            chunk.offsets.push(0);
+            for (k_, dx) in out.iter_mut().enumerate() {
+                *dx = rows.particle(c * CHUNK + k_, chunk);
+                chunk.offsets.push(chunk.partners.len() as u32);
+            }
+        });
+    buffers.unindex(springs, ctx.ids);
+    springs.collect(ctx.ids, &buffers.chunks);
+    let displacement: &[Vector] = &buffers.displacement;
     crate::par_chunks_mut!(positions, CHUNK)
         .enumerate()
         .for_each(|(c, x)| {
@@ -315,4 +222,142 @@ pub(crate) fn apply_in<S: Separation>(
             }
         });
     springs.len()
+}
+
+impl SpringBuffers {
+    /// Fills the id tables: the row of each owner of `springs`, the index of each of `ids`.
+    fn index(&mut self, springs: &SpringSet, ids: &[u32]) {
+        let max_id = ids
+            .iter()
+            .chain(springs.owners.iter())
+            .copied()
+            .max()
+            .map_or(0, |m| m as usize + 1);
+        if self.row_of_id.len() < max_id {
+            self.row_of_id.resize(max_id, NONE);
+            self.index_of_id.resize(max_id, NONE);
+        }
+        for (r, &o) in springs.owners.iter().enumerate() {
+            self.row_of_id[o as usize] = r as u32;
+        }
+        for (i, &id) in ids.iter().enumerate() {
+            self.index_of_id[id as usize] = i as u32;
+        }
+    }
+
+    /// Resets the id tables for the next step (only the entries [`Self::index`] set).
+    fn unindex(&mut self, springs: &SpringSet, ids: &[u32]) {
+        for &o in &springs.owners {
+            self.row_of_id[o as usize] = NONE;
+        }
+        for &id in ids {
+            self.index_of_id[id as usize] = NONE;
+        }
+    }
+}
+
+impl SpringSet {
+    /// The new set from the chunks' rows, rows in the current particle order (`ids`).
+    fn collect(&mut self, ids: &[u32], chunks: &[SpringChunk]) {
+        self.owners.clear();
+        self.owners.extend_from_slice(ids);
+        self.offsets.clear();
+        self.partners.clear();
+        self.rest.clear();
+        self.offsets.push(0);
+        for chunk in chunks {
+            let start = self.partners.len() as u32;
+            self.offsets
+                .extend(chunk.offsets[1..].iter().map(|&o| start + o));
+            self.partners.extend_from_slice(&chunk.partners);
+            self.rest.extend_from_slice(&chunk.rest);
+        }
+    }
+}
+
+/// What the spring update of one particle reads: the stage's inputs, the positions, the
+/// previous spring set with its id tables, and the material (yield ratio `γ`, plasticity
+/// `α`, and `½dt²k`).
+struct Rows<'a, S> {
+    ctx: &'a SpringContext<'a>,
+    sep: S,
+    positions: &'a [Vector],
+    old: &'a SpringSet,
+    row_of_id: &'a [u32],
+    index_of_id: &'a [u32],
+    gamma: Real,
+    alpha: Real,
+    dt2k_half: Real,
+}
+
+impl<S: Separation> Rows<'_, S> {
+    /// The springs of sorted particle `i` after this step, appended to `chunk`'s partners and
+    /// rest lengths, and the displacement they give the particle.
+    ///
+    /// Pairs within h, by partner id, then one merge with the old row (also by partner id):
+    /// existing springs flow, new ones start at L = h (Alg. 4); springs to particles now
+    /// beyond h keep their rest length (Alg. 4 only adjusts pairs within h), springs to
+    /// removed particles are dropped.
+    #[inline(always)]
+    fn particle(&self, i: usize, chunk: &mut SpringChunk) -> Vector {
+        let (h, dt) = (self.ctx.h, self.ctx.dt);
+        let (positions, sep, ids) = (self.positions, &self.sep, self.ctx.ids);
+        let xi = positions[i];
+        let old_row = match self.row_of_id[ids[i] as usize] {
+            NONE => 0..0,
+            r => self.old.offsets[r as usize] as usize..self.old.offsets[r as usize + 1] as usize,
+        };
+        let (old_partners, old_rest) =
+            (&self.old.partners[old_row.clone()], &self.old.rest[old_row]);
+        let row = &mut chunk.row;
+        row.clear();
+        for &j in self.ctx.neighbors.of(i) {
+            let r = sep.sep(xi, positions[j as usize]).length();
+            if r < h {
+                row.push((ids[j as usize], r, j));
+            }
+        }
+        row.sort_unstable_by_key(|e| e.0);
+        let mut acc = Vector::ZERO;
+        let (mut a, mut b) = (0, 0);
+        while a < row.len() || b < old_partners.len() {
+            let next_new = row.get(a).map_or(u32::MAX, |e| e.0);
+            let next_old = old_partners.get(b).copied().unwrap_or(u32::MAX);
+            let (partner, l, j) = if next_new <= next_old {
+                let (partner, r, j) = row[a];
+                a += 1;
+                let mut l = if next_new == next_old {
+                    b += 1;
+                    old_rest[b - 1]
+                } else {
+                    h
+                };
+                let band = self.gamma * l;
+                if r > l + band {
+                    l += dt * self.alpha * (r - l - band);
+                } else if r < l - band {
+                    l -= dt * self.alpha * (l - band - r);
+                }
+                (partner, l, j)
+            } else {
+                b += 1;
+                match self.index_of_id.get(next_old as usize).copied() {
+                    Some(j) if j != NONE => (next_old, old_rest[b - 1], j),
+                    _ => continue,
+                }
+            };
+            if l > h {
+                continue;
+            }
+            let d = sep.sep(positions[j as usize], xi);
+            let r = d.length();
+            if r > 1e-6 * h {
+                // −D/2 for particle i, D along r̂ from i to j.
+                acc -= d * (self.dt2k_half * (1.0 - l / h) * (l - r) / r);
+            }
+            chunk.partners.push(partner);
+            chunk.rest.push(l);
+        }
+        acc
+    }
 }

@@ -238,18 +238,6 @@ pub(crate) fn relax_in<S: Separation>(
     sep: S,
 ) -> Real {
     let n = positions.len();
-    let h = ctx.h;
-    let inv_h = 1.0 / h;
-    let rho0 = lattice_rest_density(h, ctx.spacing);
-    let unit = ctx.speed_of_sound * ctx.speed_of_sound / (h * rho0);
-    let near = settings
-        .near_stiffness
-        .unwrap_or_else(|| settings.cohesion * surface_equilibrium_near_ratio(h, ctx.spacing));
-    let (k, k_c, k_near) = (
-        settings.stiffness * unit,
-        settings.cohesion * unit,
-        near * unit,
-    );
     let ClavetBuffers {
         pressure,
         displacement,
@@ -258,75 +246,15 @@ pub(crate) fn relax_in<S: Separation>(
     pressure.resize(n, (0.0, 0.0));
     displacement.resize(n, Vector::ZERO);
     partials.resize(n.div_ceil(CHUNK), 0.0);
-    {
-        let positions: &[Vector] = positions;
-        crate::par_chunks_mut!(pressure, CHUNK)
-            .zip(crate::par_chunks_mut!(relative_density, CHUNK))
-            .zip(crate::par_iter_mut!(partials))
-            .enumerate()
-            .for_each(|(c, ((pr, rel), sum))| {
-                let base = c * CHUNK;
-                let mut s = 0.0f64;
-                for k_ in 0..pr.len() {
-                    let i = base + k_;
-                    let xi = positions[i];
-                    let (mut rho, mut near) = (0.0, 0.0);
-                    for &j in ctx.neighbors.of(i) {
-                        let d = sep.sep(xi, positions[j as usize]).length();
-                        let a = (1.0 - d * inv_h).max(0.0);
-                        rho += a * a;
-                        near += a * a * a;
-                    }
-                    if let Some(w) = ctx.wall {
-                        let [wr, wn] = w.clavet[i];
-                        rho += wr;
-                        near += wn;
-                    }
-                    let stiffness = if rho < rho0 { k_c } else { k };
-                    pr[k_] = (stiffness * (rho - rho0), k_near * near);
-                    rel[k_] = rho / rho0;
-                    s += (rho / rho0 - 1.0).max(0.0) as f64;
-                }
-                *sum = s;
-            });
-    }
+    let stiffness = Stiffness::new(ctx, settings);
+    pressures(
+        ctx,
+        &stiffness,
+        (positions, sep),
+        (pressure, relative_density, partials),
+    );
     let error = (partials.iter().sum::<f64>() / n.max(1) as f64) as Real;
-    let half_dt2 = 0.5 * ctx.dt * ctx.dt;
-    {
-        let positions: &[Vector] = positions;
-        let pressure: &[(Real, Real)] = pressure;
-        crate::par_chunks_mut!(displacement, CHUNK)
-            .enumerate()
-            .for_each(|(c, out)| {
-                let base = c * CHUNK;
-                for (k_, dx) in out.iter_mut().enumerate() {
-                    let i = base + k_;
-                    let xi = positions[i];
-                    let (p, pn) = pressure[i];
-                    let mut acc = Vector::ZERO;
-                    for &j in ctx.neighbors.of(i) {
-                        let r = sep.sep(positions[j as usize], xi);
-                        let d = r.length();
-                        if d <= 1e-6 * h {
-                            // Coincident: no direction to push along; the neighbours around
-                            // them separate them over the next steps.
-                            continue;
-                        }
-                        let a = (1.0 - d * inv_h).max(0.0);
-                        let (pj, pnj) = pressure[j as usize];
-                        acc += r * (((p + pj) * a + (pn + pnj) * a * a) / d);
-                    }
-                    if let Some(w) = ctx.wall {
-                        // The walls' term, energy-consistent (see "Walls" in the module docs):
-                        // `Σ_b r̂_ib (1 − q)·P = ½P·h·∇ρ_wall`, `Σ_b r̂_ib (1 − q)²·P_near =
-                        // ⅓P_near·h·∇ρ^near_wall` (`∇_i (1 − q)^k = k(1 − q)^(k−1) r̂_ib/h`).
-                        let [g, gn] = w.clavet_gradient[i];
-                        acc += (g * (0.5 * p) + gn * (pn / 3.0)) * h;
-                    }
-                    *dx = acc * -half_dt2;
-                }
-            });
-    }
+    displacements(ctx, (positions, sep), pressure, displacement);
     let displacement: &[Vector] = displacement;
     crate::par_chunks_mut!(positions, CHUNK)
         .enumerate()
@@ -337,6 +265,123 @@ pub(crate) fn relax_in<S: Separation>(
             }
         });
     error
+}
+
+/// The relaxation's rest density `ρ0` and stiffnesses: `k` (compression), `k_c` (tension:
+/// the cohesion) and `k_near`, in units of `c²/(h·ρ0)`.
+struct Stiffness {
+    rho0: Real,
+    k: Real,
+    k_c: Real,
+    k_near: Real,
+}
+
+impl Stiffness {
+    fn new(ctx: &ClavetContext<'_>, settings: &Clavet) -> Self {
+        let h = ctx.h;
+        let rho0 = lattice_rest_density(h, ctx.spacing);
+        let unit = ctx.speed_of_sound * ctx.speed_of_sound / (h * rho0);
+        let near = settings
+            .near_stiffness
+            .unwrap_or_else(|| settings.cohesion * surface_equilibrium_near_ratio(h, ctx.spacing));
+        Self {
+            rho0,
+            k: settings.stiffness * unit,
+            k_c: settings.cohesion * unit,
+            k_near: near * unit,
+        }
+    }
+}
+
+/// The two densities of every particle (walls included) and its pressures `(P, P^near)`
+/// into `pressure`, its density relative to `ρ0` into `relative`, and the per-chunk sums of
+/// the relative compression into `partials`.
+fn pressures<S: Separation>(
+    ctx: &ClavetContext<'_>,
+    stiffness: &Stiffness,
+    (positions, sep): (&[Vector], S),
+    (pressure, relative, partials): (&mut [(Real, Real)], &mut [Real], &mut [f64]),
+) {
+    let inv_h = 1.0 / ctx.h;
+    let Stiffness {
+        rho0,
+        k,
+        k_c,
+        k_near,
+    } = *stiffness;
+    crate::par_chunks_mut!(pressure, CHUNK)
+        .zip(crate::par_chunks_mut!(relative, CHUNK))
+        .zip(crate::par_iter_mut!(partials))
+        .enumerate()
+        .for_each(|(c, ((pr, rel), sum))| {
+            let base = c * CHUNK;
+            let mut s = 0.0f64;
+            for k_ in 0..pr.len() {
+                let i = base + k_;
+                let xi = positions[i];
+                let (mut rho, mut near) = (0.0, 0.0);
+                for &j in ctx.neighbors.of(i) {
+                    let d = sep.sep(xi, positions[j as usize]).length();
+                    let a = (1.0 - d * inv_h).max(0.0);
+                    rho += a * a;
+                    near += a * a * a;
+                }
+                if let Some(w) = ctx.wall {
+                    let [wr, wn] = w.clavet[i];
+                    rho += wr;
+                    near += wn;
+                }
+                let stiffness = if rho < rho0 { k_c } else { k };
+                pr[k_] = (stiffness * (rho - rho0), k_near * near);
+                rel[k_] = rho / rho0;
+                s += (rho / rho0 - 1.0).max(0.0) as f64;
+            }
+            *sum = s;
+        });
+}
+
+/// The displacement `−½dt²·Σ_j [(P_i + P_j)(1 − q) + (P_i^near + P_j^near)(1 − q)²] r̂_ij` of
+/// every particle (and the walls' term) into `displacement`.
+fn displacements<S: Separation>(
+    ctx: &ClavetContext<'_>,
+    (positions, sep): (&[Vector], S),
+    pressure: &[(Real, Real)],
+    displacement: &mut [Vector],
+) {
+    let h = ctx.h;
+    let inv_h = 1.0 / h;
+    let half_dt2 = 0.5 * ctx.dt * ctx.dt;
+    crate::par_chunks_mut!(displacement, CHUNK)
+        .enumerate()
+        .for_each(|(c, out)| {
+            let base = c * CHUNK;
+            for (k_, dx) in out.iter_mut().enumerate() {
+                let i = base + k_;
+                let xi = positions[i];
+                let (p, pn) = pressure[i];
+                let mut acc = Vector::ZERO;
+                for &j in ctx.neighbors.of(i) {
+                    let r = sep.sep(positions[j as usize], xi);
+                    let d = r.length();
+                    if d <= 1e-6 * h {
+                        // Coincident: no direction to push along; the neighbours around
+                        // them separate them over the next steps.
+                        continue;
+                    }
+                    let a = (1.0 - d * inv_h).max(0.0);
+                    let (pj, pnj) = pressure[j as usize];
+                    acc += r * (((p + pj) * a + (pn + pnj) * a * a) / d);
+                }
+                if let Some(w) = ctx.wall {
+                    // The walls' term, energy-consistent (see "Walls" in the module docs):
+                    // `Σ_b r̂_ib (1 − q)·P = ½P·h·∇ρ_wall`, `Σ_b r̂_ib (1 − q)²·P_near =
+                    // ⅓P_near·h·∇ρ^near_wall` (`∇_i (1 − q)^k = k(1 − q)^(k−1) r̂_ib/h`).
+                    let [g, gn] = w.clavet_gradient[i];
+                    acc += (g * (0.5 * p) + gn * (pn / 3.0)) * h;
+                }
+                *dx = acc * -half_dt2;
+            }
+        });
 }
 
 /// Power iterations of [`stiffest_rest_mode`].
