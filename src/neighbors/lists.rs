@@ -1,4 +1,5 @@
 use super::NeighborGrid;
+use super::grid::{CellRanges, Window};
 use crate::domain::{MinimumImage, Open, Separation};
 use crate::math::{Real, Vector};
 use crate::par::CHUNK;
@@ -92,18 +93,14 @@ const COMPACT: [([u8; BLOCK], u8); 256] = {
 /// so the lists do not depend on how the test is vectorised: one 8-lane pass with `AVX2`
 /// (only inside code compiled for it, see [`scan_chunk_avx2`]), two 4-lane SSE2 halves
 /// otherwise on x86-64, scalar elsewhere.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn block_mask<const AVX2: bool>(
-    xs: &[Real],
-    ys: &[Real],
-    zs: &[Real],
+    coords: Coords<'_>,
     j0: usize,
-    xi: Real,
-    yi: Real,
-    zi: Real,
+    point: (Real, Real, Real),
     h2: Real,
 ) -> u32 {
+    let (Coords { xs, ys, zs }, (xi, yi, zi)) = (coords, point);
     let bx: &[Real; BLOCK] = xs[j0..j0 + BLOCK].try_into().unwrap();
     let by: &[Real; BLOCK] = ys[j0..j0 + BLOCK].try_into().unwrap();
     let bz: &[Real; BLOCK] = zs[j0..j0 + BLOCK].try_into().unwrap();
@@ -195,20 +192,16 @@ fn store_lanes_avx2(out: &mut [u32; BLOCK], j0: u32, lanes: &[u32; BLOCK]) {
 
 /// [`block_mask`] with the separation's minimum image (scalar: the periodic path only).
 /// The distance is `sep(x_i, x_j).length_squared()`, exactly as the pair loops form it.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn periodic_block_mask<S: Separation>(
     sep: &S,
-    xs: &[Real],
-    ys: &[Real],
-    zs: &[Real],
+    coords: Coords<'_>,
     j0: usize,
-    xi: Real,
-    yi: Real,
-    zi: Real,
+    point: (Real, Real, Real),
     h2: Real,
 ) -> u32 {
-    let xi = Vector::new(xi, yi, zi);
+    let Coords { xs, ys, zs } = coords;
+    let xi = Vector::new(point.0, point.1, point.2);
     let mut mask = 0u32;
     for k in 0..BLOCK {
         let j = j0 + k;
@@ -219,17 +212,24 @@ fn periodic_block_mask<S: Separation>(
     mask
 }
 
-/// Arguments of [`scan_chunk`]: the grid, the coordinate arrays, `h²`, the separation and
-/// the particle count.
-type ScanArgs<'a, S> = (
-    &'a NeighborGrid,
-    &'a [Real],
-    &'a [Real],
-    &'a [Real],
-    Real,
-    &'a S,
-    usize,
-);
+/// The sorted particles' coordinates as three flat arrays, each with [`PAD`] entries at
+/// infinity after the last particle (a block may run past it).
+#[derive(Copy, Clone)]
+struct Coords<'a> {
+    xs: &'a [Real],
+    ys: &'a [Real],
+    zs: &'a [Real],
+}
+
+/// What the scan of a chunk reads: the grid, the coordinates, `h²`, the separation and the
+/// particle count.
+struct Scan<'a, S> {
+    grid: &'a NeighborGrid,
+    coords: Coords<'a>,
+    h2: Real,
+    sep: &'a S,
+    n: usize,
+}
 
 /// [`scan_chunk`] compiled with AVX2 (8-lane distance tests and one 8-lane store per block).
 /// The lists are the same as without it: the same arithmetic per lane, no FMA.
@@ -238,8 +238,8 @@ type ScanArgs<'a, S> = (
 /// The CPU must support AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn scan_chunk_avx2<S: Separation>(c: usize, chunk: &mut Chunk, args: ScanArgs<'_, S>) {
-    scan_chunk::<S, true>(c, chunk, args)
+unsafe fn scan_chunk_avx2<S: Separation>(c: usize, chunk: &mut Chunk, scan: &Scan<'_, S>) {
+    scan_chunk::<S, true>(c, chunk, scan)
 }
 
 /// Particles of one cell tested together against each block of candidates (they share the
@@ -279,97 +279,176 @@ fn reserve_group(
     room
 }
 
+/// The candidate ranges of the cell last asked for (consecutive particles share a cell, and
+/// a cell's x neighbour reuses its window: see [`NeighborGrid::neighbor_ranges_after`]).
+struct CellCache {
+    cell: u32,
+    ranges: CellRanges,
+    window: Window,
+}
+
+impl CellCache {
+    /// The cache holding the ranges of `cell` (in a periodic box with `S::PERIODIC`).
+    #[inline(always)]
+    fn new<S: Separation>(grid: &NeighborGrid, cell: u32) -> Self {
+        let mut window = Window::default();
+        let ranges = Self::find::<S>(grid, cell, &mut window);
+        Self {
+            cell,
+            ranges,
+            window,
+        }
+    }
+
+    /// The ranges of `cell`.
+    #[inline(always)]
+    fn of<S: Separation>(&mut self, grid: &NeighborGrid, cell: u32) -> &CellRanges {
+        if cell != self.cell {
+            self.cell = cell;
+            self.ranges = Self::find::<S>(grid, cell, &mut self.window);
+        }
+        &self.ranges
+    }
+
+    #[inline(always)]
+    fn find<S: Separation>(grid: &NeighborGrid, cell: u32, window: &mut Window) -> CellRanges {
+        if S::PERIODIC {
+            grid.neighbor_ranges_after::<true>(cell, window)
+        } else {
+            grid.neighbor_ranges_after::<false>(cell, window)
+        }
+    }
+}
+
+/// Up to [`GROUP`] particles of one cell, from particle `i`, scanned together: member `q`'s
+/// list is written from `base + q·room` and ends at `cursor[q]` so far.
+struct Group {
+    i: usize,
+    g: usize,
+    base: usize,
+    room: usize,
+    cursor: [usize; GROUP],
+}
+
+// Indexed loops over the group, as in `scan_chunk_avx512`.
+#[allow(clippy::needless_range_loop)]
+impl Group {
+    /// The group of `cell` from particle `i` (the chunk ending at `end`), its room reserved
+    /// in `buf` after `used` for lists over `ranges` (see [`reserve_group`]).
+    #[inline(always)]
+    fn new(
+        grid: &NeighborGrid,
+        (i, end): (usize, usize),
+        cell: u32,
+        buf: &mut Vec<u32>,
+        used: usize,
+        ranges: &CellRanges,
+    ) -> Self {
+        let g = group_len(grid, i, end, cell);
+        let room = reserve_group(buf, used, g, ranges);
+        let mut cursor = [0usize; GROUP];
+        for q in 0..g {
+            cursor[q] = used + q * room;
+        }
+        Self {
+            i,
+            g,
+            base: used,
+            room,
+            cursor,
+        }
+    }
+
+    /// Member 0's list is in place; each next one moves down next to the one before, and
+    /// each list's end goes to `offsets`. Returns the end of the group's lists.
+    #[inline(always)]
+    fn close(&self, buf: &mut [u32], offsets: &mut Vec<u32>) -> usize {
+        let mut end_of_lists = self.cursor[0];
+        offsets.push(end_of_lists as u32);
+        for q in 1..self.g {
+            let begin = self.base + q * self.room;
+            buf.copy_within(begin..self.cursor[q], end_of_lists);
+            end_of_lists += self.cursor[q] - begin;
+            offsets.push(end_of_lists as u32);
+        }
+        end_of_lists
+    }
+}
+
 /// Builds the lists of chunk `c` (see [`NeighborLists::build`]).
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // indexed group loops, as in `scan_chunk_avx512`
-fn scan_chunk<S: Separation, const AVX2: bool>(
-    c: usize,
-    chunk: &mut Chunk,
-    (grid, xs, ys, zs, h2, sep, n): ScanArgs<'_, S>,
-) {
+fn scan_chunk<S: Separation, const AVX2: bool>(c: usize, chunk: &mut Chunk, scan: &Scan<'_, S>) {
+    let grid = scan.grid;
     let start = c * CHUNK;
-    let end = (start + CHUNK).min(n);
+    let end = (start + CHUNK).min(scan.n);
     chunk.offsets.clear();
     chunk.offsets.push(0);
     // `indices` is used as a buffer longer than its content: every block stores
     // all its lanes and the end advances only over the accepted ones.
     let buf = &mut chunk.indices;
     let mut used = 0usize;
-    let mut window = super::grid::Window::default();
-    let mut ranges_of = |c: u32| {
-        if S::PERIODIC {
-            grid.neighbor_ranges_after::<true>(c, &mut window)
-        } else {
-            grid.neighbor_ranges_after::<false>(c, &mut window)
-        }
-    };
-    let mut cached_cell = grid.cell_of(start);
-    let mut ranges = ranges_of(cached_cell);
+    let mut cache = CellCache::new::<S>(grid, grid.cell_of(start));
     // Up to `GROUP` particles of one cell are tested against each block of candidates in
     // turn (the block stays in registers or L1).
     let mut i = start;
     while i < end {
         let cell = grid.cell_of(i);
-        if cell != cached_cell {
-            cached_cell = cell;
-            ranges = ranges_of(cell);
-        }
-        let g = group_len(grid, i, end, cell);
-        let candidates = reserve_group(buf, used, g, &ranges);
-        let base = used;
+        let ranges = cache.of::<S>(grid, cell);
+        let mut group = Group::new(grid, (i, end), cell, buf, used, ranges);
+        let Coords { xs, ys, zs } = scan.coords;
         let mut points = [(0.0, 0.0, 0.0); GROUP];
-        let mut cursor = [0usize; GROUP];
-        for q in 0..g {
+        for q in 0..group.g {
             points[q] = (xs[i + q], ys[i + q], zs[i + q]);
-            cursor[q] = base + q * candidates;
         }
         for &(s, e) in ranges.as_slice() {
-            let (s, e) = (s as usize, e as usize);
-            let mut j0 = s;
-            while j0 < e {
-                let mut tail = u32::MAX;
-                if e - j0 < BLOCK {
-                    tail = (1 << (e - j0)) - 1;
-                }
-                for q in 0..g {
-                    let (xi, yi, zi) = points[q];
-                    let mut mask = if S::PERIODIC {
-                        periodic_block_mask(sep, xs, ys, zs, j0, xi, yi, zi, h2)
-                    } else {
-                        block_mask::<AVX2>(xs, ys, zs, j0, xi, yi, zi, h2)
-                    } & tail;
-                    // The particle itself passes the test (distance 0): drop its bit.
-                    let me = i + q;
-                    if (j0..j0 + BLOCK).contains(&me) {
-                        mask &= !(1 << (me - j0));
-                    }
-                    let (lanes, count) = &COMPACT[mask as usize];
-                    let at = cursor[q];
-                    let out: &mut [u32; BLOCK] = (&mut buf[at..at + BLOCK]).try_into().unwrap();
-                    if AVX2 {
-                        store_lanes_avx2(out, j0 as u32, &COMPACT32[mask as usize]);
-                    } else {
-                        for k in 0..BLOCK {
-                            out[k] = j0 as u32 + lanes[k] as u32;
-                        }
-                    }
-                    cursor[q] += *count as usize;
-                }
+            let mut j0 = s as usize;
+            while j0 < e as usize {
+                scan_block::<S, AVX2>(scan, &mut group, &points, (j0, e as usize), buf);
                 j0 += BLOCK;
             }
         }
-        // Member 0's list is in place; each next one moves down next to the one before.
-        // (Written out in both scans: as a shared function it measured 3 % slower.)
-        let mut end_of_lists = cursor[0];
-        chunk.offsets.push(end_of_lists as u32);
-        for q in 1..g {
-            let begin = base + q * candidates;
-            buf.copy_within(begin..cursor[q], end_of_lists);
-            end_of_lists += cursor[q] - begin;
-            chunk.offsets.push(end_of_lists as u32);
+        used = group.close(buf, &mut chunk.offsets);
+        i += group.g;
+    }
+}
+
+/// Tests the candidates `j0..min(j0 + BLOCK, e)` for every member of `group` (at `points`),
+/// appending the accepted ones to its lists in `buf`.
+#[inline(always)]
+fn scan_block<S: Separation, const AVX2: bool>(
+    scan: &Scan<'_, S>,
+    group: &mut Group,
+    points: &[(Real, Real, Real); GROUP],
+    (j0, e): (usize, usize),
+    buf: &mut [u32],
+) {
+    let mut tail = u32::MAX;
+    if e - j0 < BLOCK {
+        tail = (1 << (e - j0)) - 1;
+    }
+    for q in 0..group.g {
+        let me = group.i + q;
+        let mut mask = if S::PERIODIC {
+            periodic_block_mask(scan.sep, scan.coords, j0, points[q], scan.h2)
+        } else {
+            block_mask::<AVX2>(scan.coords, j0, points[q], scan.h2)
+        } & tail;
+        // The particle itself passes the test (distance 0): drop its bit.
+        if (j0..j0 + BLOCK).contains(&me) {
+            mask &= !(1 << (me - j0));
         }
-        used = end_of_lists;
-        i += g;
+        let (lanes, count) = &COMPACT[mask as usize];
+        let at = group.cursor[q];
+        let out: &mut [u32; BLOCK] = (&mut buf[at..at + BLOCK]).try_into().unwrap();
+        if AVX2 {
+            store_lanes_avx2(out, j0 as u32, &COMPACT32[mask as usize]);
+        } else {
+            for k in 0..BLOCK {
+                out[k] = j0 as u32 + lanes[k] as u32;
+            }
+        }
+        group.cursor[q] += *count as usize;
     }
 }
 
@@ -387,30 +466,96 @@ fn scan_chunk<S: Separation, const AVX2: bool>(
 // Indexed loops over the group: the same loops with `zip`/`enumerate` made the neighbour
 // search 12 % slower (217 → 244 µs at 2,500 particles on one thread).
 #[allow(clippy::needless_range_loop)]
-unsafe fn scan_chunk_avx512<S: Separation>(
-    c: usize,
-    chunk: &mut Chunk,
-    (grid, xs, ys, zs, h2, _, n): ScanArgs<'_, S>,
-) {
+unsafe fn scan_chunk_avx512<S: Separation>(c: usize, chunk: &mut Chunk, scan: &Scan<'_, S>) {
     use std::arch::x86_64::*;
     debug_assert!(!S::PERIODIC);
+    let (grid, n) = (scan.grid, scan.n);
+    let Coords { xs, ys, zs } = scan.coords;
     let start = c * CHUNK;
     let end = (start + CHUNK).min(n);
     chunk.offsets.clear();
     chunk.offsets.push(0);
     let buf = &mut chunk.indices;
     let mut used = 0usize;
-    let mut window = super::grid::Window::default();
-    let mut cached_cell = grid.cell_of(start);
-    let mut ranges = grid.neighbor_ranges_after::<false>(cached_cell, &mut window);
-    let lanes = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-    let vh = _mm512_set1_ps(h2);
-    // Every load below reads `WIDE` floats from `j0 < e ≤ n`: the arrays hold `n + PAD`.
+    let mut cache = CellCache::new::<S>(grid, grid.cell_of(start));
+    // Every load of `scan_wide_block` reads `WIDE` floats from `j0 < e ≤ n`: the arrays
+    // hold `n + PAD`.
     assert!(xs.len() >= n + WIDE && ys.len() >= n + WIDE && zs.len() >= n + WIDE);
-    // Candidates `j0..j0 + WIDE` closer than `sqrt(h2)` to the point `(vx, vy, vz)`.
-    // SAFETY (of every call): `j0 + WIDE ≤ n + WIDE ≤` each array's length (asserted above);
-    // AVX-512F is enabled for this function.
-    let test = |vx: __m512, vy: __m512, vz: __m512, bx: __m512, by: __m512, bz: __m512| {
+    // Up to `GROUP` particles of one cell are tested against each block of candidates at
+    // once (one set of loads for all).
+    let mut i = start;
+    while i < end {
+        let cell = grid.cell_of(i);
+        let ranges = cache.of::<S>(grid, cell);
+        let mut group = Group::new(grid, (i, end), cell, buf, used, ranges);
+        let mut points = [(
+            _mm512_setzero_ps(),
+            _mm512_setzero_ps(),
+            _mm512_setzero_ps(),
+        ); GROUP];
+        for q in 0..group.g {
+            points[q] = (
+                _mm512_set1_ps(xs[i + q]),
+                _mm512_set1_ps(ys[i + q]),
+                _mm512_set1_ps(zs[i + q]),
+            );
+        }
+        for &(s, e) in ranges.as_slice() {
+            let mut j0 = s as usize;
+            while j0 < e as usize {
+                // SAFETY: `j0 < e ≤ n` and the arrays hold `n + WIDE` (asserted above);
+                // AVX-512F is enabled here as there.
+                unsafe {
+                    scan_wide_block(scan, &mut group, &points, (j0, e as usize), buf);
+                }
+                j0 += WIDE;
+            }
+        }
+        used = group.close(buf, &mut chunk.offsets);
+        i += group.g;
+    }
+}
+
+/// [`scan_block`] with AVX-512: the candidates `j0..min(j0 + WIDE, e)` tested for every
+/// member of `group` (at `points`, broadcast) with one set of loads, the accepted ones
+/// compacted in a register and stored with one 16-lane store.
+///
+/// # Safety
+/// The CPU must support AVX-512F, and `j0 + WIDE` must not pass the coordinate arrays' end.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+#[allow(clippy::needless_range_loop)] // indexed group loops (see `scan_chunk_avx512`)
+unsafe fn scan_wide_block<S: Separation>(
+    scan: &Scan<'_, S>,
+    group: &mut Group,
+    points: &[(
+        std::arch::x86_64::__m512,
+        std::arch::x86_64::__m512,
+        std::arch::x86_64::__m512,
+    ); GROUP],
+    (j0, e): (usize, usize),
+    buf: &mut [u32],
+) {
+    use std::arch::x86_64::*;
+    let Coords { xs, ys, zs } = scan.coords;
+    // SAFETY: the caller keeps `j0 + WIDE` within the arrays.
+    let (bx, by, bz) = unsafe {
+        (
+            _mm512_loadu_ps(xs.as_ptr().add(j0)),
+            _mm512_loadu_ps(ys.as_ptr().add(j0)),
+            _mm512_loadu_ps(zs.as_ptr().add(j0)),
+        )
+    };
+    let vh = _mm512_set1_ps(scan.h2);
+    let mut tail = u32::MAX;
+    if e - j0 < WIDE {
+        tail = (1 << (e - j0)) - 1;
+    }
+    let lanes = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    let index = _mm512_add_epi32(_mm512_set1_epi32(j0 as i32), lanes);
+    for q in 0..group.g {
+        let (vx, vy, vz) = points[q];
         let dx = _mm512_sub_ps(vx, bx);
         let dy = _mm512_sub_ps(vy, by);
         let dz = _mm512_sub_ps(vz, bz);
@@ -418,81 +563,18 @@ unsafe fn scan_chunk_avx512<S: Separation>(
             _mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)),
             _mm512_mul_ps(dz, dz),
         );
-        _mm512_cmp_ps_mask::<_CMP_LT_OQ>(d2, vh) as u32
-    };
-    // Up to `GROUP` particles of one cell are tested against each block of candidates at
-    // once (one set of loads for all).
-    let mut i = start;
-    while i < end {
-        let cell = grid.cell_of(i);
-        if cell != cached_cell {
-            cached_cell = cell;
-            ranges = grid.neighbor_ranges_after::<false>(cell, &mut window);
+        let mut mask = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(d2, vh) as u32 & tail;
+        // The particle itself passes the test (distance 0): drop its bit.
+        let me = group.i + q;
+        if (j0..j0 + WIDE).contains(&me) {
+            mask &= !(1 << (me - j0));
         }
-        let g = group_len(grid, i, end, cell);
-        let candidates = reserve_group(buf, used, g, &ranges);
-        let base = used;
-        let mut points = [(
-            _mm512_setzero_ps(),
-            _mm512_setzero_ps(),
-            _mm512_setzero_ps(),
-        ); GROUP];
-        let mut cursor = [0usize; GROUP];
-        for q in 0..g {
-            points[q] = (
-                _mm512_set1_ps(xs[i + q]),
-                _mm512_set1_ps(ys[i + q]),
-                _mm512_set1_ps(zs[i + q]),
-            );
-            cursor[q] = base + q * candidates;
-        }
-        for &(s, e) in ranges.as_slice() {
-            let (s, e) = (s as usize, e as usize);
-            let mut j0 = s;
-            while j0 < e {
-                // SAFETY: see `test`.
-                let (bx, by, bz) = unsafe {
-                    (
-                        _mm512_loadu_ps(xs.as_ptr().add(j0)),
-                        _mm512_loadu_ps(ys.as_ptr().add(j0)),
-                        _mm512_loadu_ps(zs.as_ptr().add(j0)),
-                    )
-                };
-                let mut tail = u32::MAX;
-                if e - j0 < WIDE {
-                    tail = (1 << (e - j0)) - 1;
-                }
-                let index = _mm512_add_epi32(_mm512_set1_epi32(j0 as i32), lanes);
-                for q in 0..g {
-                    let (vx, vy, vz) = points[q];
-                    let mut mask = test(vx, vy, vz, bx, by, bz) & tail;
-                    // The particle itself passes the test (distance 0): drop its bit.
-                    let me = i + q;
-                    if (j0..j0 + WIDE).contains(&me) {
-                        mask &= !(1 << (me - j0));
-                    }
-                    let packed = _mm512_maskz_compress_epi32(mask as __mmask16, index);
-                    // Each member's region holds `PAD = WIDE` entries of slack per range.
-                    let out = &mut buf[cursor[q]..cursor[q] + WIDE];
-                    // SAFETY: `out` is 16 u32 long; unaligned store.
-                    unsafe { _mm512_storeu_si512(out.as_mut_ptr() as *mut __m512i, packed) };
-                    cursor[q] += mask.count_ones() as usize;
-                }
-                j0 += WIDE;
-            }
-        }
-        // Member 0's list is in place; each next one moves down next to the one before.
-        // (Written out in both scans: as a shared function it measured 3 % slower.)
-        let mut end_of_lists = cursor[0];
-        chunk.offsets.push(end_of_lists as u32);
-        for q in 1..g {
-            let begin = base + q * candidates;
-            buf.copy_within(begin..cursor[q], end_of_lists);
-            end_of_lists += cursor[q] - begin;
-            chunk.offsets.push(end_of_lists as u32);
-        }
-        used = end_of_lists;
-        i += g;
+        let packed = _mm512_maskz_compress_epi32(mask as __mmask16, index);
+        // Each member's region holds `PAD = WIDE` entries of slack per range.
+        let out = &mut buf[group.cursor[q]..group.cursor[q] + WIDE];
+        // SAFETY: `out` is 16 u32 long; unaligned store.
+        unsafe { _mm512_storeu_si512(out.as_mut_ptr() as *mut __m512i, packed) };
+        group.cursor[q] += mask.count_ones() as usize;
     }
 }
 
@@ -548,22 +630,29 @@ impl NeighborLists {
         }
         self.chunks.resize_with(n.div_ceil(CHUNK), Chunk::default);
         let h2 = h * h;
-        let (xs, ys, zs) = (&self.xs[..], &self.ys[..], &self.zs[..]);
+        let scan = Scan {
+            grid,
+            coords: Coords {
+                xs: &self.xs,
+                ys: &self.ys,
+                zs: &self.zs,
+            },
+            h2,
+            sep: &sep,
+            n,
+        };
         // A periodic scan is always scalar (`Isa::best(true)`).
         let isa = if S::PERIODIC { Isa::Portable } else { isa };
         crate::par_iter_mut!(self.chunks)
             .enumerate()
-            .for_each(|(c, chunk)| {
-                let args = (grid, xs, ys, zs, h2, &sep, n);
-                match isa {
-                    // SAFETY: `Isa::best` chose these after run-time detection (the unit
-                    // test asks only for what the CPU has).
-                    #[cfg(target_arch = "x86_64")]
-                    Isa::Avx512 => unsafe { scan_chunk_avx512(c, chunk, args) },
-                    #[cfg(target_arch = "x86_64")]
-                    Isa::Avx2 => unsafe { scan_chunk_avx2(c, chunk, args) },
-                    _ => scan_chunk::<S, false>(c, chunk, args),
-                }
+            .for_each(|(c, chunk)| match isa {
+                // SAFETY: `Isa::best` chose these after run-time detection (the unit test
+                // asks only for what the CPU has).
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx512 => unsafe { scan_chunk_avx512(c, chunk, &scan) },
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx2 => unsafe { scan_chunk_avx2(c, chunk, &scan) },
+                _ => scan_chunk::<S, false>(c, chunk, &scan),
             });
     }
 
