@@ -12,26 +12,31 @@
 //! ## One step
 //!
 //! ```text
-//! particles (FluidSet, one Vec per attribute)        a frame is split into CFL substeps
-//!   │
-//!   ├─ 1 neighbour search   neighbors/   sort by cell, hashed grid, flat neighbour lists
-//!   ├─ 2 wall density       boundary/wall.rs    colliders within h add ρ0·Φ (if enabled)
-//!   ├─ 3 density            density.rs   ρ_i = Σ m W(x_i − x_j) (+ walls)
-//!   │   WCSPH (the paper)                         DFSPH (solver/dfsph.rs)
-//!   ├─ 4 pressure           pressure/eos.rs       divergence solve
-//!   ├─ 5 pressure force     pressure/wcsph.rs     —
-//!   ├─ 6 viscosity force    forces/viscosity.rs ε Σ m (v_j−v_i)/ρ_j ∇²W   (skipped if ε = 0)
-//!   ├─ 7 external forces    forces/external.rs  gravity                  (skipped if g = 0)
-//!   ├─ 8 (DFSPH) density solve                    constant-density solve
-//!   ├─ 9 particle update    integrate.rs  symplectic Euler
-//!   ├─ 10 collider contact  boundary/     swept parry queries, reflection + friction,
-//!   │                                     moving bodies in their own frame (boundary/bodies.rs)
-//!   └─ 11 sinks             emitter.rs    particles in drains are removed
+//! FluidPipeline::step (pipeline/mod.rs)   a frame is split into CFL substeps (pipeline/time_stepping.rs)
+//!   per substep and fluid, the stages of pipeline/substep.rs:
+//!   ├─ 0 overlap relaxation  pipeline/relax.rs    only after particles were added or pushed out of a solid
+//!   ├─ 1 prediction          integrate.rs         PBF, Clavet: gravity, then x += dt·v
+//!   ├─ 2 neighbour search    neighbors/           sort by cell, hashed grid, flat neighbour lists
+//!   ├─ 3 wall density        boundary/wall.rs     colliders within h add ρ0·Φ (if enabled)
+//!   ├─ 4 the solver          solver/              one `PressureSolver` per fluid:
+//!   │    WCSPH (solver/wcsph.rs, the paper)   density.rs, pressure/eos.rs, pressure/wcsph.rs,
+//!   │                                         forces/viscosity.rs, forces/external.rs, integrate.rs
+//!   │    DFSPH (solver/dfsph/)                density and factors, divergence solve, viscosity,
+//!   │                                         gravity, constant-density solve, particle update
+//!   │    PBF (solver/pbf/), Clavet (solver/clavet/)   position solve, velocities, viscosity
+//!   ├─ 5 wall viscosity      forces/wall_viscosity.rs   (skipped if ε_w = 0)
+//!   ├─ 6 wall reaction       boundary/bodies.rs   the solver's wall term pushes dynamic bodies back
+//!   ├─ 7 collider contact    boundary/contact.rs  swept parry queries, reflection + friction,
+//!   │                                             moving bodies in their own frame
+//!   └─ 8 sinks               emitter/             particles in drains are removed
 //! the fluid's impulses on dynamic bodies (contact, and each solver's wall term) change their
 //! velocities at once, so bodies move with the substeps (boundary/bodies.rs);
-//! after the substeps: emitters add the frame's particles (emitter.rs); the impulses go to
+//! after the substeps: emitters add the frame's particles (emitter/); the impulses go to
 //! rapier and the bodies are moved by the drift they made
 //! ```
+//!
+//! ARCHITECTURE.md lists the stages with who owns which data and how to add a stage or a
+//! solver.
 //!
 //! Each stage is timed ([`StepReport::timings`]); see [`pipeline`]. Game logic reads the
 //! fluid through [`query`] (amount in a region or sensor, SPH samples, enter/leave counts). Particles whose state

@@ -26,8 +26,8 @@
 //! mass: the velocities rapier continues with are the ones the fluid saw last), and the body
 //! is moved by the drift its velocity changes made over the frame (`set_position`; the
 //! colliders follow at rapier's next step). Applying the whole frame's impulse once at its end
-//! instead left the body moving along rapier's path for the whole frame while the stiff
-//! weakly-compressible fluid pushed back: a floating box's corners were shaken at 0.55–1.06 g
+//! instead leaves the body moving along rapier's path for the whole frame while the stiff
+//! weakly-compressible fluid pushes back: a floating box's corners are shaken at 0.55–1.06 g
 //! RMS (see `tests/buoyancy.rs`).
 //!
 //! **Cost.** Only colliders of non-fixed bodies whose motion over the substep comes within a
@@ -378,7 +378,7 @@ impl Coupling {
     /// chunk order) between the particles and each dynamic body, and gathers them for
     /// [`Coupling::apply`].
     ///
-    /// Contact reflected each particle as if the body were infinitely heavy; a light body
+    /// Contact reflects each particle as if the body were infinitely heavy; a light body
     /// hit by many particles at once would then be kicked far past them (the added-mass
     /// instability of explicit coupling). So the body's velocity change `Δu` is solved with
     /// the particles it touched moving along with it in their contact normals:
@@ -390,9 +390,9 @@ impl Coupling {
     /// `(M + Σ m n nᵀ)·Δu = J + M·a·dt`: the particles then move along with the body's whole
     /// velocity change, the body keeps `J − Σ m n (n·Δu) = M·(Δu − a·dt)` from the fluid.
     /// Without it a body resting on water, whose support `J` the fluid gives it in every
-    /// substep while rapier takes its weight off once per frame, shared a one-sided `Δu` with
+    /// substep while rapier takes its weight off once per frame, shares a one-sided `Δu` with
     /// the particles under it every substep (measured effect on floating boxes: their depth
-    /// moved by less than 0.005 of their height; momentum was exact either way). The angular
+    /// moves by less than 0.005 of their height; momentum is exact either way). The angular
     /// impulse about the centre of mass changes the angular velocity by `I⁻¹·L` (world
     /// inverse inertia at the frame's end). Both changes move the body from the next substep
     /// on ([`Drift`]): the body moves with the substeps the fluid takes, not once per frame.

@@ -66,7 +66,7 @@ pub fn reflect(v: Vector, n: Vector, restitution: Real, friction: Real) -> Vecto
 }
 
 /// `true` when the box `lo..hi` is farther than `margin` from `b` along some axis. Written as
-/// "clearly apart" so NaN coordinates never count as apart (the queries then run as before).
+/// "clearly apart" so NaN coordinates never count as apart (the queries then run).
 #[inline(always)]
 fn apart(b: &Aabb, lo: Vector, hi: Vector, margin: Real) -> bool {
     hi.x < b.mins.x - margin

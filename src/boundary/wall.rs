@@ -34,8 +34,9 @@
 //! gains `Σ_k L_k (v_k − v_i)`, `L_k` the viscosity Laplacian integrated over wall `k`'s
 //! half-space ([`crate::kernel::ViscosityLaplacian::half_space_integral`], combined over
 //! several walls like the density) and `v_k` the wall's velocity at the closest point. The
-//! pipeline applies it implicitly per particle after the solver (see
-//! `pipeline::wall_viscosity`), and a dynamic body takes the opposite impulse.
+//! pipeline applies it implicitly per particle after the solver (see `wall_viscosity` in
+//! `pipeline/substep.rs` and [`crate::forces::wall_viscosity`]), and a dynamic body takes the
+//! opposite impulse.
 
 use super::ContactWorkspace;
 use super::bodies::{MovingCollider, entry_of};
@@ -193,10 +194,9 @@ impl WallWorkspace {
     /// such a layer), or has been pressed into a wall. No motion of the particle brings its
     /// density down to `ρ0` there, so the pressure solves leave it out (DFSPH, PBF): asked
     /// to, they raise its pressure iteration after iteration, and that pressure pushes the
-    /// bodies around it (measured before this test existed: a 5,000 kg/m³ box landing in
-    /// water was thrown 100 m up with DFSPH, PBF from 3,000 kg/m³; see
-    /// `tests/buoyancy.rs`). Contact keeps it out of the solids, and its neighbours still
-    /// push it out of the gap.
+    /// bodies around it (without this test a 5,000 kg/m³ box landing in water is thrown
+    /// 100 m up with DFSPH, with PBF from 3,000 kg/m³; `tests/buoyancy.rs` lands such boxes).
+    /// Contact keeps it out of the solids, and its neighbours still push it out of the gap.
     #[inline]
     pub fn pinched(&self, i: usize, self_density: Real, rest_density: Real) -> bool {
         self.pinch_fraction > 0.0
@@ -264,12 +264,13 @@ impl WallWorkspace {
     /// are predicted to the substep's end before this update) they stand at their pose of
     /// the substep's *end*, with their surface velocity there, so a position constraint
     /// pairs particle and body at the same time. Taken at its start, a body's motion over
-    /// the substep was missing from PBF's constraints, and the velocity change its impulses
-    /// make (which moves it from the next substep on) reached them a substep late: an
-    /// explicit-Euler loop, which a body resting on particles pinched against the floor
-    /// (stiff: they cannot move out of the way) drove into growing oscillation (stability
-    /// case 11: a 2000 kg/m³ box rocked and exploded after about 1 s; at the end pose it
-    /// rests, KE ratio 0.015).
+    /// the substep would be missing from PBF's constraints, and the velocity change its
+    /// impulses make (which moves it from the next substep on) would reach them a substep
+    /// late: an explicit-Euler loop, which a body resting on particles pinched against the
+    /// floor (stiff: they cannot move out of the way) drives into growing oscillation
+    /// (stability case 11, `cargo run --release --example stability -- --case "heavy body"
+    /// --solver pbf`: a 2000 kg/m³ box rocks and explodes after about 1 s at the start pose;
+    /// at the end pose it rests, KE ratio 0.015).
     pub(crate) fn update(
         &mut self,
         search: &crate::neighbors::NeighbourSearch,

@@ -356,8 +356,8 @@ impl NeighborGrid {
     }
 
     /// Fibonacci hashing: the top bits of `key·2⁶⁴/φ` (every key bit reaches them; the
-    /// product's middle bits, used before, ignored the z coordinate of small tables and
-    /// chained every column of cells into one probe sequence).
+    /// product's middle bits would ignore the z coordinate of small tables and chain every
+    /// column of cells into one probe sequence).
     #[inline(always)]
     fn hash(&self, key: u64) -> usize {
         (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> self.table_shift) as usize

@@ -28,8 +28,8 @@
 //! of neighbours in the rest lattice ([`crate::FluidParams::expected_neighbours`]): the `N`
 //! springs of a particle together then push like an equation of state with speed of sound
 //! `c·√k`, and the time step obeys that acoustic limit (as the relaxation's stiffness does).
-//! Without the `1/N` a particle's thirty-odd springs add up: the first version, in units of
-//! `c²/h²`, blew an isolated blob apart at 3× the acoustic step. `α` is a rate in 1/s; `γ` a
+//! Without the `1/N` a particle's thirty-odd springs add up: in units of `c²/h²` they blow an
+//! isolated blob apart at 3× the acoustic step. `α` is a rate in 1/s; `γ` a
 //! ratio. The defaults are a starting point (the paper gives no SI values), not a calibrated
 //! material.
 

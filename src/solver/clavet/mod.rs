@@ -57,9 +57,9 @@
 //! `E = Σ_i F(ρ_i) + G(ρ_i^near)`, `F' = h·P/4`, `G' = h·P^near/6` (the pair terms above are
 //! exactly `−dt²·∇_i E`); a wall's density enters only its particle's own `F` and `G`, so its
 //! term is `Δx_i = −dt²·h·(P_i/4·∇ρ_wall + P_i^near/6·∇ρ^near_wall)`, half of what mirroring
-//! the particle's pressures into the wall would give. Mirrored fully,
-//! a column at rest in a closed tank gained energy and never settled (no cohesion: still
-//! 1.0 m/s after 2 s at `h = 2s`, 5.3 m/s at `3s`), as WCSPH's walls did
+//! the particle's pressures into the wall would give. Mirrored fully, a column at rest in a
+//! closed tank gains energy and never settles (no cohesion: still 1.0 m/s after 2 s at
+//! `h = 2s`, 5.3 m/s at `3s`), as WCSPH's walls do with the full pressure
 //! (`src/pressure/wcsph.rs`). Dynamic bodies are left to contact, whose impulses they
 //! receive (momentum stays exact). Walls counted this way are *neutral* for the cohesion
 //! (a contact angle of 90°: the liquid next to them lacks no density, so it has no surface
@@ -392,7 +392,7 @@ const POWER_ITERATIONS: usize = 200;
 /// `settings`' stiffnesses. With the forces taken at the predicted positions, a mode of
 /// stiffness `λ` evolves over a substep `dt` as `x' = (1 − θ)(x + dt·v)`, `θ = λ·dt²`, which
 /// is bounded iff `θ ≤ 4/3` (the adaptive substep keeps `θ` inside that; see
-/// `pipeline::stable_time_step`).
+/// `pipeline::time_stepping::stable_time_step`).
 ///
 /// Found by power iteration on the linearised relaxation (finite differences of
 /// `relax_in` with `dt = 1`, which returns the displacement `a·dt²`) of a periodic lattice
@@ -516,7 +516,7 @@ mod tests {
         }
     }
 
-    /// The stability limit quoted in `pipeline::stable_time_step`. With the forces taken at
+    /// The stability limit quoted in `pipeline::time_stepping::stable_time_step`. With the forces taken at
     /// the predicted positions a mode of stiffness λ evolves as `x' = (1 − θ)(x + dt·v)`,
     /// `θ = λ·dt²`, bounded iff `θ ≤ 4/3`. Power iteration on the linearised relaxation (finite
     /// differences of `relax_in` with `dt = 1`, which returns the displacement `a·dt²`) of a

@@ -50,12 +50,11 @@ use rayon::prelude::*;
 
 /// Weight `γ` of the wall's pressure force, `a_i −= γ·π_i·∇ρ_wall`, by default. `γ = 1` is the
 /// energy-consistent (variational) choice: the force is the gradient of the same internal
-/// energy whose fluid part gives `(π_i + π_j)`. Full mirroring (`γ = 2`) alone was tried: a
-/// column at rest in a closed tank sloshed (kinetic energy
-/// 9e-3 J on a 10 × 20 × 10 column at 1 cm, against 2e-4 J with `γ = 1`): without the
-/// hydrostatic part of the wall's pressure, nothing holds the fluid next to the side walls
-/// up. [`Dfsph::hydrostatic_walls`] adds that part and mirrors fully
-/// ([`HYDROSTATIC_WALL_MIRROR`]).
+/// energy whose fluid part gives `(π_i + π_j)`. Full mirroring (`γ = 2`) without the
+/// hydrostatic part of the wall's pressure makes a column at rest in a closed tank slosh
+/// (kinetic energy 9e-3 J on a 10 × 20 × 10 column at 1 cm, against 2e-4 J with `γ = 1`):
+/// nothing then holds the fluid next to the side walls up. [`Dfsph::hydrostatic_walls`]
+/// adds that part and mirrors fully ([`HYDROSTATIC_WALL_MIRROR`]).
 pub const WALL_MIRROR: Real = 1.0;
 
 /// Total weight of the wall's pressure with [`Dfsph::hydrostatic_walls`]: the wall
@@ -68,11 +67,11 @@ pub const WALL_MIRROR: Real = 1.0;
 /// hydrostatic field the two are equal (total weight 2): the zeroth-order term
 /// `2π_i Σ_j m∇W_ij` the missing neighbours leave next to a wall is cancelled, and the
 /// hydrostatic part supplies the wall's share of the first-order term (the kernel's first
-/// moment), vertical support next to side walls included. Mirroring the
-/// particle's own value twice instead left its distance to the wall tied to nothing (a
-/// bottom layer whose pressure fell below the layer above was pressed into the floor and
-/// held by contact, which then carried 10 % of a resting column's weight) and kept a
-/// resting column moving (see docs/solvers.md).
+/// moment), vertical support next to side walls included. Mirroring the particle's own
+/// value twice instead leaves its distance to the wall tied to nothing (a bottom layer whose
+/// pressure fell below the layer above was pressed into the floor and held by contact, which
+/// then carried 10 % of a resting column's weight) and keeps a resting column moving (see
+/// docs/solvers.md).
 pub const HYDROSTATIC_WALL_MIRROR: Real = 2.0;
 
 /// Accumulators of the solves' pair sums (pair `t` of a particle goes to `t % ACC`), summed
@@ -118,8 +117,9 @@ pub(crate) struct DfsphBuffers {
     /// neighbours' current increments, which DFSPH's diagonal factor does not account for.
     /// Next to the strongly non-uniform pressure that follows the overlap relaxation (a
     /// block spawned at half spacing, particles pushed out of a body) the Jacobi iteration
-    /// then diverged, stopped at its cap and threw the fluid (stability cases 6 and 7 at
-    /// full size: KE 3.2× the initial energy). So once a solve's error grows
+    /// kept with it diverges, stops at its cap and throws the fluid (stability cases 6 and 7
+    /// at full size, `cargo run --release --example stability -- --case spawn --solver dfsph`
+    /// and `--case immersed`: KE 3.2× the initial energy). So once a solve's error grows
     /// from one iteration to the next, the rest of that solve runs with the particle's own
     /// pressure mirrored, as without hydrostatic walls; the next solve starts with it again.
     /// A settling column stays within 2 % (bottom error −0.1 / +1.5 / +0.3 % at N = 6 / 8 /
@@ -132,8 +132,9 @@ pub(crate) struct DfsphBuffers {
 /// factor converges while `ω·λ_max < 2`, `λ_max` the largest eigenvalue of the diagonally
 /// scaled system; at the presets' support of 2 spacings `ω = 1` is inside that bound, but
 /// `λ_max` grows with the neighbour count and, with walls counting in the density, a support
-/// of 3 spacings goes past it (measured: a column at rest thrown within a
-/// frame). So when a solve's average error grows from one iteration to the next (the
+/// of 3 spacings goes past it (without the halving a column at rest is thrown within a
+/// frame: stability case 12, `cargo run --release --example stability -- --case "support 3"
+/// --solver dfsph`). So when a solve's average error grows from one iteration to the next (the
 /// iteration diverging), the fluid's `ω` is halved, for good: letting it creep back
 /// (× 1.1 or × 1.01 per solve) let the blow-up return. At 2 spacings it did not trigger in
 /// the runs checked (the salva scene and 5,000-particle dam breaks: final-state hashes
@@ -604,11 +605,11 @@ pub(crate) struct SolveContext<'a> {
     /// moves a particle only through the disorder of its neighbourhood (`Σ_j ∇W_ij`, zero on a
     /// lattice): it is a near-null mode of the system. The kernel sum's mean over disordered
     /// particles reads above `ρ0` (second order in the lattice's deformation; the mass and
-    /// the box fix the true density at `ρ0`), and the one-sided solve could remove that mean
-    /// only through the near-null mode: it ran to its iteration cap and piled up a uniform
+    /// the box fix the true density at `ρ0`), and the one-sided solve can remove that mean
+    /// only through the near-null mode: it runs to its iteration cap and piles up a uniform
     /// pressure (measured in the Taylor–Green vortex, N = 12, dt = 0.02: 180 → 890 within
-    /// four steps, where the vortex's own pressure is ±0.4), which then turned the particles'
-    /// disorder into kinetic energy (E: 0.03 → 1.3 in two steps; the warm start carried 75 %
+    /// four steps, where the vortex's own pressure is ±0.4), which then turns the particles'
+    /// disorder into kinetic energy (E: 0.03 → 1.3 in two steps; the warm start carries 75 %
     /// of it into each next step). So the conditions are the incompressible ones of a
     /// periodic pressure Poisson problem: the residual's mean is its compatibility part, which
     /// no pressure corrects, and is left out; the pressure's level (the gauge) is fixed at

@@ -67,8 +67,9 @@ pub(crate) struct PbfBuffers {
 /// DFSPH's ([`crate::solver::dfsph::MAX_RELAXATION_HALVINGS`]): Jacobi iterations on the
 /// density constraints converge while `ω·λ_max < 2`, and `λ_max` grows with the neighbour
 /// count. At the presets' support of 2 spacings `ω = 1` converges; at 3 spacings with walls
-/// counting in the density it does not (measured: a column at rest reached
-/// 1.48× its initial energy, stability case 12). When the average compression grows from one
+/// counting in the density it does not (without the halving a column at rest reaches 1.48×
+/// its initial energy: stability case 12, `cargo run --release --example stability --
+/// --case "support 3" --solver pbf`). When the average compression grows from one
 /// iteration to the next (see [`DIVERGENCE_FLOOR`]), `ω` is halved for the fluid, for good;
 /// the step report says so ([`crate::StepReport::solver_relaxation_halvings`]). At 2 spacings
 /// it did not trigger in the 5,000- and 20,000-particle dam breaks (final-state hashes
@@ -78,9 +79,10 @@ pub(crate) struct PbfBuffers {
 /// and 6, which pass either way (quick jets: largest compression 0.82 → 1.8–3.0 %, KE/E0
 /// 0.494 → 0.498); and 7 of the error report's 54 PBF runs (the coarsest dam breaks and the
 /// Taylor–Green vortex: front errors 0.123 → 0.131 and 0.050 → 0.041, Taylor–Green's largest
-/// compression 0.04–0.28 → 0.03–0.07 and its energy error a little lower). Requiring the divergence in three consecutive
-/// solves instead spared those, but case 12 then diverged unnoticed (solve 1 diverges, the
-/// next 150 do not, then the column blows up within a few substeps): kept as it is.
+/// compression 0.04–0.28 → 0.03–0.07 and its energy error a little lower). Requiring the
+/// divergence in three consecutive solves would spare those, but lets case 12 diverge
+/// unnoticed (solve 1 diverges, the next 150 do not, then the column blows up within a few
+/// substeps).
 #[doc(inline)]
 pub use super::MAX_RELAXATION_HALVINGS;
 
@@ -96,8 +98,9 @@ pub(crate) use step::PbfState;
 /// can push neighbours that were not compressed into compression: in a converging solve the
 /// average can grow between iterations, from zero too (a jet meeting a plate: 0 → 5.7e-5; a
 /// block spawned at half spacing: 5.0e-6 → 2.5e-5). Measured at the presets' 2 spacings
-/// (5,000- and 20,000-particle PBF dam breaks, 400 steps each): 129 growths, none
-/// from an average above 4.7e-6. At 3 spacings (stability case 12) the first step's second
+/// (5,000- and 20,000-particle PBF dam breaks, 400 steps each: `cargo run --release
+/// --example dam_break -- --preset water --solver pbf --particles 5000 --steps 400`): 129
+/// growths, none from an average above 4.7e-6. At 3 spacings (stability case 12) the first step's second
 /// iteration grows 3.7e-4 → 4.5e-4 (+21 %). `1e-5` is a thousandth of PBF's default target
 /// (`Pbf::max_density_error`, 1 %).
 pub const DIVERGENCE_FLOOR: Real = 1e-5;

@@ -28,7 +28,7 @@ pub struct Pbf {
     /// 1 m column left at 1/60 s substeps compresses by several per cent, then throws itself
     /// up when its bottom layers are corrected); with [`crate::TimeStepping::Adaptive`] the
     /// substep keeps `g·dt²` within `max_density_error` spacings (see `stable_time_step` in
-    /// `src/pipeline.rs`). Fixed time steps are not changed.
+    /// `src/pipeline/time_stepping.rs`). Fixed time steps are not changed.
     #[cfg_attr(feature = "snapshot", serde(default = "default_max_density_error"))]
     pub max_density_error: Real,
     /// Walls with hydrostatic pressure, as DFSPH's ([`crate::Dfsph::hydrostatic_walls`];
