@@ -60,6 +60,18 @@ pub(crate) struct WallRequest {
     pub double_density: bool,
 }
 
+impl WallRequest {
+    /// The request of a solver whose forces use the fluid's density kernel (DFSPH, PBF), with
+    /// the walls' hydrostatic pressure or not.
+    pub(crate) fn density_kernel(params: &FluidParams, hydrostatic: bool) -> Self {
+        Self {
+            force_kernel: params.density_kernel,
+            hydrostatic,
+            double_density: false,
+        }
+    }
+}
+
 /// How the impulse a particle's wall term gave it goes back to a dynamic body.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub(crate) enum WallReaction {

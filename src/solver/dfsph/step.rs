@@ -59,11 +59,7 @@ impl PressureSolver for DfsphState {
     const WALL_REACTION: WallReaction = WallReaction::Impulse { added_mass: true };
 
     fn walls(settings: &Dfsph, params: &FluidParams) -> WallRequest {
-        WallRequest {
-            force_kernel: params.density_kernel,
-            hydrostatic: settings.hydrostatic_walls,
-            double_density: false,
-        }
+        WallRequest::density_kernel(params, settings.hydrostatic_walls)
     }
 
     fn step<S: Separation>(

@@ -21,15 +21,11 @@ impl PressureSolver for PbfState {
     type Settings = Pbf;
     const PREDICTS_POSITIONS: bool = true;
     // The reaction is a position correction turned into velocity: with the added-mass solve
-    // PBF's boxes floated 5–17 % too deep (4 cm particles; without it, within 5 %).
+    // PBF's boxes float 5–17 % too deep (4 cm particles; without it, within 5 %).
     const WALL_REACTION: WallReaction = WallReaction::Impulse { added_mass: false };
 
     fn walls(settings: &Pbf, params: &FluidParams) -> WallRequest {
-        WallRequest {
-            force_kernel: params.density_kernel,
-            hydrostatic: settings.hydrostatic_walls,
-            double_density: false,
-        }
+        WallRequest::density_kernel(params, settings.hydrostatic_walls)
     }
 
     fn step<S: Separation>(
