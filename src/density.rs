@@ -3,23 +3,35 @@
 
 use crate::domain::Separation;
 use crate::kernel::Kernel;
-use crate::math::Real;
-use crate::neighbors::Pairs;
+use crate::math::{Real, Vector};
+use crate::neighbors::NeighborLists;
 use crate::par::{CHUNK, LANES, lane_sum};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
 /// Computes `densities[i]` for every particle, plus `wall[i]` (the walls' density, see
 /// [`crate::boundary::wall`]) when given, and `inv_densities[i] = 1/ρ_i` (the force
-/// stages multiply by it instead of dividing once per pair).
+/// stages multiply by it instead of dividing once per pair). The separations are formed by
+/// `sep` (see [`crate::domain`]).
+///
+/// Kept with 8 arguments: with its inputs in a `neighbors::Pairs` (as the viscosity pass
+/// takes them) the density stage measured 101 [100-102], 103 and 105 µs against main's 99
+/// [97-101], 100 and 103; in this form 97 [96-99] against 96 [94-99] (`cargo run --release
+/// --example stage_medians -- 2500 1500 1`, 6-8 runs alternated with main's build on one
+/// core).
+#[allow(clippy::too_many_arguments)]
 pub fn compute<K: Kernel, S: Separation>(
-    pairs: &Pairs<'_, S>,
+    positions: &[Vector],
+    neighbors: &NeighborLists,
+    mass: Real,
+    h: Real,
     wall: Option<&[Real]>,
     densities: &mut [Real],
     inv_densities: &mut [Real],
+    sep: S,
 ) {
-    let kernel = K::new(pairs.h);
-    let self_term = pairs.mass * kernel.w(0.0);
+    let kernel = K::new(h);
+    let self_term = mass * kernel.w(0.0);
     crate::par_chunks_mut!(densities, CHUNK)
         .zip(crate::par_chunks_mut!(inv_densities, CHUNK))
         .enumerate()
@@ -30,38 +42,31 @@ pub fn compute<K: Kernel, S: Separation>(
                     let base = c * CHUNK;
                     for (k, (rho, inv)) in out.iter_mut().zip(inv_out.iter_mut()).enumerate() {
                         let i = base + k;
-                        let sum = kernel_sum(pairs, &kernel, i);
-                        *rho = self_term + pairs.mass * sum + wall.map_or(0.0, |w| w[i]);
+                        let xi = positions[i];
+                        let nb = neighbors.of(i);
+                        // LANES neighbours per iteration, each stage a loop over plain lane arrays:
+                        // LLVM turns the square roots and kernel polynomials into packed SIMD.
+                        let mut acc = [0.0; LANES];
+                        let mut blocks = nb.chunks_exact(LANES);
+                        for block in &mut blocks {
+                            let mut d = [0.0; LANES];
+                            for l in 0..LANES {
+                                d[l] = sep.sep(xi, positions[block[l] as usize]).length_squared();
+                            }
+                            for l in 0..LANES {
+                                acc[l] += kernel.w(d[l].sqrt());
+                            }
+                        }
+                        let mut sum = lane_sum(acc);
+                        for &j in blocks.remainder() {
+                            sum += kernel.w(sep.sep(xi, positions[j as usize]).length());
+                        }
+                        *rho = self_term + mass * sum + wall.map_or(0.0, |w| w[i]);
                         *inv = 1.0 / *rho;
                     }
                 },
             );
         });
-}
-
-/// `Σ_j W(|x_i − x_j|)` over the neighbours of particle `i`: [`LANES`] neighbours per
-/// iteration, each stage a loop over plain lane arrays (LLVM turns the square roots and
-/// kernel polynomials into packed SIMD), then the rest one by one.
-#[inline(always)]
-fn kernel_sum<K: Kernel, S: Separation>(pairs: &Pairs<'_, S>, kernel: &K, i: usize) -> Real {
-    let (positions, sep) = (pairs.positions, &pairs.sep);
-    let xi = positions[i];
-    let mut acc = [0.0; LANES];
-    let mut blocks = pairs.neighbors.of(i).chunks_exact(LANES);
-    for block in &mut blocks {
-        let mut d = [0.0; LANES];
-        for l in 0..LANES {
-            d[l] = sep.sep(xi, positions[block[l] as usize]).length_squared();
-        }
-        for l in 0..LANES {
-            acc[l] += kernel.w(d[l].sqrt());
-        }
-    }
-    let mut sum = lane_sum(acc);
-    for &j in blocks.remainder() {
-        sum += kernel.w(sep.sep(xi, positions[j as usize]).length());
-    }
-    sum
 }
 
 /// Largest and mean relative compression `max(ρ − ρ0, 0)/ρ0`, reduced chunk by chunk and then

@@ -241,11 +241,28 @@ mod tests {
                 h,
                 sep: crate::domain::Open,
             };
-            crate::density::compute::<CubicSpline, _>(&pairs, None, &mut rho, &mut inv);
+            crate::density::compute::<CubicSpline, _>(
+                &positions,
+                &lists,
+                m,
+                h,
+                None,
+                &mut rho,
+                &mut inv,
+                crate::domain::Open,
+            );
             let pressures: Vec<Real> = rho.iter().map(|r| 100.0 * (r - 1000.0)).collect();
             let mut acc = vec![Vector::ZERO; n];
             crate::pressure::wcsph::pressure_accelerations::<CubicSpline, _>(
-                &pairs, &inv, &pressures, None, &mut acc,
+                &positions,
+                &inv,
+                &pressures,
+                &lists,
+                m,
+                h,
+                None,
+                &mut acc,
+                crate::domain::Open,
             );
             crate::forces::viscosity::add_accelerations(&pairs, &velocities, &inv, 0.5, &mut acc);
             CEILING.store(0, Ordering::Relaxed);

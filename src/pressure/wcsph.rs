@@ -7,7 +7,7 @@
 use crate::domain::Separation;
 use crate::kernel::Kernel;
 use crate::math::{Real, Vector};
-use crate::neighbors::Pairs;
+use crate::neighbors::NeighborLists;
 use crate::par::{CHUNK, LANES, lane_sum};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
@@ -23,27 +23,94 @@ use rayon::prelude::*;
 /// gradient of that same energy through the wall's density, which gives the factor ½.
 /// Mirroring the full pressure into the wall (`p_b = p_i`) does work on the fluid over
 /// every oscillation: a column at rest in a closed tank then gains kinetic energy without
-/// bound (the factor ½ makes it bounded).
+/// bound (the factor ½ makes it bounded). The separations are formed by `sep` (see
+/// [`crate::domain`]).
+///
+/// Kept whole (9 arguments, 85 lines): with its inputs in a `neighbors::Pairs` and the
+/// neighbour sum as a function of its own, the pressure-force stage measured 130 [129-132] µs
+/// against main's 121 [119-122]; in this form 120 [117-127] against 120 [118-133] (medians
+/// [ranges] of 6-8 runs of `cargo run --release --example stage_medians -- 2500 1500 1`,
+/// alternated with main's build on one core). The machine's code-placement effects are of
+/// the same order (the same bytes at another alignment measured 125 and 133 µs), so the
+/// difference is small but was seen in every run.
+#[allow(clippy::too_many_arguments)]
 pub fn pressure_accelerations<K: Kernel, S: Separation>(
-    pairs: &Pairs<'_, S>,
+    positions: &[Vector],
     inv_densities: &[Real],
     pressures: &[Real],
+    neighbors: &NeighborLists,
+    mass: Real,
+    h: Real,
     wall: Option<&[Vector]>,
     accelerations: &mut [Vector],
+    sep: S,
 ) {
-    let kernel = K::new(pairs.h);
-    let half_m = 0.5 * pairs.mass;
-    let fields = (inv_densities, pressures);
+    let kernel = K::new(h);
+    let half_m = 0.5 * mass;
     crate::par_chunks_mut!(accelerations, CHUNK)
         .enumerate()
         .for_each(|(c, out)| {
             crate::par::wide(
                 #[inline(always)]
                 || {
+                    let base = c * CHUNK;
                     for (k, a) in out.iter_mut().enumerate() {
-                        let i = c * CHUNK + k;
+                        let i = base + k;
+                        let xi = positions[i];
                         let pi = pressures[i];
-                        *a = pair_sum(pairs, &kernel, fields, i) * (half_m * inv_densities[i]);
+                        let nb = neighbors.of(i);
+                        // LANES neighbours at a time in lane arrays (packed sqrt/divide/kernel); the
+                        // result equals `Kernel::gradient` pair by pair, coincident pairs included.
+                        let coincident = K::COINCIDENT_FRACTION * h;
+                        let (mut fx, mut fy, mut fz) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+                        let mut blocks = nb.chunks_exact(LANES);
+                        for block in &mut blocks {
+                            let (mut rx, mut ry, mut rz, mut d) =
+                                ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
+                            let mut s = [0.0; LANES];
+                            for l in 0..LANES {
+                                let j = block[l] as usize;
+                                let r = sep.sep(xi, positions[j]);
+                                (rx[l], ry[l], rz[l]) = (r.x, r.y, r.z);
+                                d[l] = r.length_squared();
+                                s[l] = (pi + pressures[j]) * inv_densities[j];
+                            }
+                            // Separate uniform loops (no data-dependent branch) vectorise.
+                            for l in 0..LANES {
+                                d[l] = d[l].sqrt();
+                            }
+                            let mut c = [0.0; LANES];
+                            for l in 0..LANES {
+                                // 1/d for separated pairs, 0 for coincident ones (fixed up below).
+                                let far = (d[l] > coincident) as u32 as Real;
+                                c[l] = kernel.dw(d[l]) * (far / d[l].max(coincident)) * s[l];
+                            }
+                            for l in 0..LANES {
+                                fx[l] -= rx[l] * c[l];
+                                fy[l] -= ry[l] * c[l];
+                                fz[l] -= rz[l] * c[l];
+                            }
+                            if d.iter().any(|&dl| dl <= coincident) {
+                                for l in 0..LANES {
+                                    if d[l] <= coincident {
+                                        let g =
+                                            kernel.gradient(Vector::ZERO, d[l], i as u32, block[l])
+                                                * s[l];
+                                        (fx[l], fy[l], fz[l]) =
+                                            (fx[l] - g.x, fy[l] - g.y, fz[l] - g.z);
+                                    }
+                                }
+                            }
+                        }
+                        let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
+                        for &j in blocks.remainder() {
+                            let ju = j as usize;
+                            let r = sep.sep(xi, positions[ju]);
+                            let d = r.length();
+                            let grad = kernel.gradient(r, d, i as u32, j);
+                            f -= grad * ((pi + pressures[ju]) * inv_densities[ju]);
+                        }
+                        *a = f * (half_m * inv_densities[i]);
                         if let Some(grad) = wall {
                             *a -= grad[i] * (0.5 * pi * inv_densities[i] * inv_densities[i]);
                         }
@@ -51,67 +118,4 @@ pub fn pressure_accelerations<K: Kernel, S: Separation>(
                 },
             )
         });
-}
-
-/// `−Σ_j (p_i + p_j)/ρ_j ∇W_ij` over the neighbours of particle `i` (`fields`: `1/ρ` and
-/// `p` of every particle): [`LANES`] neighbours at a time in lane arrays (packed
-/// sqrt/divide/kernel), then the rest one by one. The result equals `Kernel::gradient` pair
-/// by pair, coincident pairs included.
-#[inline(always)]
-fn pair_sum<K: Kernel, S: Separation>(
-    pairs: &Pairs<'_, S>,
-    kernel: &K,
-    (inv_densities, pressures): (&[Real], &[Real]),
-    i: usize,
-) -> Vector {
-    let (positions, sep) = (pairs.positions, &pairs.sep);
-    let xi = positions[i];
-    let pi = pressures[i];
-    let coincident = K::COINCIDENT_FRACTION * pairs.h;
-    let (mut fx, mut fy, mut fz) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
-    let mut blocks = pairs.neighbors.of(i).chunks_exact(LANES);
-    for block in &mut blocks {
-        let (mut rx, mut ry, mut rz, mut d) =
-            ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
-        let mut s = [0.0; LANES];
-        for l in 0..LANES {
-            let j = block[l] as usize;
-            let r = sep.sep(xi, positions[j]);
-            (rx[l], ry[l], rz[l]) = (r.x, r.y, r.z);
-            d[l] = r.length_squared();
-            s[l] = (pi + pressures[j]) * inv_densities[j];
-        }
-        // Separate uniform loops (no data-dependent branch) vectorise.
-        for l in 0..LANES {
-            d[l] = d[l].sqrt();
-        }
-        let mut c = [0.0; LANES];
-        for l in 0..LANES {
-            // 1/d for separated pairs, 0 for coincident ones (fixed up below).
-            let far = (d[l] > coincident) as u32 as Real;
-            c[l] = kernel.dw(d[l]) * (far / d[l].max(coincident)) * s[l];
-        }
-        for l in 0..LANES {
-            fx[l] -= rx[l] * c[l];
-            fy[l] -= ry[l] * c[l];
-            fz[l] -= rz[l] * c[l];
-        }
-        if d.iter().any(|&dl| dl <= coincident) {
-            for l in 0..LANES {
-                if d[l] <= coincident {
-                    let g = kernel.gradient(Vector::ZERO, d[l], i as u32, block[l]) * s[l];
-                    (fx[l], fy[l], fz[l]) = (fx[l] - g.x, fy[l] - g.y, fz[l] - g.z);
-                }
-            }
-        }
-    }
-    let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
-    for &j in blocks.remainder() {
-        let ju = j as usize;
-        let r = sep.sep(xi, positions[ju]);
-        let d = r.length();
-        let grad = kernel.gradient(r, d, i as u32, j);
-        f -= grad * ((pi + pressures[ju]) * inv_densities[ju]);
-    }
-    f
 }

@@ -41,7 +41,8 @@ impl PressureSolver for WcsphState {
         };
         ctx.report.timed(Stage::Density, || {
             crate::with_kernel!(p.density_kernel, K => density::compute::<K, S>(
-                &pairs, wall.map(|w| &w.density[..]), ctx.densities, ctx.inv_densities));
+                ctx.positions, ctx.neighbors, p.particle_mass, p.smoothing_length,
+                wall.map(|w| &w.density[..]), ctx.densities, ctx.inv_densities, sep));
         });
         ctx.report.timed(Stage::Pressure, || {
             pressure::eos::compute(
@@ -55,8 +56,8 @@ impl PressureSolver for WcsphState {
         // Overwrites the accelerations.
         ctx.report.timed(Stage::PressureForce, || {
             crate::with_kernel!(p.pressure_kernel, K => pressure::wcsph::pressure_accelerations::<K, S>(
-                &pairs, ctx.inv_densities, ctx.pressures, wall.map(|w| &w.gradient[..]),
-                ctx.accelerations));
+                ctx.positions, ctx.inv_densities, ctx.pressures, ctx.neighbors, p.particle_mass,
+                p.smoothing_length, wall.map(|w| &w.gradient[..]), ctx.accelerations, sep));
         });
         if p.viscosity > 0.0 {
             ctx.report.timed(Stage::ViscosityForce, || {
