@@ -391,11 +391,6 @@ impl<'a, K: Kernel, S: Separation> Passes<'a, K, S> {
     /// [`LANES`] neighbours at a time, and with hydrostatic walls the fluid-side neighbours'
     /// average λ, weighted by `max(0, ∇W_ij·û)`, `û` away from the walls (DFSPH's
     /// `neighbour_average`, gathered in the same loop).
-    ///
-    /// Kept whole (88 lines): the pair sum as a function of its own measured PBF's density
-    /// solve 1853 [1827-1870] µs against main's 1827 [1809-1854], written in this loop 1795
-    /// [1766-1833] against 1825 [1800-1850] (`cargo run --release --example stage_medians --
-    /// 2500 1000 1 pbf true`, 8 runs each alternated with main's build on one core).
     fn corrections(
         &self,
         positions: &[Vector],
@@ -403,87 +398,96 @@ impl<'a, K: Kernel, S: Separation> Passes<'a, K, S> {
         (omega, first): (Real, bool),
         (correction, wall_lambda_sum): (&mut [Vector], &mut [Real]),
     ) {
-        let ctx = self.ctx;
-        let hydrostatic = ctx.wall.is_some_and(|w| w.neighbour_pressure);
         crate::par_chunks_mut!(correction, CHUNK)
             .zip(crate::par_chunks_mut!(wall_lambda_sum, CHUNK))
             .enumerate()
             .for_each(|(c, (out, hat))| {
                 crate::par::wide(
                     #[inline(always)]
-                    || {
-                        let base = c * CHUNK;
-                        for (k, dx) in out.iter_mut().enumerate() {
-                            let i = base + k;
-                            let li = lambda[i];
-                            let (kernel, sep) = (&self.kernel, &self.sep);
-                            let xi = positions[i];
-                            let hw = ctx
-                                .wall
-                                .filter(|w| hydrostatic && w.gradient[i] != Vector::ZERO);
-                            let away = hw.map_or(Vector::ZERO, |w| -w.gradient[i].normalize());
-                            let (mut sw, mut swl): (Real, Real) = (0.0, 0.0);
-                            let (mut fx, mut fy, mut fz) =
-                                ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
-                            let mut blocks = ctx.neighbors.of(i).chunks_exact(LANES);
-                            for block in &mut blocks {
-                                let b = gradient_block(sep, kernel, i, xi, positions, block);
-                                if hw.is_some() {
-                                    for l in 0..LANES {
-                                        let wgt = (b.gx[l] * away.x
-                                            + b.gy[l] * away.y
-                                            + b.gz[l] * away.z)
-                                            .max(0.0);
-                                        sw += wgt;
-                                        swl += wgt * lambda[block[l] as usize];
-                                    }
-                                }
-                                for l in 0..LANES {
-                                    let s_corr = if self.s_k > 0.0 {
-                                        -self.s_k
-                                            * (kernel.w(b.d[l]) * self.inv_w_dq).powi(self.s_n)
-                                    } else {
-                                        0.0
-                                    };
-                                    let s = li + lambda[block[l] as usize] + s_corr;
-                                    fx[l] += s * b.gx[l];
-                                    fy[l] += s * b.gy[l];
-                                    fz[l] += s * b.gz[l];
-                                }
-                            }
-                            let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
-                            for &j in blocks.remainder() {
-                                let (g, d) = gradient_one(sep, kernel, i, xi, positions, j);
-                                f += g * (li + lambda[j as usize] + self.s_corr(d));
-                                if hw.is_some() {
-                                    let wgt = g.dot(away).max(0.0);
-                                    sw += wgt;
-                                    swl += wgt * lambda[j as usize];
-                                }
-                            }
-                            let neighbours = if sw > 0.0 { swl / sw } else { 0.0 };
-                            let mut d = f * ctx.mass;
-                            if let Some(wall) = ctx.wall {
-                                let lw = if hydrostatic { li + neighbours } else { li };
-                                // What the wall term applies, relaxation included.
-                                if first {
-                                    hat[k] = lw * omega;
-                                } else {
-                                    hat[k] += lw * omega;
-                                }
-                                d += wall.gradient[i] * lw;
-                            }
-                            let d = d * (self.inv_rho0 * omega);
-                            let len = d.length();
-                            *dx = if len > ctx.max_move {
-                                d * (ctx.max_move / len)
-                            } else {
-                                d
-                            };
-                        }
-                    },
+                    || self.correct_chunk(c, (positions, lambda), (omega, first), (out, hat)),
                 );
             });
+    }
+
+    /// [`Self::corrections`] of chunk `c` (`out`, `hat`: the chunk's rows). The pair sum stays
+    /// in this loop: as a function of its own it measured PBF's density solve 1853
+    /// [1827-1870] µs against main's 1827 [1809-1854]; in the loop 1795 [1766-1833] against
+    /// 1825 [1800-1850] (`cargo run --release --example stage_medians -- 2500 1000 1 pbf
+    /// true`, 8 runs each alternated with main's build on one core).
+    #[inline(always)]
+    fn correct_chunk(
+        &self,
+        c: usize,
+        (positions, lambda): (&[Vector], &[Real]),
+        (omega, first): (Real, bool),
+        (out, hat): (&mut [Vector], &mut [Real]),
+    ) {
+        let ctx = self.ctx;
+        let hydrostatic = ctx.wall.is_some_and(|w| w.neighbour_pressure);
+        let base = c * CHUNK;
+        for (k, dx) in out.iter_mut().enumerate() {
+            let i = base + k;
+            let li = lambda[i];
+            let (kernel, sep) = (&self.kernel, &self.sep);
+            let xi = positions[i];
+            let hw = ctx
+                .wall
+                .filter(|w| hydrostatic && w.gradient[i] != Vector::ZERO);
+            let away = hw.map_or(Vector::ZERO, |w| -w.gradient[i].normalize());
+            let (mut sw, mut swl): (Real, Real) = (0.0, 0.0);
+            let (mut fx, mut fy, mut fz) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+            let mut blocks = ctx.neighbors.of(i).chunks_exact(LANES);
+            for block in &mut blocks {
+                let b = gradient_block(sep, kernel, i, xi, positions, block);
+                if hw.is_some() {
+                    for l in 0..LANES {
+                        let wgt = (b.gx[l] * away.x + b.gy[l] * away.y + b.gz[l] * away.z).max(0.0);
+                        sw += wgt;
+                        swl += wgt * lambda[block[l] as usize];
+                    }
+                }
+                for l in 0..LANES {
+                    let s_corr = if self.s_k > 0.0 {
+                        -self.s_k * (kernel.w(b.d[l]) * self.inv_w_dq).powi(self.s_n)
+                    } else {
+                        0.0
+                    };
+                    let s = li + lambda[block[l] as usize] + s_corr;
+                    fx[l] += s * b.gx[l];
+                    fy[l] += s * b.gy[l];
+                    fz[l] += s * b.gz[l];
+                }
+            }
+            let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
+            for &j in blocks.remainder() {
+                let (g, d) = gradient_one(sep, kernel, i, xi, positions, j);
+                f += g * (li + lambda[j as usize] + self.s_corr(d));
+                if hw.is_some() {
+                    let wgt = g.dot(away).max(0.0);
+                    sw += wgt;
+                    swl += wgt * lambda[j as usize];
+                }
+            }
+            let neighbours = if sw > 0.0 { swl / sw } else { 0.0 };
+            let mut d = f * ctx.mass;
+            if let Some(wall) = ctx.wall {
+                let lw = if hydrostatic { li + neighbours } else { li };
+                // What the wall term applies, relaxation included.
+                if first {
+                    hat[k] = lw * omega;
+                } else {
+                    hat[k] += lw * omega;
+                }
+                d += wall.gradient[i] * lw;
+            }
+            let d = d * (self.inv_rho0 * omega);
+            let len = d.length();
+            *dx = if len > ctx.max_move {
+                d * (ctx.max_move / len)
+            } else {
+                d
+            };
+        }
     }
 
     /// The artificial pressure `s_corr = −k·(W(d)/W(Δq))^n` (eq. 13) at distance `d`.
