@@ -8,7 +8,10 @@ use crate::fluid::{Fluid, FluidHandle, try_lattice};
 use crate::math::{Real, Vector};
 use crate::params::FluidParams;
 use crate::world::FluidWorld;
-use rapier3d::prelude::{ColliderBuilder, RigidBodyBuilder};
+use rapier3d::pipeline::PhysicsWorld;
+use rapier3d::prelude::{
+    Array2, ColliderBuilder, ColliderHandle, Pose, RigidBodyBuilder, RigidBodyHandle, SharedShape,
+};
 
 /// A closed box of six cuboid colliders whose **interior** is `[min, max]`, walls `thickness`
 /// thick, on one fixed rapier body.
@@ -416,187 +419,18 @@ fn funnel_mesh(
 /// looks for colliders (a caller that steps only the fluids must step rapier once first).
 /// `scenes/obstacle_course.ron` is the same scene as a file (tested bit for bit).
 pub fn obstacle_course(config: &ObstacleCourseConfig) -> SphResult<ObstacleCourse> {
-    use crate::emitter::{Emitter, Nozzle, Sink, SinkRegion};
-    use rapier3d::prelude::*;
-    if !(config.rate_fraction > 0.0 && config.rate_fraction.is_finite()) {
-        return Err(SphError::InvalidParameter {
-            field: "rate_fraction",
-            value: config.rate_fraction as f64,
-            reason: "must be positive and finite",
-        });
-    }
-    if !config.wheel_speed.is_finite() {
-        return Err(SphError::InvalidParameter {
-            field: "wheel_speed",
-            value: config.wheel_speed as f64,
-            reason: "must be finite",
-        });
-    }
+    config.validate()?;
     let mut world = FluidWorld::new();
     world.physics.integration_parameters.dt = 1.0 / 60.0;
     let p = &mut world.physics;
-    let fixed = p.insert_body(RigidBodyBuilder::fixed());
-    let mut solids = Vec::new();
-    let mut add = |p: &mut rapier3d::pipeline::PhysicsWorld, c: ColliderBuilder, solid: bool| {
-        let h = p.insert_collider(c, Some(fixed));
-        if solid {
-            solids.push(h);
-        }
-        h
+    let mut course = Course {
+        fixed: p.insert_body(RigidBodyBuilder::fixed()),
+        solids: Vec::new(),
     };
-    let w = 0.25; // half width of the course along z
-    // Ramp: 1.2 m long, tilted 20° down along +x.
-    add(
-        p,
-        ColliderBuilder::cuboid(0.6, 0.02, w).position(Pose::new(
-            Vector::new(0.55, 1.6, 0.0),
-            Vector::new(0.0, 0.0, -0.35),
-        )),
-        true,
-    );
-    // Side walls of the ramp.
-    for z in [-w - 0.02, w + 0.02] {
-        add(
-            p,
-            ColliderBuilder::cuboid(0.65, 0.15, 0.02).position(Pose::new(
-                Vector::new(0.55, 1.7, z),
-                Vector::new(0.0, 0.0, -0.35),
-            )),
-            true,
-        );
-    }
-    // Pegs: two balls and a capsule across the flow below the ramp's end.
-    add(
-        p,
-        ColliderBuilder::ball(0.04).translation(Vector::new(1.3, 1.2, -0.12)),
-        true,
-    );
-    add(
-        p,
-        ColliderBuilder::ball(0.04).translation(Vector::new(1.3, 1.2, 0.12)),
-        true,
-    );
-    add(
-        p,
-        ColliderBuilder::capsule_z(0.15, 0.03).translation(Vector::new(1.45, 1.05, 0.0)),
-        true,
-    );
-    // Funnel (open trimesh, both faces collide): top radius 0.4 at y = 1.0, bottom radius 0.1
-    // at y = 0.7, under the pegs.
-    let (fv, fi) = funnel_mesh(0.4, 0.1, 0.3, 24);
-    let funnel = ColliderBuilder::trimesh(fv, fi)
-        .map_err(|_| SphError::InvalidParameter {
-            field: "funnel",
-            value: 0.0,
-            reason: "degenerate funnel mesh",
-        })?
-        .translation(Vector::new(1.45, 0.7, 0.0));
-    add(p, funnel, false);
-    // Heightfield terrain from x = 1.2 to 3.2 (2 m × 0.6 m), sloping from 0.45 m down to
-    // 0.2 m with ripples, between two side walls.
-    let (nrows, ncols) = (7usize, 41usize);
-    let mut data = vec![0.0; nrows * ncols];
-    for j in 0..ncols {
-        for i in 0..nrows {
-            let u = j as Real / (ncols - 1) as Real;
-            data[i + j * nrows] = 0.25 * (1.0 - u) + 0.02 * (u * 25.0).sin();
-        }
-    }
-    add(
-        p,
-        ColliderBuilder::heightfield(
-            Array2::new(nrows, ncols, data),
-            Vector::new(2.0, 1.0, 2.0 * w + 0.1),
-        )
-        .translation(Vector::new(2.2, 0.2, 0.0)),
-        false,
-    );
-    for z in [-w - 0.02, w + 0.02] {
-        add(
-            p,
-            ColliderBuilder::cuboid(1.1, 0.55, 0.02).translation(Vector::new(2.2, 0.75, z)),
-            true,
-        );
-    }
-    // A back wall closing the channel upstream of where the funnel pours.
-    add(
-        p,
-        ColliderBuilder::cuboid(0.02, 0.55, w + 0.04).translation(Vector::new(1.18, 0.75, 0.0)),
-        true,
-    );
-    // A compound obstacle on the terrain: a block with a ball on top.
-    add(
-        p,
-        ColliderBuilder::compound(vec![
-            (Pose::IDENTITY, SharedShape::cuboid(0.05, 0.08, 0.08)),
-            (
-                Pose::from_translation(Vector::new(0.0, 0.08, 0.0)),
-                SharedShape::ball(0.06),
-            ),
-        ])
-        .translation(Vector::new(2.95, 0.33, -0.1)),
-        true,
-    );
-    // The bucket: inside x ∈ [3.12, 4.0], y ∈ [−0.25, 0.15], z ∈ [−0.4, 0.4], walls 2 cm.
-    // Its near wall stands under the terrain's end (top at y = 0.15), so what runs off the
-    // terrain falls in; the other three walls rise to y = 0.6 to catch the splash.
-    let (bmin, bmax) = (Vector::new(3.12, -0.25, -0.4), Vector::new(4.0, 0.15, 0.4));
-    let t = 0.02;
-    let bc = (bmin + bmax) * 0.5;
-    let bh = (bmax - bmin) * 0.5;
-    let top = 0.6;
-    let (tall_c, tall_h) = ((bmin.y + top) * 0.5, (top - bmin.y) * 0.5);
-    for (c, h) in [
-        (
-            Vector::new(bc.x, bmin.y - t, bc.z),
-            Vector::new(bh.x + 2.0 * t, t, bh.z + 2.0 * t),
-        ),
-        (
-            Vector::new(bmin.x - t, bc.y, bc.z),
-            Vector::new(t, bh.y, bh.z + 2.0 * t),
-        ),
-        (
-            Vector::new(bmax.x + t, tall_c, bc.z),
-            Vector::new(t, tall_h, bh.z + 2.0 * t),
-        ),
-        (
-            Vector::new(bc.x, tall_c, bmin.z - t),
-            Vector::new(bh.x, tall_h, t),
-        ),
-        (
-            Vector::new(bc.x, tall_c, bmax.z + t),
-            Vector::new(bh.x, tall_h, t),
-        ),
-    ] {
-        add(
-            p,
-            ColliderBuilder::cuboid(h.x, h.y, h.z).translation(c),
-            true,
-        );
-    }
-    let bucket_sensor = add(
-        p,
-        ColliderBuilder::cuboid(bh.x, bh.y, bh.z)
-            .translation(bc)
-            .sensor(true),
-        false,
-    );
-    // The paddle wheel: kinematic, axis z, four blades reaching down into the stream on the
-    // terrain, lower blades moving downstream (+x).
-    let wheel = p.insert_body(
-        RigidBodyBuilder::kinematic_velocity_based()
-            .translation(Vector::new(2.5, 0.62, 0.0))
-            .angvel(Vector::new(0.0, 0.0, config.wheel_speed)),
-    );
-    for k in 0..4 {
-        let a = std::f32::consts::FRAC_PI_2 * k as Real;
-        let d = Vector::new(a.cos(), a.sin(), 0.0);
-        p.insert_collider(
-            ColliderBuilder::cuboid(0.12, 0.008, w - 0.03)
-                .position(Pose::new(d * 0.15, Vector::new(0.0, 0.0, a))),
-            Some(wheel),
-        );
-    }
+    course.upper(p)?;
+    course.terrain(p);
+    let bucket = course.bucket(p);
+    let wheel = paddle_wheel(p, config.wheel_speed);
     // Two floating crates (density 500) on the terrain, in the flow.
     let mut crates = Vec::new();
     for (x, z) in [(2.05, -0.1), (2.2, 0.1)] {
@@ -607,36 +441,235 @@ pub fn obstacle_course(config: &ObstacleCourseConfig) -> SphResult<ObstacleCours
         );
         crates.push(b);
     }
-    let params = config.params.clone();
-    let s = params.particle_spacing;
-    let mut fluid = Fluid::new(params)?;
-    let mut emitter = Emitter::new(
-        Nozzle::Disk {
-            radius: config.nozzle_radius,
-        },
-        Vector::new(0.05, 1.9, 0.0),
-        Vector::new(1.0, -0.3, 0.0),
-        config.jet_speed,
-        1.0,
-    );
-    let rate = emitter.max_rate(s) * config.rate_fraction;
-    emitter.set_rate(rate)?;
-    fluid.add_emitter(emitter)?;
-    fluid.add_sink(Sink::new(SinkRegion::Aabb {
-        min: Vector::splat(-100.0),
-        max: Vector::new(100.0, -0.6, 100.0),
-    }))?;
-    let fluid = world.fluids.insert(fluid);
+    let fluid = world.fluids.insert(config.jet()?);
     Ok(ObstacleCourse {
         world,
         fluid,
-        bucket_sensor,
-        bucket_area: (bmax.x - bmin.x) * (bmax.z - bmin.z),
-        bucket_depth: bmax.y - bmin.y,
+        bucket_sensor: bucket.sensor,
+        bucket_area: bucket.area,
+        bucket_depth: bucket.depth,
         crates,
         wheel,
-        solids,
+        solids: course.solids,
     })
+}
+
+/// Half width of the obstacle course along z (m).
+const COURSE_HALF_WIDTH: Real = 0.25;
+
+impl ObstacleCourseConfig {
+    fn validate(&self) -> SphResult<()> {
+        if !(self.rate_fraction > 0.0 && self.rate_fraction.is_finite()) {
+            return Err(SphError::InvalidParameter {
+                field: "rate_fraction",
+                value: self.rate_fraction as f64,
+                reason: "must be positive and finite",
+            });
+        }
+        if !self.wheel_speed.is_finite() {
+            return Err(SphError::InvalidParameter {
+                field: "wheel_speed",
+                value: self.wheel_speed as f64,
+                reason: "must be finite",
+            });
+        }
+        Ok(())
+    }
+
+    /// The fluid, empty, with the jet at the top of the ramp and a sink far below the course.
+    fn jet(&self) -> SphResult<Fluid> {
+        use crate::emitter::{Emitter, Nozzle, Sink, SinkRegion};
+        let params = self.params.clone();
+        let s = params.particle_spacing;
+        let mut fluid = Fluid::new(params)?;
+        let mut emitter = Emitter::new(
+            Nozzle::Disk {
+                radius: self.nozzle_radius,
+            },
+            Vector::new(0.05, 1.9, 0.0),
+            Vector::new(1.0, -0.3, 0.0),
+            self.jet_speed,
+            1.0,
+        );
+        let rate = emitter.max_rate(s) * self.rate_fraction;
+        emitter.set_rate(rate)?;
+        fluid.add_emitter(emitter)?;
+        fluid.add_sink(Sink::new(SinkRegion::Aabb {
+            min: Vector::splat(-100.0),
+            max: Vector::new(100.0, -0.6, 100.0),
+        }))?;
+        Ok(fluid)
+    }
+}
+
+/// The fixed colliders of the obstacle course, inserted in a fixed order (their handles
+/// are part of the scene's bitwise identity); `solids` are those no particle may enter.
+struct Course {
+    fixed: RigidBodyHandle,
+    solids: Vec<ColliderHandle>,
+}
+
+/// The bucket at the end of the course: its sensor, floor area and depth.
+struct Bucket {
+    sensor: ColliderHandle,
+    area: Real,
+    depth: Real,
+}
+
+impl Course {
+    fn add(&mut self, p: &mut PhysicsWorld, c: ColliderBuilder, solid: bool) -> ColliderHandle {
+        let h = p.insert_collider(c, Some(self.fixed));
+        if solid {
+            self.solids.push(h);
+        }
+        h
+    }
+
+    /// The ramp with its side walls, the pegs below its end and the funnel under them.
+    fn upper(&mut self, p: &mut PhysicsWorld) -> SphResult<()> {
+        let w = COURSE_HALF_WIDTH;
+        let tilt = Vector::new(0.0, 0.0, -0.35);
+        // Ramp: 1.2 m long, tilted 20° down along +x.
+        let ramp = Pose::new(Vector::new(0.55, 1.6, 0.0), tilt);
+        self.add(
+            p,
+            ColliderBuilder::cuboid(0.6, 0.02, w).position(ramp),
+            true,
+        );
+        // Side walls of the ramp.
+        for z in [-w - 0.02, w + 0.02] {
+            let side = Pose::new(Vector::new(0.55, 1.7, z), tilt);
+            self.add(
+                p,
+                ColliderBuilder::cuboid(0.65, 0.15, 0.02).position(side),
+                true,
+            );
+        }
+        // Pegs: two balls and a capsule across the flow below the ramp's end.
+        for z in [-0.12, 0.12] {
+            let peg = ColliderBuilder::ball(0.04).translation(Vector::new(1.3, 1.2, z));
+            self.add(p, peg, true);
+        }
+        let bar = ColliderBuilder::capsule_z(0.15, 0.03).translation(Vector::new(1.45, 1.05, 0.0));
+        self.add(p, bar, true);
+        // Funnel (open trimesh, both faces collide): top radius 0.4 at y = 1.0, bottom
+        // radius 0.1 at y = 0.7, under the pegs.
+        let (fv, fi) = funnel_mesh(0.4, 0.1, 0.3, 24);
+        let funnel = ColliderBuilder::trimesh(fv, fi)
+            .map_err(|_| SphError::InvalidParameter {
+                field: "funnel",
+                value: 0.0,
+                reason: "degenerate funnel mesh",
+            })?
+            .translation(Vector::new(1.45, 0.7, 0.0));
+        self.add(p, funnel, false);
+        Ok(())
+    }
+
+    /// Heightfield terrain from x = 1.2 to 3.2 (2 m × 0.6 m), sloping from 0.45 m down to
+    /// 0.2 m with ripples, between two side walls; a back wall upstream of where the funnel
+    /// pours, and a compound obstacle (a block with a ball on top) on the terrain.
+    fn terrain(&mut self, p: &mut PhysicsWorld) {
+        let w = COURSE_HALF_WIDTH;
+        let (nrows, ncols) = (7usize, 41usize);
+        let mut data = vec![0.0; nrows * ncols];
+        for j in 0..ncols {
+            for i in 0..nrows {
+                let u = j as Real / (ncols - 1) as Real;
+                data[i + j * nrows] = 0.25 * (1.0 - u) + 0.02 * (u * 25.0).sin();
+            }
+        }
+        let scale = Vector::new(2.0, 1.0, 2.0 * w + 0.1);
+        let field = ColliderBuilder::heightfield(Array2::new(nrows, ncols, data), scale)
+            .translation(Vector::new(2.2, 0.2, 0.0));
+        self.add(p, field, false);
+        for z in [-w - 0.02, w + 0.02] {
+            let side =
+                ColliderBuilder::cuboid(1.1, 0.55, 0.02).translation(Vector::new(2.2, 0.75, z));
+            self.add(p, side, true);
+        }
+        let back =
+            ColliderBuilder::cuboid(0.02, 0.55, w + 0.04).translation(Vector::new(1.18, 0.75, 0.0));
+        self.add(p, back, true);
+        let obstacle = ColliderBuilder::compound(vec![
+            (Pose::IDENTITY, SharedShape::cuboid(0.05, 0.08, 0.08)),
+            (
+                Pose::from_translation(Vector::new(0.0, 0.08, 0.0)),
+                SharedShape::ball(0.06),
+            ),
+        ])
+        .translation(Vector::new(2.95, 0.33, -0.1));
+        self.add(p, obstacle, true);
+    }
+
+    /// The bucket: inside x ∈ [3.12, 4.0], y ∈ [−0.25, 0.15], z ∈ [−0.4, 0.4], walls 2 cm.
+    /// Its near wall stands under the terrain's end (top at y = 0.15), so what runs off the
+    /// terrain falls in; the other three walls rise to y = 0.6 to catch the splash. A sensor
+    /// fills its inside.
+    fn bucket(&mut self, p: &mut PhysicsWorld) -> Bucket {
+        let (bmin, bmax) = (Vector::new(3.12, -0.25, -0.4), Vector::new(4.0, 0.15, 0.4));
+        let t = 0.02;
+        let bc = (bmin + bmax) * 0.5;
+        let bh = (bmax - bmin) * 0.5;
+        let top = 0.6;
+        let (tall_c, tall_h) = ((bmin.y + top) * 0.5, (top - bmin.y) * 0.5);
+        for (c, h) in [
+            (
+                Vector::new(bc.x, bmin.y - t, bc.z),
+                Vector::new(bh.x + 2.0 * t, t, bh.z + 2.0 * t),
+            ),
+            (
+                Vector::new(bmin.x - t, bc.y, bc.z),
+                Vector::new(t, bh.y, bh.z + 2.0 * t),
+            ),
+            (
+                Vector::new(bmax.x + t, tall_c, bc.z),
+                Vector::new(t, tall_h, bh.z + 2.0 * t),
+            ),
+            (
+                Vector::new(bc.x, tall_c, bmin.z - t),
+                Vector::new(bh.x, tall_h, t),
+            ),
+            (
+                Vector::new(bc.x, tall_c, bmax.z + t),
+                Vector::new(bh.x, tall_h, t),
+            ),
+        ] {
+            self.add(
+                p,
+                ColliderBuilder::cuboid(h.x, h.y, h.z).translation(c),
+                true,
+            );
+        }
+        let sensor = ColliderBuilder::cuboid(bh.x, bh.y, bh.z)
+            .translation(bc)
+            .sensor(true);
+        Bucket {
+            sensor: self.add(p, sensor, false),
+            area: (bmax.x - bmin.x) * (bmax.z - bmin.z),
+            depth: bmax.y - bmin.y,
+        }
+    }
+}
+
+/// The paddle wheel: kinematic, axis z, four blades reaching down into the stream on the
+/// terrain, lower blades moving downstream (+x).
+fn paddle_wheel(p: &mut PhysicsWorld, speed: Real) -> RigidBodyHandle {
+    let wheel = p.insert_body(
+        RigidBodyBuilder::kinematic_velocity_based()
+            .translation(Vector::new(2.5, 0.62, 0.0))
+            .angvel(Vector::new(0.0, 0.0, speed)),
+    );
+    for k in 0..4 {
+        let a = std::f32::consts::FRAC_PI_2 * k as Real;
+        let d = Vector::new(a.cos(), a.sin(), 0.0);
+        p.insert_collider(
+            ColliderBuilder::cuboid(0.12, 0.008, COURSE_HALF_WIDTH - 0.03)
+                .position(Pose::new(d * 0.15, Vector::new(0.0, 0.0, a))),
+            Some(wheel),
+        );
+    }
+    wheel
 }
 
 /// A floating box (the buoyancy test and example): a closed tank `tank` wide holding `depth`

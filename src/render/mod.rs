@@ -494,208 +494,35 @@ impl Renderer {
         let top = [0.62, 0.70, 0.80];
         let bottom = [0.93, 0.93, 0.90];
         self.target.reset(w, h, focal, top, bottom);
-        let background = lerp3(top, bottom, 0.5);
-
-        let (right, up, back) = camera.basis();
-        let to_view = |p: Vector| {
-            let r = p - camera.eye;
-            Vector::new(r.dot(right), r.dot(up), r.dot(back))
-        };
-        // Light from above-left, slightly from the camera side, in view space.
-        let light = Vector::new(-0.45, 0.75, 0.5).normalize();
-        let half = (light + Vector::Z).normalize();
-        let target_distance = (camera.eye - camera.target).length().max(1e-6);
-        let fog = o.fog;
-        let fogged = move |c: Rgb, d: Real| {
-            let t = ((d - 0.8 * target_distance) / (0.8 * target_distance)).clamp(0.0, 1.0);
-            lerp3(c, background, fog * t)
-        };
-
-        // The fluid's centroid decides which colliders are "in front".
-        let mut centroid = Vector::ZERO;
-        let mut count = 0usize;
-        for (_, f) in fluids.iter() {
-            for p in f.positions() {
-                centroid += *p;
-            }
-            count += f.len();
-        }
-        // View-space point the see-through test looks from (the camera is the origin).
-        let fluid_centre = if count > 0 {
-            to_view(centroid / count as Real)
-        } else {
-            to_view(camera.target)
-        };
+        let view = View::new(camera, fluids, o.fog, lerp3(top, bottom, 0.5));
 
         // Opaque colliders first, translucent ones after the fluid, then the feature edges
         // of the translucent ones (so a see-through tank still shows its shape).
-        let mut translucent: Vec<([Vector; 3], Rgb)> = Vec::new();
-        let mut edges: Vec<(Vector, Vector)> = Vec::new();
-        if o.draw_colliders {
+        let mut front = Front::default();
+        if self.options.draw_colliders {
             for (handle, mesh) in TriangleMesh::from_colliders(colliders, &o.tessellation) {
-                if mesh.vertices.is_empty() {
-                    continue;
-                }
-                // A collider given its own colour (`collider_colors`) is drawn in it and
-                // always opaque.
-                let own = o.collider_colors.iter().find(|(c, _)| *c == handle);
-                let base_color = if let Some((_, color)) = own {
-                    *color
-                } else if o.collider_palette {
-                    let c = &colliders[handle];
-                    let body = c
-                        .parent()
-                        .and_then(|b| bodies.and_then(|set| set.get(b)))
-                        .map(|b| b.body_type());
-                    palette(c.shape().shape_type(), body)
-                } else {
-                    o.collider_color
-                };
-                // Only fixed walls (cuboids) between the camera and the fluid are see-through;
-                // obstacles (balls, capsules, meshes, heightfields, compounds) and moving
-                // bodies stay solid wherever they are.
-                let wall = own.is_none() && {
-                    let c = &colliders[handle];
-                    let moving = c
-                        .parent()
-                        .and_then(|b| bodies.and_then(|set| set.get(b)))
-                        .is_some_and(|b| !b.is_fixed());
-                    !moving
-                        && matches!(
-                            c.shape().shape_type(),
-                            ShapeType::Cuboid | ShapeType::RoundCuboid | ShapeType::HalfSpace
-                        )
-                };
-                // Walls with see-through faces are outlined by their feature edges (below);
-                // their opaque faces are not tagged, since seen through their own
-                // see-through end faces two faces of a thin wall alternate pixel by pixel.
-                let id = handle.into_raw_parts().0;
-                let any_see_through = wall
-                    && mesh.triangles.iter().any(|t| {
-                        let p = t.map(|i| to_view(mesh.vertices[i as usize]));
-                        let n = (p[1] - p[0]).cross(p[2] - p[0]);
-                        (n.dot(-p[0]) > 0.0) != (n.dot(fluid_centre - p[0]) > 0.0)
-                    });
-                let id = if any_see_through { raster::NO_ID } else { id };
-                let mut any_in_front = false;
-                for t in &mesh.triangles {
-                    let p = t.map(|i| to_view(mesh.vertices[i as usize]));
-                    let mut n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
-                    let centre = (p[0] + p[1] + p[2]) / 3.0;
-                    // A wall's face is see-through when its plane separates the camera
-                    // from the fluid (the front wall and the lid of a tank; not its back
-                    // wall or floor).
-                    let in_front =
-                        wall && (n.dot(-p[0]) > 0.0) != (n.dot(fluid_centre - p[0]) > 0.0);
-                    any_in_front |= in_front;
-                    if n.dot(-centre) < 0.0 {
-                        n = -n; // two-sided: light the side we see
-                    }
-                    let lambert = n.dot(light).max(0.0);
-                    let shade = 0.35 + 0.65 * lambert;
-                    let col = fogged(base_color.map(|c| c * shade), -centre.z);
-                    if in_front {
-                        translucent.push((p, col));
-                    } else {
-                        self.target.solid_triangle(p, col, id, n);
-                    }
-                }
-                if any_in_front {
-                    for (a, b) in mesh.feature_edges(0.5) {
-                        edges.push((to_view(a), to_view(b)));
-                    }
+                if !mesh.vertices.is_empty() {
+                    self.draw_collider(&view, (handle, &mesh), colliders, bodies, &mut front);
                 }
             }
-            if o.outlines > 0.0 {
-                self.target.outlines(o.outlines.clamp(0.0, 1.0), 0.04);
+            if self.options.outlines > 0.0 {
+                self.target
+                    .outlines(self.options.outlines.clamp(0.0, 1.0), 0.04);
             }
         }
-
         if let Some(mesh) = surface {
-            let normals = mesh.vertex_normals();
-            let colors: Vec<Rgb> = mesh
-                .vertices
-                .iter()
-                .zip(&normals)
-                .map(|(v, n)| {
-                    let pv = to_view(*v);
-                    let nv = Vector::new(n.dot(right), n.dot(up), n.dot(back));
-                    let view_dir = (-pv).normalize_or_zero();
-                    let nv = if nv.dot(view_dir) < 0.0 { -nv } else { nv };
-                    let diffuse = nv.dot(light).max(0.0);
-                    let spec = nv.dot(half).max(0.0).powi(40);
-                    let fresnel = (1.0 - nv.dot(view_dir).max(0.0)).powi(3);
-                    let c = o.surface_color.map(|c| c * (0.3 + 0.7 * diffuse));
-                    let c = lerp3(c, [0.85, 0.92, 1.0], 0.35 * fresnel);
-                    fogged(c.map(|c| c + 0.6 * spec), -pv.z)
-                })
-                .collect();
-            for t in &mesh.triangles {
-                let p = t.map(|i| to_view(mesh.vertices[i as usize]));
-                let c = t.map(|i| colors[i as usize]);
-                self.target.triangle(p, c, 1.0);
-            }
+            self.draw_surface(&view, mesh);
         }
-
-        if o.draw_particles {
-            match o.style {
-                FluidStyle::Spheres => {
-                    let (lo, hi) = match o.speed_range {
-                        Some(r) => r,
-                        None => {
-                            let mut max: Real = 0.0;
-                            for (_, f) in fluids.iter() {
-                                for v in f.velocities() {
-                                    max = max.max(v.length());
-                                }
-                            }
-                            (0.0, max)
-                        }
-                    };
-                    let inv_range = if hi > lo { 1.0 / (hi - lo) } else { 0.0 };
-                    for (_, f) in fluids.iter() {
-                        let r = o.particle_scale * f.params().particle_spacing;
-                        for (p, v) in f.positions().iter().zip(f.velocities()) {
-                            let base = speed_color((v.length() - lo) * inv_range);
-                            self.target.sphere(to_view(*p), r, |n, d| {
-                                let diffuse = n.dot(light).max(0.0);
-                                let spec = n.dot(half).max(0.0).powi(32);
-                                let c = base.map(|c| c * (0.35 + 0.65 * diffuse) + 0.35 * spec);
-                                fogged(c, d)
-                            });
-                        }
-                    }
-                }
+        if self.options.draw_particles {
+            match self.options.style {
+                FluidStyle::Spheres => self.draw_spheres(&view, fluids),
                 FluidStyle::ScreenSpace => {
                     let o = self.options.clone();
-                    self.screen_space(
-                        &o,
-                        fluids,
-                        diffuse,
-                        &to_view,
-                        light,
-                        (right, up, back),
-                        target_distance,
-                        background,
-                    );
+                    self.screen_space(&o, fluids, diffuse, &view);
                 }
             }
         }
-
-        for (p, col) in translucent {
-            self.target
-                .triangle(p, [col; 3], self.options.front_collider_alpha);
-        }
-        let line_width = self.options.supersample.max(1) as Real;
-        let veil = match self.options.style {
-            FluidStyle::ScreenSpace if self.options.draw_particles => &self.fluid.smooth[..],
-            _ => &[],
-        };
-        for (a, b) in edges {
-            self.target
-                .line(a, b, [0.25, 0.25, 0.24], 0.5, line_width, veil, 0.15);
-        }
-
+        self.draw_front(front);
         let (w, h, rgb) = self.target.resolve(ss);
         Image {
             width: w as u32,
@@ -704,30 +531,215 @@ impl Renderer {
         }
     }
 
-    #[allow(clippy::too_many_arguments)]
+    /// The colour a collider is drawn in, and whether it is a fixed wall (a cuboid or a
+    /// half-space) that may be drawn see-through where it stands between the camera and the
+    /// fluid. A collider given its own colour (`collider_colors`) is drawn in it and always
+    /// opaque; obstacles (balls, capsules, meshes, heightfields, compounds) and moving
+    /// bodies stay solid wherever they are.
+    fn collider_style(
+        &self,
+        handle: ColliderHandle,
+        colliders: &ColliderSet,
+        bodies: Option<&RigidBodySet>,
+    ) -> (Rgb, bool) {
+        let o = &self.options;
+        let c = &colliders[handle];
+        let body = c
+            .parent()
+            .and_then(|b| bodies.and_then(|set| set.get(b)))
+            .map(|b| b.body_type());
+        if let Some((_, color)) = o.collider_colors.iter().find(|(c, _)| *c == handle) {
+            return (*color, false);
+        }
+        let color = if o.collider_palette {
+            palette(c.shape().shape_type(), body)
+        } else {
+            o.collider_color
+        };
+        let moving = body.is_some_and(|b| b != RigidBodyType::Fixed);
+        let wall = !moving
+            && matches!(
+                c.shape().shape_type(),
+                ShapeType::Cuboid | ShapeType::RoundCuboid | ShapeType::HalfSpace
+            );
+        (color, wall)
+    }
+
+    /// Draws one collider's triangles: opaque ones now, see-through ones (and the feature
+    /// edges outlining them) kept in `front` for after the fluid.
+    fn draw_collider(
+        &mut self,
+        view: &View,
+        (handle, mesh): (ColliderHandle, &TriangleMesh),
+        colliders: &ColliderSet,
+        bodies: Option<&RigidBodySet>,
+        front: &mut Front,
+    ) {
+        let (base_color, wall) = self.collider_style(handle, colliders, bodies);
+        // A wall's face is see-through when its plane separates the camera from the fluid
+        // (the front wall and the lid of a tank; not its back wall or floor).
+        let see_through = |p: &[Vector; 3]| {
+            let n = (p[1] - p[0]).cross(p[2] - p[0]);
+            wall && (n.dot(-p[0]) > 0.0) != (n.dot(view.fluid_center - p[0]) > 0.0)
+        };
+        let triangles: Vec<[Vector; 3]> = mesh
+            .triangles
+            .iter()
+            .map(|t| t.map(|i| view.to_view(mesh.vertices[i as usize])))
+            .collect();
+        // Walls with see-through faces are outlined by their feature edges (below); their
+        // opaque faces are not tagged, since seen through their own see-through end faces
+        // two faces of a thin wall alternate pixel by pixel.
+        let any_in_front = triangles.iter().any(see_through);
+        let id = if any_in_front {
+            raster::NO_ID
+        } else {
+            handle.into_raw_parts().0
+        };
+        for p in triangles {
+            let mut n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+            let center = (p[0] + p[1] + p[2]) / 3.0;
+            let in_front = see_through(&p);
+            if n.dot(-center) < 0.0 {
+                n = -n; // two-sided: light the side we see
+            }
+            let shade = 0.35 + 0.65 * n.dot(view.light).max(0.0);
+            let col = view.fogged(base_color.map(|c| c * shade), -center.z);
+            if in_front {
+                front.translucent.push((p, col));
+            } else {
+                self.target.solid_triangle(p, col, id, n);
+            }
+        }
+        if any_in_front {
+            for (a, b) in mesh.feature_edges(0.5) {
+                front.edges.push((view.to_view(a), view.to_view(b)));
+            }
+        }
+    }
+
+    /// A liquid surface mesh, smooth-shaded with a Fresnel sheen.
+    fn draw_surface(&mut self, view: &View, mesh: &TriangleMesh) {
+        let o = &self.options;
+        let normals = mesh.vertex_normals();
+        let colors: Vec<Rgb> = mesh
+            .vertices
+            .iter()
+            .zip(&normals)
+            .map(|(v, n)| {
+                let pv = view.to_view(*v);
+                let nv = view.direction(*n);
+                let view_dir = (-pv).normalize_or_zero();
+                let nv = if nv.dot(view_dir) < 0.0 { -nv } else { nv };
+                let diffuse = nv.dot(view.light).max(0.0);
+                let spec = nv.dot(view.half).max(0.0).powi(40);
+                let fresnel = (1.0 - nv.dot(view_dir).max(0.0)).powi(3);
+                let c = o.surface_color.map(|c| c * (0.3 + 0.7 * diffuse));
+                let c = lerp3(c, [0.85, 0.92, 1.0], 0.35 * fresnel);
+                view.fogged(c.map(|c| c + 0.6 * spec), -pv.z)
+            })
+            .collect();
+        for t in &mesh.triangles {
+            let p = t.map(|i| view.to_view(mesh.vertices[i as usize]));
+            let c = t.map(|i| colors[i as usize]);
+            self.target.triangle(p, c, 1.0);
+        }
+    }
+
+    /// Particles as shaded spheres coloured by speed.
+    fn draw_spheres(&mut self, view: &View, fluids: &FluidSet) {
+        let o = &self.options;
+        let (lo, hi) = o.speed_range.unwrap_or_else(|| {
+            let speeds = fluids.iter().flat_map(|(_, f)| f.velocities());
+            (0.0, speeds.fold(0.0, |m: Real, v| m.max(v.length())))
+        });
+        let inv_range = if hi > lo { 1.0 / (hi - lo) } else { 0.0 };
+        for (_, f) in fluids.iter() {
+            let r = o.particle_scale * f.params().particle_spacing;
+            for (p, v) in f.positions().iter().zip(f.velocities()) {
+                let base = speed_color((v.length() - lo) * inv_range);
+                self.target.sphere(view.to_view(*p), r, |n, d| {
+                    let diffuse = n.dot(view.light).max(0.0);
+                    let spec = n.dot(view.half).max(0.0).powi(32);
+                    let c = base.map(|c| c * (0.35 + 0.65 * diffuse) + 0.35 * spec);
+                    view.fogged(c, d)
+                });
+            }
+        }
+    }
+
+    /// The see-through collider faces over the fluid, then their outlines.
+    fn draw_front(&mut self, front: Front) {
+        for (p, col) in front.translucent {
+            self.target
+                .triangle(p, [col; 3], self.options.front_collider_alpha);
+        }
+        let line_width = self.options.supersample.max(1) as Real;
+        let veil = match self.options.style {
+            FluidStyle::ScreenSpace if self.options.draw_particles => &self.fluid.smooth[..],
+            _ => &[],
+        };
+        for (a, b) in front.edges {
+            self.target
+                .line(a, b, [0.25, 0.25, 0.24], 0.5, line_width, veil, 0.15);
+        }
+    }
+
     fn screen_space(
         &mut self,
         o: &RenderOptions,
         fluids: &FluidSet,
         diffuse: &[&DiffuseParticles],
-        to_view: &dyn Fn(Vector) -> Vector,
-        light: Vector,
-        basis: (Vector, Vector, Vector),
-        target_distance: Real,
-        background: Rgb,
+        view: &View,
     ) {
         let (w, h) = (self.target.width, self.target.height);
         self.timings = ScreenSpaceTimings::default();
         let clock = std::time::Instant::now();
         self.fluid.reset(w, h);
-        let (right, up, back) = basis;
+        let spacing = self.splat_fluids(o, fluids, view);
+        if spacing <= 0.0 {
+            return;
+        }
+        self.timings.splat = clock.elapsed().as_secs_f64() - self.timings.anisotropy;
+        let t = std::time::Instant::now();
+        let max_px = (24 * o.supersample.max(1)) as usize;
+        self.fluid.smooth_depth(
+            self.target.focal,
+            o.smoothing_radius * spacing,
+            spacing,
+            max_px,
+        );
+        self.timings.filter = t.elapsed().as_secs_f64();
+        let t = std::time::Instant::now();
+        self.foam(o.foam_scale * spacing, spacing, diffuse, view);
+        let shade = ssf::Shade {
+            absorption: o.absorption,
+            spacing,
+            deep: o.deep_color,
+            foam: [0.93, 0.96, 1.0],
+            light: view.light,
+            refraction: o.refraction,
+            basis: view.basis,
+            fog: o.fog,
+            fog_start: 0.8 * view.target_distance,
+            background: view.background,
+            sky_top: [0.45, 0.62, 0.88],
+            sky_horizon: [0.88, 0.92, 0.96],
+            ground: [0.30, 0.30, 0.28],
+        };
+        self.fluid.shade(&mut self.target, &shade);
+        self.timings.shade = t.elapsed().as_secs_f64();
+    }
+
+    /// Splats every fluid's particle ellipsoids into the depth and thickness buffers;
+    /// returns the largest particle spacing (0 when there is no particle).
+    fn splat_fluids(&mut self, o: &RenderOptions, fluids: &FluidSet, view: &View) -> Real {
         let mut spacing: Real = 0.0;
         for (_, f) in fluids.iter() {
             if f.is_empty() {
                 continue;
             }
-            let s = f.params().particle_spacing;
-            spacing = spacing.max(s);
+            spacing = spacing.max(f.params().particle_spacing);
             let a = match &mut self.anisotropy {
                 Some(a) if *a.settings() == o.anisotropy => a,
                 slot => {
@@ -744,36 +756,21 @@ impl Renderer {
             let ellipsoids = a.compute(f);
             self.timings.anisotropy += t.elapsed().as_secs_f64();
             for e in ellipsoids {
-                let c = to_view(e.center);
-                let rows = [0, 1, 2].map(|k| {
-                    let ax = e.axes[k];
-                    let v = Vector::new(ax.dot(right), ax.dot(up), ax.dot(back));
-                    v / e.radii[k].max(1e-9)
-                });
+                let rows = [0, 1, 2].map(|k| view.direction(e.axes[k]) / e.radii[k].max(1e-9));
                 self.splats.push(ssf::Splat {
-                    center: c,
+                    center: view.to_view(e.center),
                     inv_rows: rows,
                     max_radius: e.radii[0],
                 });
             }
             self.fluid.splat_all(&self.target, &self.splats);
         }
-        if spacing <= 0.0 {
-            return;
-        }
-        self.timings.splat = clock.elapsed().as_secs_f64() - self.timings.anisotropy;
-        let t = std::time::Instant::now();
-        let max_px = (24 * o.supersample.max(1)) as usize;
-        self.fluid.smooth_depth(
-            self.target.focal,
-            o.smoothing_radius * spacing,
-            spacing,
-            max_px,
-        );
-        self.timings.filter = t.elapsed().as_secs_f64();
-        let t = std::time::Instant::now();
+        spacing
+    }
+
+    /// Foam, spray and bubbles as dots of coverage over the liquid.
+    fn foam(&mut self, r: Real, spacing: Real, diffuse: &[&DiffuseParticles], view: &View) {
         for d in diffuse {
-            let r = o.foam_scale * spacing;
             for (p, k) in d.positions().iter().zip(d.kinds()) {
                 // Coverage per dot: a lone dot is a faint fleck, a few overlapping ones
                 // turn white.
@@ -783,27 +780,79 @@ impl Renderer {
                     crate::visual::DiffuseKind::Bubble => 0.12,
                 };
                 self.fluid
-                    .foam_dot(&self.target, to_view(*p), r, weight, 2.0 * spacing);
+                    .foam_dot(&self.target, view.to_view(*p), r, weight, 2.0 * spacing);
             }
         }
-        let shade = ssf::Shade {
-            absorption: o.absorption,
-            spacing,
-            deep: o.deep_color,
-            foam: [0.93, 0.96, 1.0],
-            light,
-            refraction: o.refraction,
-            basis,
-            fog: o.fog,
-            fog_start: 0.8 * target_distance,
-            background,
-            sky_top: [0.45, 0.62, 0.88],
-            sky_horizon: [0.88, 0.92, 0.96],
-            ground: [0.30, 0.30, 0.28],
-        };
-        self.fluid.shade(&mut self.target, &shade);
-        self.timings.shade = t.elapsed().as_secs_f64();
     }
+}
+
+/// The camera's view of one frame: the basis world points are taken into (view space, the
+/// camera at the origin looking down −z), the light, and the fog.
+struct View {
+    eye: Vector,
+    basis: (Vector, Vector, Vector),
+    /// Light from above-left, slightly from the camera side, in view space.
+    light: Vector,
+    /// Blinn's half vector between the light and the view direction.
+    half: Vector,
+    target_distance: Real,
+    fog: Real,
+    background: Rgb,
+    /// View-space point the see-through test looks from: the fluid's centroid (the
+    /// camera's target when there is no particle).
+    fluid_center: Vector,
+}
+
+impl View {
+    fn new(camera: &Camera, fluids: &FluidSet, fog: Real, background: Rgb) -> Self {
+        let light = Vector::new(-0.45, 0.75, 0.5).normalize();
+        let mut view = Self {
+            eye: camera.eye,
+            basis: camera.basis(),
+            light,
+            half: (light + Vector::Z).normalize(),
+            target_distance: (camera.eye - camera.target).length().max(1e-6),
+            fog,
+            background,
+            fluid_center: Vector::ZERO,
+        };
+        let (mut centroid, mut count) = (Vector::ZERO, 0usize);
+        for (_, f) in fluids.iter() {
+            for p in f.positions() {
+                centroid += *p;
+            }
+            count += f.len();
+        }
+        view.fluid_center = if count > 0 {
+            view.to_view(centroid / count as Real)
+        } else {
+            view.to_view(camera.target)
+        };
+        view
+    }
+
+    fn to_view(&self, p: Vector) -> Vector {
+        self.direction(p - self.eye)
+    }
+
+    /// A world direction in view space.
+    fn direction(&self, d: Vector) -> Vector {
+        let (right, up, back) = self.basis;
+        Vector::new(d.dot(right), d.dot(up), d.dot(back))
+    }
+
+    /// `c` seen through the fog at view depth `d`.
+    fn fogged(&self, c: Rgb, d: Real) -> Rgb {
+        let t = ((d - 0.8 * self.target_distance) / (0.8 * self.target_distance)).clamp(0.0, 1.0);
+        lerp3(c, self.background, self.fog * t)
+    }
+}
+
+/// Collider faces drawn after the fluid: see-through triangles and their outlines.
+#[derive(Default)]
+struct Front {
+    translucent: Vec<([Vector; 3], Rgb)>,
+    edges: Vec<(Vector, Vector)>,
 }
 
 impl RenderOptions {

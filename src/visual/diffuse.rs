@@ -307,42 +307,51 @@ impl DiffuseParticles {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(SphError::InvalidTimeStep { dt: dt as f64 });
         }
-        let s = self.settings;
-        let params = fluid.params();
-        let h = params.smoothing_length;
-        let n = fluid.len();
-        let m = self.positions.len();
-        let kernel = CubicSpline::new(h);
         let mut report = DiffuseReport::default();
+        self.search_together(fluid);
+        self.liquid_around(fluid);
+        self.advance(gravity, dt, &mut report);
+        self.surface_normals(fluid);
+        self.potentials(fluid, dt);
+        self.generate(fluid, dt, &mut report);
+        for k in &self.kinds {
+            match k {
+                DiffuseKind::Spray => report.spray += 1,
+                DiffuseKind::Foam => report.foam += 1,
+                DiffuseKind::Bubble => report.bubbles += 1,
+            }
+        }
+        Ok(report)
+    }
 
-        // One neighbour search over the liquid and the diffuse particles together.
+    /// One neighbour search over the liquid and the diffuse particles together (liquid
+    /// first); `rank` maps each point to its sorted index.
+    fn search_together(&mut self, fluid: &Fluid) {
+        let (n, m) = (fluid.len(), self.positions.len());
         self.points.clear();
         self.points.extend_from_slice(fluid.positions());
         self.points.extend_from_slice(&self.positions);
-        self.search.build(&self.points, h);
+        self.search
+            .build(&self.points, fluid.params().smoothing_length);
         self.rank.resize(n + m, 0);
         for (k, &i) in self.search.order.iter().enumerate() {
             self.rank[i as usize] = k as u32;
         }
-        let search = &self.search;
-        let order = &search.order;
-        let velocities = fluid.velocities();
-        let densities = fluid.densities();
-        let rest_volume = params.particle_mass / params.rest_density;
-        let volume = |i: usize| match densities.get(i) {
-            Some(&rho) if rho > 0.0 => params.particle_mass / rho,
-            _ => rest_volume,
-        };
+    }
 
-        // 1. Existing diffuse particles: the liquid around them.
+    /// Per existing diffuse particle: the kernel-weighted liquid velocity around it and
+    /// the number of liquid neighbours.
+    fn liquid_around(&mut self, fluid: &Fluid) {
+        let (n, m) = (fluid.len(), self.positions.len());
+        let kernel = CubicSpline::new(fluid.params().smoothing_length);
+        let (search, rank, velocities) = (&self.search, &self.rank, fluid.velocities());
+        let order = &search.order;
         self.around.resize(m, (Vector::ZERO, 0));
-        let rank = &self.rank;
         crate::par_chunks_mut!(self.around, CHUNK)
             .enumerate()
             .for_each(|(c, out)| {
                 for (k, a) in out.iter_mut().enumerate() {
-                    let d = c * CHUNK + k;
-                    let sk = rank[n + d] as usize;
+                    let sk = rank[n + c * CHUNK + k] as usize;
                     let x = search.sorted[sk];
                     let (mut sv, mut sw, mut count) = (Vector::ZERO, 0.0, 0u32);
                     for &j in search.lists.of(sk) {
@@ -358,37 +367,32 @@ impl DiffuseParticles {
                     *a = (if sw > 0.0 { sv / sw } else { Vector::ZERO }, count);
                 }
             });
-        // Classify, move, age.
+    }
+
+    /// Classifies, moves and ages the existing diffuse particles; removes those whose time
+    /// is up or that became non-finite.
+    fn advance(&mut self, gravity: Vector, dt: Real, report: &mut DiffuseReport) {
+        let s = self.settings;
         let mut kept = 0;
-        for d in 0..m {
+        for d in 0..self.positions.len() {
             let (v_liquid, count) = self.around[d];
-            let count = count as usize;
-            let kind = if count < s.spray_below {
-                DiffuseKind::Spray
-            } else if count > s.bubble_above {
-                DiffuseKind::Bubble
-            } else {
-                DiffuseKind::Foam
-            };
+            let kind = s.kind_of(count as usize);
             let mut v = self.velocities[d];
-            let mut x = self.positions[d];
             let mut life = self.lifetimes[d];
             match kind {
                 DiffuseKind::Spray => {
                     v += gravity * dt;
-                    x += v * dt;
                     life -= dt;
                 }
                 DiffuseKind::Foam => {
                     v = v_liquid;
-                    x += v * dt;
                     life -= dt;
                 }
                 DiffuseKind::Bubble => {
                     v += -gravity * (s.buoyancy * dt) + (v_liquid - v) * s.drag;
-                    x += v * dt;
                 }
             }
+            let x = self.positions[d] + v * dt;
             if life <= 0.0 || !crate::math::is_finite(x) || !crate::math::is_finite(v) {
                 report.removed += 1;
                 continue;
@@ -403,8 +407,14 @@ impl DiffuseParticles {
         self.velocities.truncate(kept);
         self.lifetimes.truncate(kept);
         self.kinds.truncate(kept);
+    }
 
-        // 2. Normals of the liquid particles (sorted order; diffuse points left at zero).
+    /// Outward normals of the liquid particles (sorted order; diffuse points and particles
+    /// away from the surface left at zero).
+    fn surface_normals(&mut self, fluid: &Fluid) {
+        let params = fluid.params();
+        let (h, n) = (params.smoothing_length, fluid.len());
+        let kernel = CubicSpline::new(h);
         // A flat free surface's colour-field gradient is the kernel's integral over the
         // plane through the particle: 2π ∫₀ʰ W(r) r dr (midpoint rule, 64 intervals).
         let flat = {
@@ -419,7 +429,14 @@ impl DiffuseParticles {
                 * std::f32::consts::TAU
         };
         let surface = 0.5 * flat;
-        self.normals.resize(n + m, Vector::ZERO);
+        let densities = fluid.densities();
+        let rest_volume = params.particle_mass / params.rest_density;
+        let volume = |i: usize| match densities.get(i) {
+            Some(&rho) if rho > 0.0 => params.particle_mass / rho,
+            _ => rest_volume,
+        };
+        let (search, order) = (&self.search, &self.search.order);
+        self.normals.resize(self.points.len(), Vector::ZERO);
         crate::par_chunks_mut!(self.normals, CHUNK)
             .enumerate()
             .for_each(|(c, out)| {
@@ -448,11 +465,17 @@ impl DiffuseParticles {
                     }
                 }
             });
+    }
 
-        // 3. Potentials → expected number of new particles per liquid particle (sorted).
-        self.counts.resize(n + m, 0.0);
-        let normals = &self.normals;
+    /// Potentials (trapped air, wave crests, kinetic energy) → the expected number of new
+    /// diffuse particles per liquid particle (sorted order).
+    fn potentials(&mut self, fluid: &Fluid, dt: Real) {
+        let s = self.settings;
+        let (h, n) = (fluid.params().smoothing_length, fluid.len());
+        let velocities = fluid.velocities();
+        let (search, order, normals) = (&self.search, &self.search.order, &self.normals);
         let phi = |x: Real, (lo, hi): (Real, Real)| (x.min(hi) - x.min(lo)) / (hi - lo);
+        self.counts.resize(self.points.len(), 0.0);
         crate::par_chunks_mut!(self.counts, CHUNK)
             .enumerate()
             .for_each(|(c, out)| {
@@ -500,16 +523,21 @@ impl DiffuseParticles {
                         * dt;
                 }
             });
+    }
 
-        // 4. Generate, in the liquid's sorted order (deterministic), up to the cap.
-        let ids = fluid.ids();
-        let r_cyl = params.particle_radius;
+    /// Generates the new diffuse particles, in the liquid's sorted order (deterministic), up
+    /// to the cap; what the cap refuses is counted as dropped.
+    fn generate(&mut self, fluid: &Fluid, dt: Real, report: &mut DiffuseReport) {
+        let s = self.settings;
+        let (ids, velocities) = (fluid.ids(), fluid.velocities());
+        let r_cyl = fluid.params().particle_radius;
         self.steps += 1;
-        for (k, &cnt) in self.counts.iter().enumerate() {
+        for k in 0..self.counts.len() {
+            let cnt = self.counts[k];
             if !(cnt > 0.0) {
                 continue;
             }
-            let oi = order[k] as usize;
+            let oi = self.search.order[k] as usize;
             let id = ids.get(oi).copied().unwrap_or(oi as u32);
             let mut rng = Rng::new(s.seed, self.steps, id);
             let whole = cnt.floor();
@@ -517,15 +545,12 @@ impl DiffuseParticles {
             let room = s.max_particles.saturating_sub(self.positions.len());
             let take = number.min(room);
             report.dropped += number - take;
-            if take == 0 {
-                continue;
-            }
-            let xi = fluid.positions()[oi];
-            let vi = velocities[oi];
+            let (xi, vi) = (fluid.positions()[oi], velocities[oi]);
             let speed = vi.length();
             let axis = if speed > 0.0 { vi / speed } else { Vector::Y };
             let e1 = axis.any_orthonormal_vector();
             let e2 = axis.cross(e1);
+            let kind = s.kind_of(self.search.lists.of(k).len());
             for _ in 0..take {
                 let r = r_cyl * rng.next().sqrt();
                 let theta = rng.next() * std::f32::consts::TAU;
@@ -534,25 +559,23 @@ impl DiffuseParticles {
                 self.positions.push(xi + radial + axis * along);
                 self.velocities.push(vi + radial);
                 self.lifetimes.push(s.lifetime * (0.5 + rng.next()));
-                let count = search.lists.of(k).len();
-                self.kinds.push(if count < s.spray_below {
-                    DiffuseKind::Spray
-                } else if count > s.bubble_above {
-                    DiffuseKind::Bubble
-                } else {
-                    DiffuseKind::Foam
-                });
+                self.kinds.push(kind);
                 report.created += 1;
             }
         }
-        for k in &self.kinds {
-            match k {
-                DiffuseKind::Spray => report.spray += 1,
-                DiffuseKind::Foam => report.foam += 1,
-                DiffuseKind::Bubble => report.bubbles += 1,
-            }
+    }
+}
+
+impl DiffuseSettings {
+    /// The class of a diffuse particle with `count` liquid neighbours.
+    fn kind_of(&self, count: usize) -> DiffuseKind {
+        if count < self.spray_below {
+            DiffuseKind::Spray
+        } else if count > self.bubble_above {
+            DiffuseKind::Bubble
+        } else {
+            DiffuseKind::Foam
         }
-        Ok(report)
     }
 }
 
