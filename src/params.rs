@@ -127,6 +127,32 @@ pub struct FluidParams {
     pub domain: crate::domain::Domain,
 }
 
+fn invalid(field: &'static str, value: Real, reason: &'static str) -> SphResult<()> {
+    Err(SphError::InvalidParameter {
+        field,
+        value: value as f64,
+        reason,
+    })
+}
+
+fn positive(field: &'static str, v: Real) -> SphResult<()> {
+    if !v.is_finite() {
+        invalid(field, v, "must be finite")
+    } else if v <= 0.0 {
+        invalid(field, v, "must be positive")
+    } else {
+        Ok(())
+    }
+}
+
+fn non_negative(field: &'static str, v: Real) -> SphResult<()> {
+    if !v.is_finite() || v < 0.0 {
+        invalid(field, v, "must be finite and non-negative")
+    } else {
+        Ok(())
+    }
+}
+
 impl FluidParams {
     /// Checks every field; returns the first problem found.
     ///
@@ -137,99 +163,9 @@ impl FluidParams {
     /// setting out of range, wall viscosity without wall density, a periodic box smaller than
     /// three supports.
     pub fn validate(&self) -> SphResult<()> {
-        fn positive(field: &'static str, v: Real) -> SphResult<()> {
-            if !v.is_finite() {
-                Err(SphError::InvalidParameter {
-                    field,
-                    value: v as f64,
-                    reason: "must be finite",
-                })
-            } else if v <= 0.0 {
-                Err(SphError::InvalidParameter {
-                    field,
-                    value: v as f64,
-                    reason: "must be positive",
-                })
-            } else {
-                Ok(())
-            }
-        }
-        fn non_negative(field: &'static str, v: Real) -> SphResult<()> {
-            if !v.is_finite() || v < 0.0 {
-                Err(SphError::InvalidParameter {
-                    field,
-                    value: v as f64,
-                    reason: "must be finite and non-negative",
-                })
-            } else {
-                Ok(())
-            }
-        }
-        positive("rest_density", self.rest_density)?;
-        positive("particle_spacing", self.particle_spacing)?;
-        positive("particle_radius", self.particle_radius)?;
-        positive("particle_mass", self.particle_mass)?;
-        positive("smoothing_length", self.smoothing_length)?;
-        if self.smoothing_length < self.particle_spacing {
-            return Err(SphError::InvalidParameter {
-                field: "smoothing_length",
-                value: self.smoothing_length as f64,
-                reason: "must be at least the particle spacing (particles would have no neighbours)",
-            });
-        }
-        if self.smoothing_length > 6.0 * self.particle_spacing {
-            return Err(SphError::InvalidParameter {
-                field: "smoothing_length",
-                value: self.smoothing_length as f64,
-                reason: "more than 6 particle spacings (over 900 neighbours per particle)",
-            });
-        }
-        match self.equation_of_state {
-            EquationOfState::Linear { stiffness } => positive("stiffness", stiffness)?,
-            EquationOfState::Tait {
-                speed_of_sound,
-                exponent,
-            } => {
-                positive("speed_of_sound", speed_of_sound)?;
-                positive("exponent", exponent)?;
-                if exponent < 1.0 {
-                    return Err(SphError::InvalidParameter {
-                        field: "exponent",
-                        value: exponent as f64,
-                        reason: "Tait's exponent must be at least 1",
-                    });
-                }
-            }
-        }
-        non_negative("viscosity", self.viscosity)?;
-        non_negative("wall_viscosity", self.wall_viscosity)?;
-        if self.wall_viscosity > 0.0 && !self.wall_density {
-            return Err(SphError::InvalidParameter {
-                field: "wall_viscosity",
-                value: self.wall_viscosity as f64,
-                reason: "needs wall_density (the walls' viscous term uses its half-space integrals)",
-            });
-        }
-        if self.wall_viscosity > 0.0 && matches!(self.solver, Solver::Clavet(_)) {
-            // Measured in tests/moving_bodies.rs's sloshing box (Clavet without cohesion,
-            // walls in its densities, ε_w = 0.5): the momentum of fluid + bodies drifted by
-            // 1.6 % over 5 s (PBF with the same walls: 0.003 %); not understood.
-            return Err(SphError::InvalidParameter {
-                field: "wall_viscosity",
-                value: self.wall_viscosity as f64,
-                reason: "not available with the Clavet solver (its exchange with moving bodies \
-                         does not conserve momentum yet)",
-            });
-        }
-        non_negative("restitution", self.restitution)?;
-        if self.restitution > 1.0 {
-            return Err(SphError::InvalidParameter {
-                field: "restitution",
-                value: self.restitution as f64,
-                reason: "must be at most 1 (contact must not add energy)",
-            });
-        }
-        non_negative("friction", self.friction)?;
+        self.validate_sizes()?;
+        self.validate_equation_of_state()?;
+        self.validate_walls_and_contact()?;
         self.domain.validate(self.smoothing_length)?;
         match &self.solver {
             Solver::Wcsph => {}
@@ -238,6 +174,82 @@ impl FluidParams {
             Solver::Clavet(c) => c.validate()?,
         }
         Ok(())
+    }
+
+    /// Density, spacing, radius, mass and smoothing length: positive, and the smoothing
+    /// length between one and six spacings.
+    fn validate_sizes(&self) -> SphResult<()> {
+        positive("rest_density", self.rest_density)?;
+        positive("particle_spacing", self.particle_spacing)?;
+        positive("particle_radius", self.particle_radius)?;
+        positive("particle_mass", self.particle_mass)?;
+        positive("smoothing_length", self.smoothing_length)?;
+        let h = self.smoothing_length;
+        if h < self.particle_spacing {
+            return invalid(
+                "smoothing_length",
+                h,
+                "must be at least the particle spacing (particles would have no neighbours)",
+            );
+        }
+        if h > 6.0 * self.particle_spacing {
+            return invalid(
+                "smoothing_length",
+                h,
+                "more than 6 particle spacings (over 900 neighbours per particle)",
+            );
+        }
+        Ok(())
+    }
+
+    fn validate_equation_of_state(&self) -> SphResult<()> {
+        match self.equation_of_state {
+            EquationOfState::Linear { stiffness } => positive("stiffness", stiffness),
+            EquationOfState::Tait {
+                speed_of_sound,
+                exponent,
+            } => {
+                positive("speed_of_sound", speed_of_sound)?;
+                positive("exponent", exponent)?;
+                if exponent < 1.0 {
+                    return invalid("exponent", exponent, "Tait's exponent must be at least 1");
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// Viscosities, wall viscosity's needs, restitution and friction.
+    fn validate_walls_and_contact(&self) -> SphResult<()> {
+        non_negative("viscosity", self.viscosity)?;
+        non_negative("wall_viscosity", self.wall_viscosity)?;
+        if self.wall_viscosity > 0.0 && !self.wall_density {
+            return invalid(
+                "wall_viscosity",
+                self.wall_viscosity,
+                "needs wall_density (the walls' viscous term uses its half-space integrals)",
+            );
+        }
+        if self.wall_viscosity > 0.0 && matches!(self.solver, Solver::Clavet(_)) {
+            // Measured in tests/moving_bodies.rs's sloshing box (Clavet without cohesion,
+            // walls in its densities, ε_w = 0.5): the momentum of fluid + bodies drifted by
+            // 1.6 % over 5 s (PBF with the same walls: 0.003 %); not understood.
+            return invalid(
+                "wall_viscosity",
+                self.wall_viscosity,
+                "not available with the Clavet solver (its exchange with moving bodies \
+                 does not conserve momentum yet)",
+            );
+        }
+        non_negative("restitution", self.restitution)?;
+        if self.restitution > 1.0 {
+            return invalid(
+                "restitution",
+                self.restitution,
+                "must be at most 1 (contact must not add energy)",
+            );
+        }
+        non_negative("friction", self.friction)
     }
 
     /// Number of neighbours a particle has inside a uniform lattice (`≈ 4/3·π·(h/spacing)³`).

@@ -823,12 +823,7 @@ impl FloatingBox {
         seconds: Real,
         mut each_frame: impl FnMut(usize, &FluidWorld) -> SphResult<()>,
     ) -> SphResult<Floating> {
-        let (s, mid) = (self.config.spacing, 0.5 * self.config.tank);
-        let (hw, hh) = (self.config.half_width, self.config.half_height);
-        let half = Vector::new(hw, hh, hw);
         let frames = (seconds * 60.0) as usize;
-        let dt = 1.0 / 60.0;
-        let corner = half.length();
         let (mut sum, mut lo, mut hi, mut count) = (0.0, Real::MAX, Real::MIN, 0);
         let mut poses = Vec::new();
         let mut water = 0.0f64;
@@ -843,28 +838,8 @@ impl FloatingBox {
             if frame + 60 < frames {
                 continue;
             }
-            let f = &self.world.fluids[self.fluid];
-            let (mut w2, mut wn) = (0.0f64, 0usize);
-            for (x, v) in f.positions().iter().zip(f.velocities()) {
-                let l = pose.inverse_transform_point(*x).abs() - half;
-                if l.max_element() < 2.0 * s {
-                    w2 += v.length_squared() as f64;
-                    wn += 1;
-                }
-            }
-            water += w2 / wn.max(1) as f64;
-            // Water surface: mean height of the topmost 5 % of the particles more than two
-            // spacings away from the box (particle centres sit half a spacing under it).
-            let mut tops: Vec<Real> = f
-                .positions()
-                .iter()
-                .filter(|p| (p.x - mid).abs() > hw + 2.0 * s || (p.z - mid).abs() > hw + 2.0 * s)
-                .map(|p| p.y)
-                .collect();
-            tops.sort_by(|a, b| b.total_cmp(a));
-            let k = (tops.len() / 20).max(1);
-            let surface = tops[..k].iter().sum::<Real>() / k as Real + 0.5 * s;
-            let frac = submerged_fraction(&pose, half, surface);
+            water += self.water_speed_squared(&pose);
+            let frac = submerged_fraction(&pose, self.half_extents(), self.water_surface());
             sum += frac;
             count += 1;
             lo = lo.min(frac);
@@ -877,7 +852,62 @@ impl FloatingBox {
                 reason: "the measurement needs at least the last second plus two frames",
             });
         }
-        // Frame-to-frame velocities (linear, angular) from the poses, then accelerations.
+        let (shaking, speed) = self.motion(&poses);
+        Ok(Floating {
+            submerged: sum / count as Real,
+            range: (lo, hi),
+            shaking,
+            speed,
+            water: (water / count as f64).sqrt() as Real,
+            bottom: self.lowest_corner(),
+        })
+    }
+
+    fn half_extents(&self) -> Vector {
+        let (hw, hh) = (self.config.half_width, self.config.half_height);
+        Vector::new(hw, hh, hw)
+    }
+
+    /// Mean squared speed of the water within two spacings of the box.
+    fn water_speed_squared(&self, pose: &Pose) -> f64 {
+        let (s, half) = (self.config.spacing, self.half_extents());
+        let f = &self.world.fluids[self.fluid];
+        let (mut w2, mut wn) = (0.0f64, 0usize);
+        for (x, v) in f.positions().iter().zip(f.velocities()) {
+            let l = pose.inverse_transform_point(*x).abs() - half;
+            if l.max_element() < 2.0 * s {
+                w2 += v.length_squared() as f64;
+                wn += 1;
+            }
+        }
+        w2 / wn.max(1) as f64
+    }
+
+    /// Water surface: mean height of the topmost 5 % of the particles more than two
+    /// spacings away from the box (particle centres sit half a spacing under it).
+    fn water_surface(&self) -> Real {
+        let (s, mid, hw) = (
+            self.config.spacing,
+            0.5 * self.config.tank,
+            self.config.half_width,
+        );
+        let f = &self.world.fluids[self.fluid];
+        let mut tops: Vec<Real> = f
+            .positions()
+            .iter()
+            .filter(|p| (p.x - mid).abs() > hw + 2.0 * s || (p.z - mid).abs() > hw + 2.0 * s)
+            .map(|p| p.y)
+            .collect();
+        tops.sort_by(|a, b| b.total_cmp(a));
+        let k = (tops.len() / 20).max(1);
+        tops[..k].iter().sum::<Real>() / k as Real + 0.5 * s
+    }
+
+    /// RMS acceleration and RMS speed of the box's corners over `poses` (one per frame):
+    /// frame-to-frame velocities (linear, angular) from the poses, then accelerations.
+    fn motion(&self, poses: &[Pose]) -> (Real, Real) {
+        let dt = 1.0 / 60.0;
+        let corner = self.half_extents().length();
         let vel: Vec<(Vector, Vector)> = poses
             .windows(2)
             .map(|w| {
@@ -896,6 +926,15 @@ impl FloatingBox {
         for (v, w) in &vel {
             v2 += ((v.length() + w.length() * corner) as f64).powi(2);
         }
+        (
+            (a2 / (vel.len() - 1) as f64).sqrt() as Real,
+            (v2 / vel.len() as f64).sqrt() as Real,
+        )
+    }
+
+    /// Height of the box's lowest corner now.
+    fn lowest_corner(&self) -> Real {
+        let (hw, hh) = (self.config.half_width, self.config.half_height);
         let pose = self.world.physics.bodies[self.body].position();
         let mut bottom = Real::MAX;
         for c in 0..8 {
@@ -903,14 +942,7 @@ impl FloatingBox {
             let p = Vector::new(sign(1) * hw, sign(2) * hh, sign(4) * hw);
             bottom = bottom.min(pose.transform_point(p).y);
         }
-        Ok(Floating {
-            submerged: sum / count as Real,
-            range: (lo, hi),
-            shaking: (a2 / (vel.len() - 1) as f64).sqrt() as Real,
-            speed: (v2 / vel.len() as f64).sqrt() as Real,
-            water: (water / count as f64).sqrt() as Real,
-            bottom,
-        })
+        bottom
     }
 }
 

@@ -680,8 +680,17 @@ impl Renderer {
             _ => &[],
         };
         for (a, b) in front.edges {
-            self.target
-                .line(a, b, [0.25, 0.25, 0.24], 0.5, line_width, veil, 0.15);
+            self.target.line(
+                a,
+                b,
+                raster::LineStyle {
+                    color: [0.25, 0.25, 0.24],
+                    alpha: 0.5,
+                    width: line_width,
+                    alpha_behind: 0.15,
+                },
+                veil,
+            );
         }
     }
 

@@ -255,21 +255,17 @@ impl Target {
         }
     }
 
-    /// Blends a line from `a` to `b` (view space) over the image, `width` pixels wide,
-    /// hidden behind opaque surfaces (with a 1 % depth tolerance, so a surface's own edges
-    /// show) and faded to `alpha_behind` where `veil` (a depth per pixel, e.g. the water's)
-    /// is in front of it.
-    #[allow(clippy::too_many_arguments)]
-    pub fn line(
-        &mut self,
-        a: Vector,
-        b: Vector,
-        c: Rgb,
-        alpha: Real,
-        width: Real,
-        veil: &[Real],
-        alpha_behind: Real,
-    ) {
+    /// Blends a line from `a` to `b` (view space) over the image in `style`, hidden behind
+    /// opaque surfaces (with a 1 % depth tolerance, so a surface's own edges show) and faded
+    /// to `style.alpha_behind` where `veil` (a depth per pixel, e.g. the water's) is in
+    /// front of it.
+    pub fn line(&mut self, a: Vector, b: Vector, style: LineStyle, veil: &[Real]) {
+        let LineStyle {
+            color: c,
+            alpha,
+            width,
+            alpha_behind,
+        } = style;
         // Clip to the near plane.
         let (da, db) = (-a.z, -b.z);
         if da < NEAR && db < NEAR {
@@ -359,4 +355,18 @@ pub(crate) fn lerp3(a: Rgb, b: Rgb, t: Real) -> Rgb {
         a[1] + (b[1] - a[1]) * t,
         a[2] + (b[2] - a[2]) * t,
     ]
+}
+
+/// How [`Target::line`] draws: colour, opacity, width (pixels) and the opacity where the
+/// line is behind the veil.
+#[derive(Clone, Copy, Debug)]
+pub struct LineStyle {
+    /// The line's colour.
+    pub color: Rgb,
+    /// Its opacity in front of the veil.
+    pub alpha: Real,
+    /// Its width in pixels.
+    pub width: Real,
+    /// Its opacity behind the veil.
+    pub alpha_behind: Real,
 }

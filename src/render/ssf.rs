@@ -178,6 +178,12 @@ impl FluidBuffers {
     pub fn smooth_depth(&mut self, focal: Real, radius_world: Real, mu: Real, max_px: usize) {
         let (w, h) = (self.width, self.height);
         let rows = CHUNK.div_ceil(w.max(1)).max(1);
+        let filter = NarrowRange {
+            focal,
+            radius_world,
+            mu,
+            max_px,
+        };
         // Along x: depth → scratch.
         {
             let depth = &self.depth;
@@ -187,7 +193,7 @@ impl FluidBuffers {
                     for (k, o) in out.iter_mut().enumerate() {
                         let i = c * rows * w + k;
                         let (x, y) = (i % w, i / w);
-                        *o = filter_1d(depth, y * w, 1, x, w, focal, radius_world, mu, max_px);
+                        *o = filter.at(depth, (y * w, 1, w), x);
                     }
                 });
         }
@@ -204,7 +210,7 @@ impl FluidBuffers {
                             *o = Real::INFINITY;
                             continue;
                         }
-                        *o = filter_1d(scratch, x, w, y, h, focal, radius_world, mu, max_px);
+                        *o = filter.at(scratch, (x, w, h), y);
                     }
                 });
         }
@@ -242,21 +248,17 @@ impl FluidBuffers {
 
     /// Shades every fluid pixel and composites it (and the foam) over `t`'s colours.
     pub fn shade(&mut self, t: &mut Target, s: &Shade) {
-        let (w, h) = (self.width, self.height);
+        let w = self.width;
         self.scene.clear();
         self.scene.extend_from_slice(&t.color);
         let rows = CHUNK.div_ceil(w.max(1)).max(1);
-        let f = t.focal;
-        let (cx, cy) = (0.5 * w as Real, 0.5 * h as Real);
-        let (right, up, back) = s.basis;
         let half = (s.light + Vector::Z).normalize();
-        let this = &*self;
+        let (this, focal) = (&*self, t.focal);
         crate::par_chunks_mut!(t.color, rows * w)
             .enumerate()
             .for_each(|(c, out)| {
                 for (k, o) in out.iter_mut().enumerate() {
                     let i = c * rows * w + k;
-                    let (x, y) = (i % w, i / w);
                     let foam = 0.9 * this.foam[i].min(1.0);
                     let d = this.smooth[i];
                     if !d.is_finite() {
@@ -265,69 +267,12 @@ impl FluidBuffers {
                         }
                         continue;
                     }
-                    let pos = |x: usize, y: usize, d: Real| {
-                        Vector::new(
-                            (x as Real + 0.5 - cx) / f * d,
-                            -(y as Real + 0.5 - cy) / f * d,
-                            -d,
-                        )
-                    };
-                    let p = pos(x, y, d);
-                    let side = |x2: Option<usize>, y2: Option<usize>| -> Option<Vector> {
-                        let (x2, y2) = (x2?, y2?);
-                        if x2 >= w || y2 >= h {
-                            return None;
-                        }
-                        let d2 = this.smooth[y2 * w + x2];
-                        d2.is_finite().then(|| pos(x2, y2, d2) - p)
-                    };
-                    let pick = |a: Option<Vector>, b: Option<Vector>, fallback: Vector| match (a, b)
-                    {
-                        (Some(a), Some(b)) => {
-                            if a.z.abs() <= b.z.abs() {
-                                a
-                            } else {
-                                b
-                            }
-                        }
-                        (Some(a), None) => a,
-                        (None, Some(b)) => b,
-                        (None, None) => fallback,
-                    };
-                    let ddx = pick(
-                        side(Some(x + 1), Some(y)),
-                        side(x.checked_sub(1), Some(y)).map(|v| -v),
-                        Vector::X,
-                    );
-                    let ddy = pick(
-                        side(Some(x), Some(y + 1)),
-                        side(Some(x), y.checked_sub(1)).map(|v| -v),
-                        -Vector::Y,
-                    );
-                    let mut n = ddy.cross(ddx).normalize_or(Vector::Z);
-                    if n.z < 0.0 {
-                        n = -n;
-                    }
+                    let (p, n) = this.surface_at(i, focal);
                     let view = (-p).normalize_or(Vector::Z);
                     let cos = n.dot(view).clamp(0.0, 1.0);
                     let fresnel = 0.02 + 0.98 * (1.0 - cos).powi(5);
-                    // Reflection: the sky (and a dim ground below the horizon).
-                    let r = n * (2.0 * n.dot(view)) - view;
-                    let r_up = (right * r.x + up * r.y + back * r.z).y;
-                    let reflect = if r_up >= 0.0 {
-                        lerp3(s.sky_horizon, s.sky_top, r_up.sqrt())
-                    } else {
-                        lerp3(s.sky_horizon, s.ground, (-r_up).sqrt().min(1.0))
-                    };
-                    // Refraction: the scene behind, shifted along the normal.
-                    let thick = this.thickness[i];
-                    let shift = s.refraction * thick.min(0.5) * f / d;
-                    let sx = (x as Real + n.x * shift).clamp(0.0, (w - 1) as Real) as usize;
-                    let sy = (y as Real - n.y * shift).clamp(0.0, (h - 1) as Real) as usize;
-                    let behind = this.scene[sy * w + sx];
-                    let tr = [0, 1, 2].map(|ch| (-s.absorption[ch] * thick / s.spacing).exp());
-                    let refract =
-                        [0, 1, 2].map(|ch| behind[ch] * tr[ch] + s.deep[ch] * (1.0 - tr[ch]));
+                    let reflect = s.reflection(n * (2.0 * n.dot(view)) - view);
+                    let refract = this.refraction(i, n, focal, s);
                     let diffuse = 0.75 + 0.25 * n.dot(s.light).max(0.0);
                     let mut col = lerp3(refract.map(|v| v * diffuse), reflect, fresnel);
                     let spec = n.dot(half).max(0.0).powi(90) * 1.4;
@@ -338,49 +283,134 @@ impl FluidBuffers {
                 }
             });
     }
+
+    /// The view-space point of fluid pixel `i` (on the smoothed depth) and its normal, from
+    /// the smaller of the one-sided depth differences along x and along y (which does not
+    /// blur the silhouette into the background).
+    fn surface_at(&self, i: usize, focal: Real) -> (Vector, Vector) {
+        let (w, h) = (self.width, self.height);
+        let (x, y) = (i % w, i / w);
+        let (cx, cy) = (0.5 * w as Real, 0.5 * h as Real);
+        let pos = |x: usize, y: usize, d: Real| {
+            Vector::new(
+                (x as Real + 0.5 - cx) / focal * d,
+                -(y as Real + 0.5 - cy) / focal * d,
+                -d,
+            )
+        };
+        let p = pos(x, y, self.smooth[i]);
+        let side = |x2: Option<usize>, y2: Option<usize>| -> Option<Vector> {
+            let (x2, y2) = (x2?, y2?);
+            if x2 >= w || y2 >= h {
+                return None;
+            }
+            let d2 = self.smooth[y2 * w + x2];
+            d2.is_finite().then(|| pos(x2, y2, d2) - p)
+        };
+        let pick = |a: Option<Vector>, b: Option<Vector>, fallback: Vector| match (a, b) {
+            (Some(a), Some(b)) => {
+                if a.z.abs() <= b.z.abs() {
+                    a
+                } else {
+                    b
+                }
+            }
+            (Some(a), None) => a,
+            (None, Some(b)) => b,
+            (None, None) => fallback,
+        };
+        let ddx = pick(
+            side(Some(x + 1), Some(y)),
+            side(x.checked_sub(1), Some(y)).map(|v| -v),
+            Vector::X,
+        );
+        let ddy = pick(
+            side(Some(x), Some(y + 1)),
+            side(Some(x), y.checked_sub(1)).map(|v| -v),
+            -Vector::Y,
+        );
+        let mut n = ddy.cross(ddx).normalize_or(Vector::Z);
+        if n.z < 0.0 {
+            n = -n;
+        }
+        (p, n)
+    }
+
+    /// Refraction at fluid pixel `i`: the scene behind, shifted along the normal by the
+    /// thickness, attenuated per channel by Beer–Lambert absorption towards the deep colour.
+    fn refraction(&self, i: usize, n: Vector, focal: Real, s: &Shade) -> Rgb {
+        let (w, h) = (self.width, self.height);
+        let (x, y) = (i % w, i / w);
+        let thick = self.thickness[i];
+        let shift = s.refraction * thick.min(0.5) * focal / self.smooth[i];
+        let sx = (x as Real + n.x * shift).clamp(0.0, (w - 1) as Real) as usize;
+        let sy = (y as Real - n.y * shift).clamp(0.0, (h - 1) as Real) as usize;
+        let behind = self.scene[sy * w + sx];
+        let tr = [0, 1, 2].map(|ch| (-s.absorption[ch] * thick / s.spacing).exp());
+        [0, 1, 2].map(|ch| behind[ch] * tr[ch] + s.deep[ch] * (1.0 - tr[ch]))
+    }
 }
 
-/// The narrow-range filter at pixel `pos` of a line of `len` pixels that starts at `base`
-/// in `src` with stride `stride`.
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn filter_1d(
-    src: &[Real],
-    base: usize,
-    stride: usize,
-    pos: usize,
-    len: usize,
+impl Shade {
+    /// Reflection along the view-space direction `r`: the sky (and a dim ground below the
+    /// horizon).
+    fn reflection(&self, r: Vector) -> Rgb {
+        let (right, up, back) = self.basis;
+        let r_up = (right * r.x + up * r.y + back * r.z).y;
+        if r_up >= 0.0 {
+            lerp3(self.sky_horizon, self.sky_top, r_up.sqrt())
+        } else {
+            lerp3(self.sky_horizon, self.ground, (-r_up).sqrt().min(1.0))
+        }
+    }
+}
+
+/// The narrow-range filter of Truong & Yuksel (2018), one direction of its separable form.
+#[derive(Clone, Copy)]
+struct NarrowRange {
     focal: Real,
+    /// The footprint's half-width (m).
     radius_world: Real,
+    /// The range (m): depths farther than `mu` behind the centre are ignored, nearer ones
+    /// clamped.
     mu: Real,
+    /// Caps the footprint (pixels).
     max_px: usize,
-) -> Real {
-    let zc = src[base + pos * stride];
-    if !zc.is_finite() {
-        return zc;
-    }
-    let r = ((radius_world * focal / zc) as usize).min(max_px);
-    if r == 0 {
-        return zc;
-    }
-    let inv_r = 1.0 / (r as Real + 1.0);
-    let (mut sum, mut wsum) = (0.0, 0.0);
-    let lo = pos.saturating_sub(r);
-    let hi = (pos + r + 1).min(len);
-    for q in lo..hi {
-        let mut z = src[base + q * stride];
-        if !z.is_finite() || z > zc + mu {
-            continue;
+}
+
+impl NarrowRange {
+    /// The filtered depth at pixel `pos` of the line `(base, stride, len)` of `src` (its
+    /// pixels are `src[base + q·stride]` for `q < len`).
+    #[inline]
+    fn at(&self, src: &[Real], (base, stride, len): (usize, usize, usize), pos: usize) -> Real {
+        let zc = src[base + pos * stride];
+        if !zc.is_finite() {
+            return zc;
         }
-        if z < zc - mu {
-            z = zc - mu;
+        let r = ((self.radius_world * self.focal / zc) as usize).min(self.max_px);
+        if r == 0 {
+            return zc;
         }
-        let t = (q as Real - pos as Real) * inv_r;
-        let wgt = (1.0 - t * t) * (1.0 - t * t);
-        sum += wgt * z;
-        wsum += wgt;
+        let mu = self.mu;
+        let inv_r = 1.0 / (r as Real + 1.0);
+        let (mut sum, mut wsum) = (0.0, 0.0);
+        let lo = pos.saturating_sub(r);
+        let hi = (pos + r + 1).min(len);
+        for q in lo..hi {
+            let mut z = src[base + q * stride];
+            if !z.is_finite() || z > zc + mu {
+                continue;
+            }
+            if z < zc - mu {
+                z = zc - mu;
+            }
+            let t = (q as Real - pos as Real) * inv_r;
+            let wgt = (1.0 - t * t) * (1.0 - t * t);
+            sum += wgt * z;
+            wsum += wgt;
+        }
+        if wsum > 0.0 { sum / wsum } else { zc }
     }
-    if wsum > 0.0 { sum / wsum } else { zc }
 }
 
 /// Splats `s` into the rows `rows.0..rows.1` of the image, whose depth and thickness are
