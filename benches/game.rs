@@ -10,11 +10,12 @@
 //! cargo bench --bench game -- --particles 10000 --threads 2
 //! ```
 //!
-//! The scene: a closed pool 2.0 × 0.8 × 0.7 m (inside), water 0.45 m deep (the water preset,
-//! its default solver DFSPH; the spacing chosen for the particle count), a 40 × 10 × 24 cm
-//! hull of 500 kg/m³ floating in it, and, in the `paddle` rows, a kinematic paddle at one end
-//! swinging 8 cm back and forth every 1.5 s (a wave maker). The `rest` rows are the same pool
-//! with the paddle still: what most of a game's water does most of the time.
+//! The scene (`rapier_sph::scenes::WavePool`): a closed pool 2.0 × 0.8 × 0.7 m (inside),
+//! water 0.45 m deep (the water preset, its default solver DFSPH; the spacing chosen for the
+//! particle count), a 40 × 10 × 24 cm hull of 500 kg/m³ floating in it, and, in the `moving`
+//! rows, a kinematic paddle at one end swinging 8 cm each way every 1.5 s (a wave maker). The
+//! `still` rows are the same pool with the paddle still: what most of a game's water does
+//! most of the time.
 //!
 //! Each case settles for 0.5 s (not timed), then runs `--seconds` (default 2 s) of frames.
 //! "hull draft / expected" is how deep the hull's bottom lies under the water's level over
@@ -25,21 +26,11 @@
 //! Stages are the fluid pipeline's own timings (ms per frame, summed over substeps); rapier's
 //! step is in "rapier".
 
-use rapier_sph::math::{Real, Vector};
+use rapier_sph::StageTimings;
+use rapier_sph::math::Real;
 use rapier_sph::prelude::*;
-use rapier_sph::rapier3d::prelude::{ColliderBuilder, RigidBodyBuilder, RigidBodyHandle};
-use rapier_sph::scenes::add_closed_box;
-use rapier_sph::{FluidWorld, StageTimings};
-use std::time::{Duration, Instant};
-
-const POOL: Vector = Vector::new(2.0, 0.8, 0.7);
-const DEPTH: Real = 0.45;
-const HULL_HALF: Vector = Vector::new(0.2, 0.05, 0.12);
-const HULL_DENSITY: Real = 500.0;
-/// The paddle's rest position along x (its plate is 2 cm thick).
-const PADDLE_X: Real = 0.15;
-const PADDLE_AMPLITUDE: Real = 0.08;
-const PADDLE_PERIOD: Real = 1.5;
+use rapier_sph::scenes::{WavePool, WavePoolConfig};
+use std::time::Duration;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
@@ -103,128 +94,6 @@ impl Args {
     }
 }
 
-/// The pool with its hull and paddle, and the particle count it started with.
-struct Pool {
-    world: FluidWorld,
-    water: FluidHandle,
-    hull: RigidBodyHandle,
-    paddle: RigidBodyHandle,
-    spacing: Real,
-    particles: usize,
-}
-
-impl Pool {
-    /// About `n` particles: the spacing is the cube root of the water's volume per particle.
-    fn new(n: usize) -> SphResult<Self> {
-        let behind_paddle = PADDLE_X + 0.02;
-        let water = Vector::new(POOL.x - behind_paddle, DEPTH, POOL.z);
-        // The largest spacing (in 1 % steps down from the cube root of the volume per
-        // particle) whose lattice holds at least `n` particles.
-        let mut spacing = (water.x * water.y * water.z / n as Real).cbrt();
-        let fits = |s: Real| {
-            (0..3)
-                .map(|k| (water[k] / s).floor() as usize)
-                .product::<usize>()
-        };
-        while fits(spacing) < n {
-            spacing *= 0.99;
-        }
-        let mut world = FluidWorld::new();
-        add_closed_box(&mut world, Vector::ZERO, POOL, 0.04);
-        // The paddle: a plate across the pool near its -x end, moved by its kinematic target.
-        let paddle = world.physics.insert_body(
-            RigidBodyBuilder::kinematic_position_based()
-                .translation(Vector::new(PADDLE_X, 0.4, 0.35)),
-        );
-        world
-            .physics
-            .insert_collider(ColliderBuilder::cuboid(0.01, 0.38, 0.34), Some(paddle));
-        let hull_center = Vector::new(1.3, DEPTH, 0.35);
-        let hull = world
-            .physics
-            .insert_body(RigidBodyBuilder::dynamic().translation(hull_center));
-        world.physics.insert_collider(
-            ColliderBuilder::cuboid(HULL_HALF.x, HULL_HALF.y, HULL_HALF.z).density(HULL_DENSITY),
-            Some(hull),
-        );
-        let mut fluid = Fluid::new(FluidParamsBuilder::water(spacing).build()?)?;
-        fluid.add_block(Vector::new(behind_paddle, 0.0, 0.0), water)?;
-        // The water the floating hull displaces is cut out (it floats half under).
-        let draft = HULL_HALF.y * 2.0 * HULL_DENSITY / 1000.0;
-        let bottom = hull_center - Vector::new(HULL_HALF.x, HULL_HALF.y, HULL_HALF.z);
-        let top = hull_center + HULL_HALF;
-        fluid.remove_particles_where(|x, _, _| {
-            x.x > bottom.x - 0.5 * spacing
-                && x.x < top.x + 0.5 * spacing
-                && x.z > bottom.z - 0.5 * spacing
-                && x.z < top.z + 0.5 * spacing
-                && x.y > DEPTH - draft - 0.5 * spacing
-        });
-        let particles = fluid.len();
-        let water = world.fluids.insert(fluid);
-        Ok(Self {
-            world,
-            water,
-            hull,
-            paddle,
-            spacing,
-            particles,
-        })
-    }
-
-    /// One 1/60 s frame: the paddle's target at `t`, rapier, then the fluid.
-    fn frame(&mut self, t: Real, paddle: bool) -> SphResult<(Duration, Duration)> {
-        if paddle {
-            let phase = std::f32::consts::TAU * t / PADDLE_PERIOD;
-            let x = PADDLE_X + PADDLE_AMPLITUDE * phase.sin();
-            self.world.physics.bodies[self.paddle]
-                .set_next_kinematic_translation(Vector::new(x, 0.4, 0.35));
-        }
-        let start = Instant::now();
-        self.world.physics.step();
-        let rapier = start.elapsed();
-        self.world.step_fluids()?;
-        Ok((start.elapsed(), rapier))
-    }
-
-    /// Particles outside the pool's inside (they went through a wall or over the paddle).
-    fn outside(&self) -> usize {
-        let f = &self.world.fluids[self.water];
-        f.positions()
-            .iter()
-            .filter(|p| p.cmplt(Vector::ZERO).any() || p.cmpgt(POOL).any())
-            .count()
-    }
-
-    /// How deep the hull's bottom lies under the water's level, against its expected draft
-    /// (density ratio × height). The level is the median, over the columns of a grid of two
-    /// spacings away from the hull and the paddle, of each column's highest particle (half a
-    /// spacing under the surface): a median of column tops follows the mean level through
-    /// waves, where the topmost particles would follow the crests.
-    fn draft_ratio(&self) -> Real {
-        let f = &self.world.fluids[self.water];
-        let hull = self.world.physics.bodies[self.hull].translation();
-        let cell = 2.0 * self.spacing;
-        let mut tops = std::collections::BTreeMap::<(i32, i32), Real>::new();
-        for p in f.positions() {
-            if (p.x - hull.x).abs() < 0.4 || p.x < PADDLE_X + PADDLE_AMPLITUDE + 0.1 {
-                continue;
-            }
-            let key = ((p.x / cell) as i32, (p.z / cell) as i32);
-            let top = tops.entry(key).or_insert(Real::MIN);
-            *top = top.max(p.y);
-        }
-        let mut tops: Vec<Real> = tops.into_values().collect();
-        if tops.is_empty() {
-            return Real::NAN;
-        }
-        tops.sort_by(|a, b| a.total_cmp(b));
-        let level = tops[tops.len() / 2] + 0.5 * self.spacing;
-        let expected = 2.0 * HULL_HALF.y * HULL_DENSITY / 1000.0;
-        (level - (hull.y - HULL_HALF.y)) / expected
-    }
-}
-
 struct Row {
     particles: usize,
     spacing: Real,
@@ -241,21 +110,26 @@ struct Row {
 }
 
 fn run(n: usize, paddle: bool, seconds: Real) -> SphResult<Row> {
-    let mut pool = Pool::new(n)?;
-    let dt = 1.0 / 60.0;
-    let settle = 30;
-    for k in 0..settle {
-        pool.frame(k as Real * dt, paddle)?;
+    let mut config = WavePoolConfig {
+        particles: n,
+        ..Default::default()
+    };
+    if !paddle {
+        config.paddle.0 = 0.0;
+    }
+    let mut pool = WavePool::new(config)?;
+    for _ in 0..30 {
+        pool.frame()?;
     }
     let frames = (seconds * 60.0).round() as usize;
     let (mut times, mut rapier) = (Vec::with_capacity(frames), Duration::ZERO);
     let (mut stages, mut substeps, mut error) = (StageTimings::default(), 0u64, 0.0f64);
     let mut draft = 0.0;
     let cpu0 = cpu_seconds();
-    for k in settle..settle + frames {
-        let (whole, r) = pool.frame(k as Real * dt, paddle)?;
-        times.push(whole.as_secs_f64() * 1e3);
-        rapier += r;
+    for _ in 0..frames {
+        let start = std::time::Instant::now();
+        rapier += pool.frame()?;
+        times.push(start.elapsed().as_secs_f64() * 1e3);
         let report = pool.world.pipeline.report();
         stages.accumulate(&report.timings);
         substeps += report.substeps as u64;
@@ -266,7 +140,7 @@ fn run(n: usize, paddle: bool, seconds: Real) -> SphResult<Row> {
     times.sort_by(f64::total_cmp);
     let pick = |q: f64| times[((times.len() - 1) as f64 * q).round() as usize];
     Ok(Row {
-        particles: pool.particles,
+        particles: pool.world.fluids[pool.water].len(),
         spacing: pool.spacing,
         paddle,
         frame_ms: (pick(0.1), pick(0.5), pick(0.9)),

@@ -1,0 +1,146 @@
+//! A boat in a wave pool: a 500 kg/m³ hull floats in a pool whose kinematic paddle makes
+//! waves (`rapier_sph::scenes::WavePool`, the scene of `cargo bench --bench game`). Every
+//! half second it prints the hull's draft against Archimedes', its roll and pitch, and the
+//! force the water puts on it against its weight.
+//!
+//! ```text
+//! cargo run --release --example boat                          # 10,000 particles, 6 s, headless
+//! cargo run --release --example boat -- --particles 2500 --seconds 3
+//! cargo run --release --example boat -- --render out/boat     # also PNG frames and a GIF
+//! ```
+
+use rapier_sph::math::{Real, Vector};
+use rapier_sph::render::{Camera, GifWriter, RenderOptions, Renderer};
+use rapier_sph::scenes::{WavePool, WavePoolConfig};
+use std::path::PathBuf;
+use std::time::Instant;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args = Args::parse()?;
+    let mut pool = WavePool::new(WavePoolConfig {
+        particles: args.particles,
+        ..Default::default()
+    })?;
+    let n0 = pool.world.fluids[pool.water].len();
+    println!(
+        "boat: {n0} particles of water (spacing {:.1} mm, DFSPH), a 40 × 10 × 24 cm hull of \
+         500 kg/m³, a paddle swinging 8 cm every 1.5 s; {} s of 1/60 s frames",
+        pool.spacing * 1e3,
+        args.seconds
+    );
+    println!(
+        "{:>6} {:>14} {:>9} {:>9} {:>14} {:>10}",
+        "t (s)", "draft/expected", "roll (°)", "pitch (°)", "water level (m)", "substeps"
+    );
+    let mut pictures = args.render.as_ref().map(Pictures::new).transpose()?;
+    let frames = (args.seconds * 60.0).round() as usize;
+    let start = Instant::now();
+    for frame in 1..=frames {
+        pool.frame()?;
+        if let Some(p) = pictures.as_mut() {
+            p.frame(frame, &pool)?;
+        }
+        if frame % 30 == 0 {
+            let (roll, pitch) = pool.roll_pitch();
+            println!(
+                "{:>6.2} {:>14.2} {:>9.2} {:>9.2} {:>14.3} {:>10}",
+                frame as Real / 60.0,
+                pool.draft_ratio(),
+                roll,
+                pitch,
+                pool.water_level(),
+                pool.world.pipeline.report().substeps
+            );
+        }
+    }
+    let wall = start.elapsed().as_secs_f64();
+    let n = pool.world.fluids[pool.water].len();
+    println!(
+        "particles {n} (started with {n0}), {} outside the pool; {:.1} ms per frame on average \
+         (pictures included)",
+        pool.outside(),
+        wall * 1e3 / frames as f64
+    );
+    if let Some(p) = pictures {
+        p.finish()?;
+    }
+    Ok(())
+}
+
+struct Args {
+    particles: usize,
+    seconds: Real,
+    render: Option<PathBuf>,
+}
+
+impl Args {
+    fn parse() -> Result<Self, String> {
+        let mut args = Self {
+            particles: 10_000,
+            seconds: 6.0,
+            render: None,
+        };
+        let mut it = std::env::args().skip(1);
+        while let Some(a) = it.next() {
+            let mut value = |name: &str| it.next().ok_or(format!("{name} needs a value"));
+            match a.as_str() {
+                "--particles" => {
+                    args.particles = value("--particles")?
+                        .parse()
+                        .map_err(|_| "--particles needs a count")?
+                }
+                "--seconds" => {
+                    args.seconds = value("--seconds")?
+                        .parse()
+                        .map_err(|_| "--seconds needs a number")?
+                }
+                "--render" => args.render = Some(PathBuf::from(value("--render")?)),
+                other => return Err(format!("unknown argument {other}")),
+            }
+        }
+        Ok(args)
+    }
+}
+
+/// Every third frame in a GIF (20 frames a second: real time), every 30th as a PNG.
+struct Pictures {
+    dir: PathBuf,
+    renderer: Renderer,
+    camera: Camera,
+    gif: GifWriter,
+}
+
+impl Pictures {
+    fn new(dir: &PathBuf) -> Result<Self, Box<dyn std::error::Error>> {
+        std::fs::create_dir_all(dir)?;
+        let (width, height) = (480, 270);
+        Ok(Self {
+            dir: dir.clone(),
+            renderer: Renderer::new(RenderOptions {
+                width,
+                height,
+                ..RenderOptions::default()
+            }),
+            camera: Camera::framing(Vector::ZERO, Vector::new(2.0, 0.6, 0.7), 25.0, 32.0),
+            gif: GifWriter::create(dir.join("boat.gif"), width, height, 5)?,
+        })
+    }
+
+    fn frame(&mut self, frame: usize, pool: &WavePool) -> Result<(), Box<dyn std::error::Error>> {
+        if frame % 3 != 0 {
+            return Ok(());
+        }
+        let image = self.renderer.render_world(&self.camera, &pool.world, None);
+        self.gif.add_frame(&image)?;
+        if frame % 30 == 0 {
+            image.save_png(self.dir.join(format!("boat_{frame:04}.png")))?;
+        }
+        Ok(())
+    }
+
+    fn finish(self) -> Result<(), Box<dyn std::error::Error>> {
+        self.gif.finish()?;
+        println!("pictures  {}/boat.gif, boat_*.png", self.dir.display());
+        Ok(())
+    }
+}
