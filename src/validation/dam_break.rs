@@ -39,7 +39,10 @@
 //! docs/validation.md, "Convergence of the dam-break front".
 
 use super::data::{Curve, read_curve};
-use super::{DriveSpec, Method, Metric, RunRecord, SimCurve, TimePolicy, drive, rms_relative};
+use super::{
+    DriveSpec, Method, Metric, RunRecord, RunSetup, SimCurve, TimePolicy, drive, inside_box,
+    metrics, potential_energy, rms_relative,
+};
 use crate::error::{SphError, SphResult};
 use crate::fluid::{Fluid, try_lattice};
 use crate::math::{Real, Vector};
@@ -332,21 +335,14 @@ pub fn run(
     let mut scene = DamBreak2d::new(case, params.clone())?;
     let f = &scene.world.fluids[scene.fluid];
     let particles = f.len();
-    let energy_bound: f64 = f
-        .positions()
-        .iter()
-        .map(|p| (params.particle_mass * G * p.y) as f64)
-        .sum();
+    let energy_bound = potential_energy(f, params.particle_mass, G);
     let dt_ref = super::reference_step(&params, case.ritter_speed(), G);
     let a = case.width as f64;
     let scale = (G as f64 / a).sqrt();
     let mut front = Vec::new();
     let mut height = Vec::new();
     let tank_max = scene.tank_max;
-    let eps = 1e-4 * tank_max.max_element();
-    let inside = move |p: Vector| {
-        p.cmpge(Vector::splat(-eps)).all() && p.cmple(tank_max + Vector::splat(eps)).all()
-    };
+    let inside = inside_box(tank_max, 1e-4 * tank_max.max_element());
     let fluid = scene.fluid;
     let driven = drive(
         &mut scene.world,
@@ -370,21 +366,44 @@ pub fn run(
         },
         progress,
     )?;
+    let errors = errors(case, &front, &height);
+    let mut curves = vec![SimCurve {
+        name: "front",
+        points: front,
+    }];
+    if case.height.is_some() {
+        curves.push(SimCurve {
+            name: "height",
+            points: height,
+        });
+    }
+    let setup = RunSetup {
+        scene: case.name,
+        method: method.name,
+        resolution,
+        spacing: params.particle_spacing,
+        particles,
+        policy,
+        dt_ref,
+        duration: case.duration,
+    };
+    Ok(setup.record(driven, errors, curves))
+}
+
+/// The errors of the simulated `front` and `height` curves (scaled as `case`'s data) against
+/// `case`'s data (see the module docs): the front's RMS over the run and to T = 3, the
+/// height's RMS when the case has height data, and the front's largest excess over Ritter's
+/// bound `Z = 1 + 2T`.
+fn errors(case: &Case, front: &[(f64, f64)], height: &[(f64, f64)]) -> Vec<Metric> {
     let front_range = (0.0, f64::MAX);
-    let mut errors = vec![
-        Metric {
-            name: "front_rms",
-            value: rms_relative(&front, &case.front, front_range),
-        },
-        Metric {
-            name: "front_rms_t3",
-            value: rms_relative(&front, &case.front, (0.0, 3.0)),
-        },
-    ];
+    let mut errors = metrics([
+        ("front_rms", rms_relative(front, &case.front, front_range)),
+        ("front_rms_t3", rms_relative(front, &case.front, (0.0, 3.0))),
+    ]);
     if let Some(h) = &case.height {
         errors.push(Metric {
             name: "height_rms",
-            value: rms_relative(&height, h, (0.0, f64::MAX)),
+            value: rms_relative(height, h, (0.0, f64::MAX)),
         });
     }
     errors.push(Metric {
@@ -396,36 +415,5 @@ pub fn run(
             .map(|&(t, z)| z - (1.0 + 2.0 * t))
             .fold(f64::NEG_INFINITY, f64::max),
     });
-    let mut curves = vec![SimCurve {
-        name: "front",
-        points: front,
-    }];
-    if case.height.is_some() {
-        curves.push(SimCurve {
-            name: "height",
-            points: height,
-        });
-    }
-    Ok(RunRecord {
-        scene: case.name,
-        method: method.name,
-        resolution,
-        spacing: params.particle_spacing,
-        particles,
-        particles_end: driven.particles_end,
-        escaped: driven.escaped,
-        policy,
-        dt_ref,
-        dt_mean: driven.simulated / driven.substeps.max(1) as Real,
-        simulated: driven.simulated,
-        duration: case.duration,
-        wall_seconds: driven.wall_seconds,
-        substeps: driven.substeps,
-        particle_steps: driven.particle_steps,
-        errors,
-        max_density_error: driven.max_density_error,
-        stable: driven.note.is_empty(),
-        note: driven.note,
-        curves,
-    })
+    errors
 }

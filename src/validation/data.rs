@@ -47,19 +47,48 @@ pub fn read_curve(
     filter: Option<(&str, &str)>,
     label: &str,
 ) -> SphResult<Curve> {
-    read_curve_in(&data_dir(), folder, file, x_col, y_col, filter, label)
+    let source = CurveSource {
+        folder,
+        file,
+        x_col,
+        y_col,
+        filter,
+        label,
+    };
+    read_curve_in(&data_dir(), &source)
+}
+
+/// Which curve of which file [`read_curve_in`] reads: [`read_curve`]'s arguments.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct CurveSource<'a> {
+    /// The data set's folder inside the data folder, e.g. `"lobovsky_2014"`.
+    pub folder: &'a str,
+    /// The CSV file inside `folder`.
+    pub file: &'a str,
+    /// The column of the x values.
+    pub x_col: &'a str,
+    /// The column of the y values.
+    pub y_col: &'a str,
+    /// `(column, value)`: only the rows whose `column` reads `value`; `None`: every row.
+    pub filter: Option<(&'a str, &'a str)>,
+    /// The curve's [`Curve::label`].
+    pub label: &'a str,
 }
 
 /// [`read_curve`] from the data folder `dir`.
-pub fn read_curve_in(
-    dir: &std::path::Path,
-    folder: &str,
-    file: &str,
-    x_col: &str,
-    y_col: &str,
-    filter: Option<(&str, &str)>,
-    label: &str,
-) -> SphResult<Curve> {
+///
+/// # Errors
+/// [`SphError::ReferenceData`] naming the path: no folder `dir`, no file, an empty file, a
+/// missing column, a cell that is not a finite number, or no matching row.
+pub fn read_curve_in(dir: &std::path::Path, source: &CurveSource) -> SphResult<Curve> {
+    let &CurveSource {
+        folder,
+        file,
+        x_col,
+        y_col,
+        filter,
+        label,
+    } = source;
     if !dir.is_dir() {
         return Err(data_error(
             dir,

@@ -13,7 +13,10 @@
 //! - `mean_density_error`, `settled_max_density_error`: mean and largest compression
 //!   `max(ρ − ρ0, 0)/ρ0` over the particles (as the step report counts it).
 
-use super::{DriveSpec, Method, Metric, RunRecord, SimCurve, TimePolicy, drive};
+use super::{
+    DriveSpec, Method, Metric, RunRecord, RunSetup, SimCurve, TimePolicy, drive, inside_box,
+    metrics, potential_energy,
+};
 use crate::error::{SphError, SphResult};
 use crate::math::{Real, Vector};
 use crate::params::FluidParamsBuilder;
@@ -49,117 +52,121 @@ pub fn run(
     let g = tank.world.physics.gravity.length();
     let f = &tank.world.fluids[tank.fluid];
     let particles = f.len();
-    let energy_bound: f64 = f
-        .positions()
-        .iter()
-        .map(|p| (params.particle_mass * g * p.y) as f64)
-        .sum();
+    let energy_bound = potential_energy(f, params.particle_mass, g);
     // Characteristic speed: the shallow-water wave speed sqrt(g·depth) of the sloshing that
     // the settling excites.
     let dt_ref = super::reference_step(&params, (g * tank.fluid_height).sqrt(), g);
-    let max = Vector::new(WIDTH, 2.0 * tank.fluid_height, WIDTH);
-    let eps = 1e-4;
-    let inside = move |p: Vector| {
-        p.cmpge(Vector::splat(-eps)).all() && p.cmple(max + Vector::splat(eps)).all()
-    };
+    let inside = inside_box(Vector::new(WIDTH, 2.0 * tank.fluid_height, WIDTH), 1e-4);
     let settle_from = 0.75 * DURATION;
-    let rho0 = params.rest_density;
-    // (bottom, rms, mean compression, max compression) summed over the settled samples.
-    let mut sums = [0.0f64; 3];
-    let mut max_settled: f64 = 0.0;
-    let mut count = 0usize;
+    let mut settled = Settled::new(params.rest_density);
     let mut bottom_curve = Vec::new();
     let fluid = tank.fluid;
     let fluid_height = tank.fluid_height;
-    let driven = {
-        let tank_ref = &mut tank;
-        let world = &mut tank_ref.world;
-        drive(
-            world,
-            fluid,
-            &DriveSpec {
-                duration: DURATION,
-                sample_dt: DURATION / 200.0,
-                dt_ref,
-                policy,
-                energy_bound,
-                inside: &inside,
-            },
-            &mut |t, world| {
-                let view = TankView {
-                    world,
-                    fluid,
-                    fluid_height,
-                };
-                let bottom = view.bottom_pressure_error() as f64;
-                bottom_curve.push((t as f64, bottom));
-                if t >= settle_from {
-                    let f = &world.fluids[fluid];
-                    let comp: Vec<f64> = f
-                        .densities()
-                        .iter()
-                        .map(|&r| (((r - rho0) / rho0) as f64).max(0.0))
-                        .collect();
-                    sums[0] += bottom;
-                    sums[1] += view.pressure_profile_rms() as f64;
-                    sums[2] += comp.iter().sum::<f64>() / comp.len().max(1) as f64;
-                    max_settled = comp.iter().copied().fold(max_settled, f64::max);
-                    count += 1;
-                }
-            },
-            progress,
-        )?
-    };
-    let avg = |k: usize| {
-        if count == 0 {
-            f64::NAN
-        } else {
-            sums[k] / count as f64
-        }
-    };
-    let errors = vec![
-        Metric {
-            name: "bottom_pressure",
-            value: avg(0),
+    let driven = drive(
+        &mut tank.world,
+        fluid,
+        &DriveSpec {
+            duration: DURATION,
+            sample_dt: DURATION / 200.0,
+            dt_ref,
+            policy,
+            energy_bound,
+            inside: &inside,
         },
-        Metric {
-            name: "pressure_rms",
-            value: avg(1),
+        &mut |t, world| {
+            let view = TankView {
+                world,
+                fluid,
+                fluid_height,
+            };
+            let bottom = view.bottom_pressure_error() as f64;
+            bottom_curve.push((t as f64, bottom));
+            if t >= settle_from {
+                settled.add(&view, bottom);
+            }
         },
-        Metric {
-            name: "mean_density_error",
-            value: avg(2),
-        },
-        Metric {
-            name: "settled_max_density_error",
-            value: if count == 0 { f64::NAN } else { max_settled },
-        },
-    ];
-    Ok(RunRecord {
+        progress,
+    )?;
+    let setup = RunSetup {
         scene: super::Scene::Hydrostatic.name(),
         method: method.name,
         resolution,
         spacing: params.particle_spacing,
         particles,
-        particles_end: driven.particles_end,
-        escaped: driven.escaped,
         policy,
         dt_ref,
-        dt_mean: driven.simulated / driven.substeps.max(1) as Real,
-        simulated: driven.simulated,
         duration: DURATION,
-        wall_seconds: driven.wall_seconds,
-        substeps: driven.substeps,
-        particle_steps: driven.particle_steps,
-        errors,
-        max_density_error: driven.max_density_error,
-        stable: driven.note.is_empty(),
-        note: driven.note,
-        curves: vec![SimCurve {
+    };
+    Ok(setup.record(
+        driven,
+        settled.errors(),
+        vec![SimCurve {
             name: "bottom_pressure",
             points: bottom_curve,
         }],
-    })
+    ))
+}
+
+/// The error measures summed over the samples of the settled state (the last quarter of
+/// the run), averaged by [`Settled::errors`].
+struct Settled {
+    rest_density: Real,
+    /// Bottom-pressure error, pressure-profile RMS, mean compression.
+    sums: [f64; 3],
+    /// Largest compression of any particle in any settled sample.
+    max_compression: f64,
+    count: usize,
+}
+
+impl Settled {
+    fn new(rest_density: Real) -> Self {
+        Self {
+            rest_density,
+            sums: [0.0; 3],
+            max_compression: 0.0,
+            count: 0,
+        }
+    }
+
+    /// Adds one sample of the tank in `view`, whose bottom-pressure error is `bottom`.
+    fn add(&mut self, view: &TankView, bottom: f64) {
+        let rho0 = self.rest_density;
+        let comp: Vec<f64> = view.world.fluids[view.fluid]
+            .densities()
+            .iter()
+            .map(|&r| (((r - rho0) / rho0) as f64).max(0.0))
+            .collect();
+        self.sums[0] += bottom;
+        self.sums[1] += view.pressure_profile_rms() as f64;
+        self.sums[2] += comp.iter().sum::<f64>() / comp.len().max(1) as f64;
+        self.max_compression = comp.iter().copied().fold(self.max_compression, f64::max);
+        self.count += 1;
+    }
+
+    /// The run's errors (see the module's doc); NaN when no sample was settled (the run
+    /// stopped early).
+    fn errors(&self) -> Vec<Metric> {
+        let avg = |k: usize| {
+            if self.count == 0 {
+                f64::NAN
+            } else {
+                self.sums[k] / self.count as f64
+            }
+        };
+        metrics([
+            ("bottom_pressure", avg(0)),
+            ("pressure_rms", avg(1)),
+            ("mean_density_error", avg(2)),
+            (
+                "settled_max_density_error",
+                if self.count == 0 {
+                    f64::NAN
+                } else {
+                    self.max_compression
+                },
+            ),
+        ])
+    }
 }
 
 /// The tank's error measures on a borrowed world (the tank itself is borrowed by the run).

@@ -24,12 +24,15 @@
 //! - `peak_time`: `T` of the simulated peak minus `T` of the median's peak.
 
 use super::data::{Curve, read_curve};
-use super::{DriveSpec, Method, Metric, RunRecord, SimCurve, TimePolicy, drive, interpolate};
+use super::{
+    DriveSpec, Method, RunRecord, RunSetup, SimCurve, TimePolicy, drive, inside_box, interpolate,
+    metrics, potential_energy,
+};
 use crate::error::{SphError, SphResult};
-use crate::fluid::{Fluid, try_lattice};
+use crate::fluid::{Fluid, FluidHandle, try_lattice};
 use crate::kernel::KernelKind;
 use crate::math::{Real, Vector};
-use crate::params::FluidParamsBuilder;
+use crate::params::{FluidParams, FluidParamsBuilder};
 use crate::scenes::add_closed_box;
 use crate::world::FluidWorld;
 
@@ -84,13 +87,18 @@ impl Sensor2 {
 
     /// `(T, p)` of the median's highest point inside [`WINDOW`].
     pub fn peak(&self) -> (f64, f64) {
-        self.median
-            .points
-            .iter()
-            .copied()
-            .filter(|p| p.0 >= WINDOW.0 && p.0 <= WINDOW.1)
-            .fold((0.0, f64::MIN), |a, p| if p.1 > a.1 { p } else { a })
+        window_peak(&self.median.points)
     }
+}
+
+/// `(T, p)` of the highest of `points` inside [`WINDOW`] (the first of equal heights;
+/// `(0, f64::MIN)` when none is inside).
+fn window_peak(points: &[(f64, f64)]) -> (f64, f64) {
+    points
+        .iter()
+        .copied()
+        .filter(|p| p.0 >= WINDOW.0 && p.0 <= WINDOW.1)
+        .fold((0.0, f64::MIN), |a, p| if p.1 > a.1 { p } else { a })
 }
 
 /// The pressure at `point` read from `fluid` (Shepard average over the kernel support; 0 when
@@ -125,50 +133,25 @@ pub fn run(
         });
     }
     let data = Sensor2::load()?;
-    let params = FluidParamsBuilder::water(H / resolution as Real)
-        .solver(method.solver)
-        .wall_density(method.wall_density)
-        .build()?;
-    let s = params.particle_spacing;
-    let layers = super::dam_break::LAYERS;
-    let tank_max = Vector::new(TANK_LENGTH, TANK_HEIGHT, layers as Real * s);
-    let mut world = FluidWorld::new();
-    add_closed_box(&mut world, Vector::ZERO, tank_max, (4.0 * s).max(0.05));
-    world.physics.step();
-    let mut fluid = Fluid::new(params.clone())?;
-    let nx = (COLUMN_LENGTH / s).round() as usize;
-    fluid.add_particles(&try_lattice(
-        Vector::splat(0.5 * s),
-        nx,
-        resolution,
-        layers,
-        s,
-    )?)?;
-    let particles = fluid.len();
-    let energy_bound: f64 = fluid
-        .positions()
-        .iter()
-        .map(|p| (params.particle_mass * G * p.y) as f64)
-        .sum();
-    let fluid = world.fluids.insert(fluid);
-    let dt_ref = super::reference_step(&params, 2.0 * (G * H).sqrt(), G);
+    let mut tank = Tank::new(method, resolution)?;
+    let params = &tank.params;
+    let dt_ref = super::reference_step(params, 2.0 * (G * H).sqrt(), G);
     let scale = (G as f64 / H as f64).sqrt();
     let duration = (WINDOW.1 / scale) as Real;
     let p_ref = params.rest_density as f64 * G as f64 * H as f64;
-    let eps = 1e-4 * tank_max.max_element();
-    let inside = move |p: Vector| {
-        p.cmpge(Vector::splat(-eps)).all() && p.cmple(tank_max + Vector::splat(eps)).all()
-    };
+    let tank_max = tank.max;
+    let inside = inside_box(tank_max, 1e-4 * tank_max.max_element());
     let mut sensors: Vec<Vec<(f64, f64)>> = vec![Vec::new(); SENSOR_HEIGHTS.len()];
+    let fluid = tank.fluid;
     let driven = drive(
-        &mut world,
+        &mut tank.world,
         fluid,
         &DriveSpec {
             duration,
             sample_dt: duration / 400.0,
             dt_ref,
             policy,
-            energy_bound,
+            energy_bound: tank.energy_bound,
             inside: &inside,
         },
         &mut |t, world| {
@@ -180,72 +163,106 @@ pub fn run(
         },
         progress,
     )?;
-    let sim = &sensors[1];
-    let (t_peak_ref, p_peak_ref) = data.peak();
-    let reached = sim.last().is_some_and(|p| p.0 >= WINDOW.1 - 1e-6);
-    let (band_rms, peak, peak_time) = if reached {
-        let mut sum = 0.0;
-        let mut n = 0usize;
-        for &(t, p) in &data.median.points {
-            if t < WINDOW.0 || t > WINDOW.1 {
-                continue;
-            }
-            if let Some(v) = interpolate(sim, t) {
-                sum += (v - p).powi(2);
-                n += 1;
-            }
-        }
-        let (t_sim, p_sim) = sim
-            .iter()
-            .copied()
-            .filter(|p| p.0 >= WINDOW.0 && p.0 <= WINDOW.1)
-            .fold((0.0, f64::MIN), |a, p| if p.1 > a.1 { p } else { a });
-        (
-            (sum / n.max(1) as f64).sqrt() / p_peak_ref,
-            (p_sim - p_peak_ref) / p_peak_ref,
-            t_sim - t_peak_ref,
-        )
-    } else {
-        (f64::NAN, f64::NAN, f64::NAN)
-    };
-    let names = ["sensor_1", "sensor_2", "sensor_3", "sensor_4"];
-    Ok(RunRecord {
+    let [band_rms, peak, peak_time] = first_impact_errors(&sensors[1], &data);
+    let setup = RunSetup {
         scene: super::Scene::Lobovsky.name(),
         method: method.name,
         resolution,
-        spacing: s,
-        particles,
-        particles_end: driven.particles_end,
-        escaped: driven.escaped,
+        spacing: tank.params.particle_spacing,
+        particles: tank.particles,
         policy,
         dt_ref,
-        dt_mean: driven.simulated / driven.substeps.max(1) as Real,
-        simulated: driven.simulated,
         duration,
-        wall_seconds: driven.wall_seconds,
-        substeps: driven.substeps,
-        particle_steps: driven.particle_steps,
-        errors: vec![
-            Metric {
-                name: "band_rms",
-                value: band_rms,
-            },
-            Metric {
-                name: "peak",
-                value: peak,
-            },
-            Metric {
-                name: "peak_time",
-                value: peak_time,
-            },
-        ],
-        max_density_error: driven.max_density_error,
-        stable: driven.note.is_empty(),
-        note: driven.note,
-        curves: sensors
+    };
+    let names = ["sensor_1", "sensor_2", "sensor_3", "sensor_4"];
+    Ok(setup.record(
+        driven,
+        metrics([
+            ("band_rms", band_rms),
+            ("peak", peak),
+            ("peak_time", peak_time),
+        ]),
+        sensors
             .into_iter()
             .zip(names)
             .map(|(points, name)| SimCurve { name, points })
             .collect(),
-    })
+    ))
+}
+
+/// The tank at the start of a run: the closed box (its walls rapier colliders), the water
+/// column on a lattice at rest against the back wall.
+struct Tank {
+    world: FluidWorld,
+    fluid: FluidHandle,
+    params: FluidParams,
+    /// The box's far corner (its near corner is the origin).
+    max: Vector,
+    particles: usize,
+    /// The column's potential energy (J), see [`super::DriveSpec`].
+    energy_bound: f64,
+}
+
+impl Tank {
+    /// The tank for `method` at `resolution` particles across H: the water preset at spacing
+    /// `H / resolution`, the box [`super::dam_break::LAYERS`] spacings deep.
+    fn new(method: &Method, resolution: usize) -> SphResult<Self> {
+        let params = FluidParamsBuilder::water(H / resolution as Real)
+            .solver(method.solver)
+            .wall_density(method.wall_density)
+            .build()?;
+        let s = params.particle_spacing;
+        let layers = super::dam_break::LAYERS;
+        let max = Vector::new(TANK_LENGTH, TANK_HEIGHT, layers as Real * s);
+        let mut world = FluidWorld::new();
+        add_closed_box(&mut world, Vector::ZERO, max, (4.0 * s).max(0.05));
+        world.physics.step();
+        let mut fluid = Fluid::new(params.clone())?;
+        let nx = (COLUMN_LENGTH / s).round() as usize;
+        fluid.add_particles(&try_lattice(
+            Vector::splat(0.5 * s),
+            nx,
+            resolution,
+            layers,
+            s,
+        )?)?;
+        let particles = fluid.len();
+        let energy_bound = potential_energy(&fluid, params.particle_mass, G);
+        let fluid = world.fluids.insert(fluid);
+        Ok(Self {
+            world,
+            fluid,
+            params,
+            max,
+            particles,
+            energy_bound,
+        })
+    }
+}
+
+/// `[band_rms, peak, peak_time]` of sensor 2's simulated curve `sim` against the median of
+/// `data` over [`WINDOW`] (see the module's doc); NaN when the run stopped before its end.
+fn first_impact_errors(sim: &[(f64, f64)], data: &Sensor2) -> [f64; 3] {
+    let (t_peak_ref, p_peak_ref) = data.peak();
+    let reached = sim.last().is_some_and(|p| p.0 >= WINDOW.1 - 1e-6);
+    if !reached {
+        return [f64::NAN; 3];
+    }
+    let mut sum = 0.0;
+    let mut n = 0usize;
+    for &(t, p) in &data.median.points {
+        if t < WINDOW.0 || t > WINDOW.1 {
+            continue;
+        }
+        if let Some(v) = interpolate(sim, t) {
+            sum += (v - p).powi(2);
+            n += 1;
+        }
+    }
+    let (t_sim, p_sim) = window_peak(sim);
+    [
+        (sum / n.max(1) as f64).sqrt() / p_peak_ref,
+        (p_sim - p_peak_ref) / p_peak_ref,
+        t_sim - t_peak_ref,
+    ]
 }

@@ -444,6 +444,80 @@ pub(crate) fn drive(
     Ok(out)
 }
 
+/// What a run's [`RunRecord`] states about its set-up, known before it is driven; every
+/// scene fills one and [`RunSetup::record`] adds what [`drive`] measured.
+pub(crate) struct RunSetup {
+    pub scene: &'static str,
+    pub method: &'static str,
+    pub resolution: usize,
+    /// Particle spacing (m).
+    pub spacing: Real,
+    /// Particles at the start.
+    pub particles: usize,
+    pub policy: TimePolicy,
+    pub dt_ref: Real,
+    /// Simulated time asked for (s).
+    pub duration: Real,
+}
+
+impl RunSetup {
+    /// The run's record: this set-up, what `driven` measured, and the scene's `errors`
+    /// (primary first) and `curves`.
+    pub(crate) fn record(
+        self,
+        driven: Driven,
+        errors: Vec<Metric>,
+        curves: Vec<SimCurve>,
+    ) -> RunRecord {
+        RunRecord {
+            scene: self.scene,
+            method: self.method,
+            resolution: self.resolution,
+            spacing: self.spacing,
+            particles: self.particles,
+            particles_end: driven.particles_end,
+            escaped: driven.escaped,
+            policy: self.policy,
+            dt_ref: self.dt_ref,
+            dt_mean: driven.simulated / driven.substeps.max(1) as Real,
+            simulated: driven.simulated,
+            duration: self.duration,
+            wall_seconds: driven.wall_seconds,
+            substeps: driven.substeps,
+            particle_steps: driven.particle_steps,
+            errors,
+            max_density_error: driven.max_density_error,
+            stable: driven.note.is_empty(),
+            note: driven.note,
+            curves,
+        }
+    }
+}
+
+/// `Σ m·g·y` over `fluid`'s particles of mass `mass` (J): their potential energy above the
+/// floor `y = 0`, the most kinetic energy a falling column can gain ([`DriveSpec::energy_bound`]).
+pub(crate) fn potential_energy(fluid: &crate::Fluid, mass: Real, g: Real) -> f64 {
+    fluid
+        .positions()
+        .iter()
+        .map(|p| (mass * g * p.y) as f64)
+        .sum()
+}
+
+/// Is a position inside the box from the origin to `max`, widened by `eps` on every side
+/// (the round-off of particles resting on a wall)? For [`DriveSpec::inside`].
+pub(crate) fn inside_box(max: Vector, eps: Real) -> impl Fn(Vector) -> bool {
+    move |p: Vector| p.cmpge(Vector::splat(-eps)).all() && p.cmple(max + Vector::splat(eps)).all()
+}
+
+/// The named errors of a run, in the order given (the primary error first).
+pub(crate) fn metrics<const N: usize>(named: [(&'static str, f64); N]) -> Vec<Metric> {
+    named
+        .into_iter()
+        .map(|(name, value)| Metric { name, value })
+        .collect()
+}
+
 /// Linear interpolation of `samples` (sorted by x) at `x`; `None` outside their range.
 pub fn interpolate(samples: &[(f64, f64)], x: f64) -> Option<f64> {
     let k = samples.partition_point(|s| s.0 < x);
@@ -512,7 +586,15 @@ mod tests {
     #[test]
     fn missing_data_is_a_typed_error_naming_the_path() {
         let dir = std::path::Path::new("/nonexistent/validation");
-        let err = data::read_curve_in(dir, "x", "y.csv", "a", "b", None, "l").unwrap_err();
+        let source = data::CurveSource {
+            folder: "x",
+            file: "y.csv",
+            x_col: "a",
+            y_col: "b",
+            filter: None,
+            label: "l",
+        };
+        let err = data::read_curve_in(dir, &source).unwrap_err();
         match err {
             crate::SphError::ReferenceData { path, .. } => assert!(path.contains("nonexistent")),
             e => panic!("{e:?}"),
