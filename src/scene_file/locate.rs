@@ -44,6 +44,8 @@ fn raw_string_start(b: &[u8], i: usize) -> Option<(usize, usize, bool)> {
     (b.get(j) == Some(&b'"')).then_some((j, j - hashes_start, raw))
 }
 
+/// Splits a RON text into the tokens [`locate`](self) walks: brackets, commas, colons, words
+/// and literals; whitespace and comments are skipped.
 fn tokens(text: &str) -> Vec<Token> {
     let b = text.as_bytes();
     let mut out = Vec::new();
@@ -53,92 +55,35 @@ fn tokens(text: &str) -> Vec<Token> {
         if c.is_ascii_whitespace() {
             i += 1;
         } else if b[i..].starts_with(b"//") {
-            while i < b.len() && b[i] != b'\n' {
-                i += 1;
-            }
+            i = line_comment_end(b, i);
         } else if b[i..].starts_with(b"/*") {
-            // RON's block comments nest.
-            let mut depth = 0usize;
-            while i < b.len() {
-                if b[i..].starts_with(b"/*") {
-                    depth += 1;
-                    i += 2;
-                } else if b[i..].starts_with(b"*/") {
-                    depth -= 1;
-                    i += 2;
-                    if depth == 0 {
-                        break;
-                    }
-                } else {
-                    i += 1;
-                }
-            }
+            i = block_comment_end(b, i);
         } else if c == b'"' || c == b'\'' {
             let start = i;
-            i += 1;
-            while i < b.len() && b[i] != c {
-                i += if b[i] == b'\\' { 2 } else { 1 };
-            }
-            i = (i + 1).min(b.len());
+            i = quoted_end(b, i);
             out.push(Token {
                 kind: Kind::Literal,
                 start,
                 end: i,
             });
         } else if let Some((quote, hashes, raw)) = raw_string_start(b, i) {
-            // Raw strings `r#"…"#`, byte strings `b"…"`, `br#"…"#`.
             let start = i;
-            i = quote + 1;
-            while i < b.len() {
-                if !raw && b[i] == b'\\' {
-                    i += 2;
-                    continue;
-                }
-                if b[i] == b'"' && b[i + 1..].iter().take_while(|&&x| x == b'#').count() >= hashes {
-                    i += 1 + hashes;
-                    break;
-                }
-                i += 1;
-            }
+            i = raw_string_end(b, quote, hashes, raw);
             out.push(Token {
                 kind: Kind::Literal,
                 start,
                 end: i.min(b.len()),
             });
-        } else if matches!(c, b'(' | b'[' | b'{') {
+        } else if let Some(kind) = punctuation(c) {
             out.push(Token {
-                kind: Kind::Open(c),
-                start: i,
-                end: i + 1,
-            });
-            i += 1;
-        } else if matches!(c, b')' | b']' | b'}') {
-            out.push(Token {
-                kind: Kind::Close,
-                start: i,
-                end: i + 1,
-            });
-            i += 1;
-        } else if c == b',' || c == b':' {
-            out.push(Token {
-                kind: if c == b',' { Kind::Comma } else { Kind::Colon },
+                kind,
                 start: i,
                 end: i + 1,
             });
             i += 1;
         } else {
             let start = i;
-            while i < b.len()
-                && !b[i].is_ascii_whitespace()
-                && !matches!(
-                    b[i],
-                    b'(' | b'[' | b'{' | b')' | b']' | b'}' | b',' | b':' | b'"'
-                )
-                && !b[i..].starts_with(b"//")
-                && !b[i..].starts_with(b"/*")
-            {
-                i += 1;
-            }
+            i = word_end(b, i);
             out.push(Token {
                 kind: Kind::Word,
                 start,
@@ -147,6 +92,95 @@ fn tokens(text: &str) -> Vec<Token> {
         }
     }
     out
+}
+
+/// Where the `//` comment starting at `i` ends: at its newline (not consumed) or the end.
+fn line_comment_end(b: &[u8], mut i: usize) -> usize {
+    while i < b.len() && b[i] != b'\n' {
+        i += 1;
+    }
+    i
+}
+
+/// Where the `/*` comment starting at `i` ends, just past its `*/`. RON's block comments
+/// nest, so the `*/` that closes it is the one that brings the depth back to zero.
+fn block_comment_end(b: &[u8], mut i: usize) -> usize {
+    let mut depth = 0usize;
+    while i < b.len() {
+        if b[i..].starts_with(b"/*") {
+            depth += 1;
+            i += 2;
+        } else if b[i..].starts_with(b"*/") {
+            depth -= 1;
+            i += 2;
+            if depth == 0 {
+                break;
+            }
+        } else {
+            i += 1;
+        }
+    }
+    i
+}
+
+/// Where the string or character literal whose quote (`"` or `'`) is at `i` ends, just
+/// past its closing quote (a backslash escapes the byte after it), at most the text's end.
+fn quoted_end(b: &[u8], mut i: usize) -> usize {
+    let c = b[i];
+    i += 1;
+    while i < b.len() && b[i] != c {
+        i += if b[i] == b'\\' { 2 } else { 1 };
+    }
+    (i + 1).min(b.len())
+}
+
+/// Where a raw string `r#"…"#`, byte string `b"…"` or `br#"…"#` ends, given what
+/// [`raw_string_start`] found: its opening quote at `quote`, its count of `hashes` and
+/// whether it is raw (no escapes). Just past the closing quote and hashes; past the text's
+/// end when it is not closed (the caller clamps).
+fn raw_string_end(b: &[u8], quote: usize, hashes: usize, raw: bool) -> usize {
+    let mut i = quote + 1;
+    while i < b.len() {
+        if !raw && b[i] == b'\\' {
+            i += 2;
+            continue;
+        }
+        if b[i] == b'"' && b[i + 1..].iter().take_while(|&&x| x == b'#').count() >= hashes {
+            i += 1 + hashes;
+            break;
+        }
+        i += 1;
+    }
+    i
+}
+
+/// The token of a one-byte punctuation mark: an opening or closing bracket, a comma or a
+/// colon; `None` for any other byte.
+fn punctuation(c: u8) -> Option<Kind> {
+    match c {
+        b'(' | b'[' | b'{' => Some(Kind::Open(c)),
+        b')' | b']' | b'}' => Some(Kind::Close),
+        b',' => Some(Kind::Comma),
+        b':' => Some(Kind::Colon),
+        _ => None,
+    }
+}
+
+/// Where the bare word (identifier, number, `true`…) starting at `i` ends: at the first
+/// whitespace, bracket, comma, colon, quote or comment.
+fn word_end(b: &[u8], mut i: usize) -> usize {
+    while i < b.len()
+        && !b[i].is_ascii_whitespace()
+        && !matches!(
+            b[i],
+            b'(' | b'[' | b'{' | b')' | b']' | b'}' | b',' | b':' | b'"'
+        )
+        && !b[i..].starts_with(b"//")
+        && !b[i..].starts_with(b"/*")
+    {
+        i += 1;
+    }
+    i
 }
 
 /// One step of a path.

@@ -812,6 +812,16 @@ impl SceneFile {
     /// What [`SceneFile::build`] would refuse that needs no file: returns the field and the
     /// message of the first problem (see [`SceneFile::parse`]).
     fn check(&self) -> Result<(), (String, String)> {
+        self.check_timing()?;
+        for (fi, f) in self.fluids.iter().enumerate() {
+            check_fluid(fi, f)?;
+        }
+        Ok(())
+    }
+
+    /// The frames ([`MAX_FRAMES`]), the step's length ([`MAX_STEP_SECONDS`]) and the steps
+    /// per frame ([`MAX_STEPS_PER_FRAME`]): the run's length in steps must stay bounded.
+    fn check_timing(&self) -> Result<(), (String, String)> {
         let frames = self.duration.0 as f64 * self.frame_rate.0 as f64;
         if frames > MAX_FRAMES as f64 {
             return Err((
@@ -853,62 +863,6 @@ impl SceneFile {
                     self.frame_rate.0
                 ),
             ));
-        }
-        for (fi, f) in self.fluids.iter().enumerate() {
-            let field = |name: String| format!("fluids[{fi}]{name}");
-            let Ok(params) = f.params() else {
-                continue; // checked as the fluid was read
-            };
-            let s = params.particle_spacing;
-            let bytes = crate::fluid::bytes_per_particle(&params);
-            let far = |p: Vector| !crate::math::is_finite(p) || p.abs().max_element() > 1.0e7;
-            let mut total = 0.0f64;
-            for (k, b) in f.blocks.iter().enumerate() {
-                let counts = crate::fluid::block_counts(s, b.size.vector());
-                total += counts.x as f64 * counts.y as f64 * counts.z as f64;
-                crate::fluid::check_particle_count(total, bytes, "size")
-                    .map_err(|e| (field(format!(".blocks[{k}].size")), e.to_string()))?;
-                // The lattice's first and last points, as `Fluid::add_block` places them.
-                let first = b.min.vector() + Vector::splat(0.5 * s);
-                let last = first + (counts - Vector::ONE) * s;
-                if far(first) || far(last) {
-                    return Err((
-                        field(format!(".blocks[{k}].min")),
-                        "the block reaches beyond 10,000 km from the origin (single precision \
-                         cannot resolve particle spacing there)"
-                            .into(),
-                    ));
-                }
-            }
-            if let Some(k) = f.particles.iter().position(|p| far(p.vector())) {
-                return Err((
-                    field(format!(".particles[{k}]")),
-                    "position beyond 10,000 km from the origin (single precision cannot \
-                     resolve particle spacing there)"
-                        .into(),
-                ));
-            }
-            total += f.particles.len() as f64;
-            crate::fluid::check_particle_count(total, bytes, "particles")
-                .map_err(|e| (field(".particles".into()), e.to_string()))?;
-            for (k, e) in f.emitters.iter().enumerate() {
-                let emitter = e
-                    .emitter(s)
-                    .map_err(|m| (field(format!(".emitters[{k}]")), m))?;
-                emitter
-                    .check_slots(s)
-                    .map_err(|e| (field(format!(".emitters[{k}].nozzle")), e.to_string()))?;
-            }
-            if let Some(cap) = f.capacity {
-                if (cap as f64) < total {
-                    return Err((
-                        field(".capacity".into()),
-                        format!("{cap} is below the {total} particles the file adds"),
-                    ));
-                }
-                crate::fluid::check_particle_count(cap as f64, bytes, "capacity")
-                    .map_err(|e| (field(".capacity".into()), e.to_string()))?;
-            }
         }
         Ok(())
     }
@@ -1007,103 +961,30 @@ impl SceneFile {
     /// Builds the world. Relative mesh paths are resolved against `base_dir` (the scene
     /// file's folder); `path` names the scene in errors.
     pub fn build(&self, path: &Path, base_dir: &Path) -> Result<BuiltScene, SceneError> {
-        let invalid = |field: String, message: String| SceneError::Invalid {
-            path: path.to_path_buf(),
-            field,
-            message,
-        };
-        self.check_names().map_err(|(f, m)| invalid(f, m))?;
-        let mut named_colliders: Vec<(String, ColliderHandle)> = Vec::new();
+        self.check_names().map_err(|(f, m)| invalid(path, f, m))?;
         let mut world = FluidWorld::new();
         world.physics.gravity = self.gravity.vector();
         let (dt, steps_per_frame) = self.time_step();
         world.physics.integration_parameters.dt = dt;
+        let mut builder = WorldBuilder {
+            path,
+            base_dir,
+            world,
+            named_colliders: Vec::new(),
+        };
         let mut bodies = Vec::new();
         for (bi, b) in self.bodies.iter().enumerate() {
-            let builder = match b.kind {
-                BodyKind::Fixed => RigidBodyBuilder::fixed(),
-                BodyKind::Dynamic => RigidBodyBuilder::dynamic(),
-                BodyKind::KinematicPositionBased => RigidBodyBuilder::kinematic_position_based(),
-                BodyKind::KinematicVelocityBased => RigidBodyBuilder::kinematic_velocity_based(),
-            }
-            .translation(b.position.vector())
-            .rotation(b.rotation.vector())
-            .linvel(b.linvel.vector())
-            .angvel(b.angvel.vector());
-            let handle = world.physics.insert_body(builder);
-            for (ci, c) in b.colliders.iter().enumerate() {
-                let field = format!("bodies[{bi}].colliders[{ci}].shape");
-                let shape = c.shape.build(base_dir).map_err(|m| invalid(field, m))?;
-                let mut cb = ColliderBuilder::new(shape)
-                    .position(crate::math::Pose::from_parts(
-                        c.position.vector(),
-                        Rotation::from_scaled_axis(c.rotation.vector()),
-                    ))
-                    .sensor(c.sensor);
-                if let Some(d) = c.density {
-                    cb = cb.density(d.0);
-                }
-                if let Some(f) = c.friction {
-                    cb = cb.friction(f.0);
-                }
-                if let Some(r) = c.restitution {
-                    cb = cb.restitution(r.0);
-                }
-                let ch = world.physics.insert_collider(cb, Some(handle));
-                if let Some(n) = &c.name {
-                    named_colliders.push((n.0.clone(), ch));
-                }
-            }
-            bodies.push(handle);
+            bodies.push(builder.add_body(bi, b)?);
         }
         let mut fluids = Vec::new();
         for (fi, f) in self.fluids.iter().enumerate() {
-            let field = |name: &str| format!("fluids[{fi}]{name}");
-            let params = f.params().map_err(|e| invalid(field(""), e.to_string()))?;
-            let mut fluid = Fluid::new(params).map_err(|e| invalid(field(""), e.to_string()))?;
-            for (k, b) in f.blocks.iter().enumerate() {
-                fluid
-                    .add_block(b.min.vector(), b.size.vector())
-                    .map_err(|e| invalid(field(&format!(".blocks[{k}]")), e.to_string()))?;
-            }
-            let points: Vec<Vector> = f.particles.iter().map(|p| p.vector()).collect();
-            fluid
-                .add_particles(&points)
-                .map_err(|e| invalid(field(".particles"), e.to_string()))?;
-            let spacing = fluid.params().particle_spacing;
-            for (k, e) in f.emitters.iter().enumerate() {
-                let field = field(&format!(".emitters[{k}]"));
-                let emitter = e.emitter(spacing).map_err(|m| invalid(field.clone(), m))?;
-                fluid
-                    .add_emitter(emitter)
-                    .map_err(|e| invalid(field, e.to_string()))?;
-            }
-            for (k, s) in f.sinks.iter().enumerate() {
-                let field = field(&format!(".sinks[{k}]"));
-                let sink = s
-                    .sink(|name| {
-                        named_colliders
-                            .iter()
-                            .find(|(n, _)| n == name)
-                            .map(|(_, h)| *h)
-                    })
-                    .map_err(|m| invalid(field.clone(), m))?;
-                fluid
-                    .add_sink(sink)
-                    .map_err(|e| invalid(field, e.to_string()))?;
-            }
-            if f.capacity.is_some() {
-                fluid
-                    .set_capacity(f.capacity)
-                    .map_err(|e| invalid(field(".capacity"), e.to_string()))?;
-            }
-            fluids.push(world.fluids.insert(fluid));
+            fluids.push(builder.add_fluid(fi, f)?);
         }
         Ok(BuiltScene {
-            world,
+            world: builder.world,
             fluids,
             bodies,
-            named_colliders,
+            named_colliders: builder.named_colliders,
             dt,
             steps_per_frame,
             frames: self.frames(),
@@ -1145,6 +1026,215 @@ fn located(text: &str, path: &Path, field: String, message: String) -> SceneErro
         column,
         field,
         message,
+    }
+}
+
+/// Is `p` beyond 10,000 km from the origin (or not finite)? Single precision cannot
+/// resolve a particle spacing there.
+fn far(p: Vector) -> bool {
+    !crate::math::is_finite(p) || p.abs().max_element() > 1.0e7
+}
+
+/// What [`SceneFile::build`] would refuse in fluid `fi` without reading a file: its particle
+/// count and memory, positions within 10,000 km, its emitters at its spacing, its capacity.
+/// Returns the field and the message of the first problem.
+fn check_fluid(fi: usize, f: &FluidDesc) -> Result<(), (String, String)> {
+    let field = |name: String| format!("fluids[{fi}]{name}");
+    let Ok(params) = f.params() else {
+        return Ok(()); // checked as the fluid was read
+    };
+    let s = params.particle_spacing;
+    let bytes = crate::fluid::bytes_per_particle(&params);
+    let mut total = check_blocks(fi, f, s, bytes)?;
+    if let Some(k) = f.particles.iter().position(|p| far(p.vector())) {
+        return Err((
+            field(format!(".particles[{k}]")),
+            "position beyond 10,000 km from the origin (single precision cannot \
+             resolve particle spacing there)"
+                .into(),
+        ));
+    }
+    total += f.particles.len() as f64;
+    crate::fluid::check_particle_count(total, bytes, "particles")
+        .map_err(|e| (field(".particles".into()), e.to_string()))?;
+    for (k, e) in f.emitters.iter().enumerate() {
+        let emitter = e
+            .emitter(s)
+            .map_err(|m| (field(format!(".emitters[{k}]")), m))?;
+        emitter
+            .check_slots(s)
+            .map_err(|e| (field(format!(".emitters[{k}].nozzle")), e.to_string()))?;
+    }
+    if let Some(cap) = f.capacity {
+        if (cap as f64) < total {
+            return Err((
+                field(".capacity".into()),
+                format!("{cap} is below the {total} particles the file adds"),
+            ));
+        }
+        crate::fluid::check_particle_count(cap as f64, bytes, "capacity")
+            .map_err(|e| (field(".capacity".into()), e.to_string()))?;
+    }
+    Ok(())
+}
+
+/// Fluid `fi`'s blocks at spacing `s`: the running particle count against the memory limit
+/// (`bytes` per particle) and each lattice's first and last points within 10,000 km.
+/// Returns the blocks' particle count.
+fn check_blocks(fi: usize, f: &FluidDesc, s: Real, bytes: usize) -> Result<f64, (String, String)> {
+    let field = |name: String| format!("fluids[{fi}]{name}");
+    let mut total = 0.0f64;
+    for (k, b) in f.blocks.iter().enumerate() {
+        let counts = crate::fluid::block_counts(s, b.size.vector());
+        total += counts.x as f64 * counts.y as f64 * counts.z as f64;
+        crate::fluid::check_particle_count(total, bytes, "size")
+            .map_err(|e| (field(format!(".blocks[{k}].size")), e.to_string()))?;
+        // The lattice's first and last points, as `Fluid::add_block` places them.
+        let first = b.min.vector() + Vector::splat(0.5 * s);
+        let last = first + (counts - Vector::ONE) * s;
+        if far(first) || far(last) {
+            return Err((
+                field(format!(".blocks[{k}].min")),
+                "the block reaches beyond 10,000 km from the origin (single precision \
+                 cannot resolve particle spacing there)"
+                    .into(),
+            ));
+        }
+    }
+    Ok(total)
+}
+
+/// A [`SceneError::Invalid`] naming the scene file `path` and the `field` at fault.
+fn invalid(path: &Path, field: String, message: String) -> SceneError {
+    SceneError::Invalid {
+        path: path.to_path_buf(),
+        field,
+        message,
+    }
+}
+
+/// The world as [`SceneFile::build`] fills it: bodies first (with their colliders, whose
+/// names the fluids' sinks refer to), then fluids. Holds what every part needs: the file's
+/// path (for errors), the folder mesh paths are relative to, and the names given so far.
+struct WorldBuilder<'a> {
+    path: &'a Path,
+    base_dir: &'a Path,
+    world: FluidWorld,
+    named_colliders: Vec<(String, ColliderHandle)>,
+}
+
+impl WorldBuilder<'_> {
+    /// [`invalid`] for this scene file.
+    fn invalid(&self, field: String, message: String) -> SceneError {
+        invalid(self.path, field, message)
+    }
+
+    /// Inserts body `bi` and its colliders; returns its handle.
+    fn add_body(&mut self, bi: usize, b: &BodyDesc) -> Result<RigidBodyHandle, SceneError> {
+        let builder = match b.kind {
+            BodyKind::Fixed => RigidBodyBuilder::fixed(),
+            BodyKind::Dynamic => RigidBodyBuilder::dynamic(),
+            BodyKind::KinematicPositionBased => RigidBodyBuilder::kinematic_position_based(),
+            BodyKind::KinematicVelocityBased => RigidBodyBuilder::kinematic_velocity_based(),
+        }
+        .translation(b.position.vector())
+        .rotation(b.rotation.vector())
+        .linvel(b.linvel.vector())
+        .angvel(b.angvel.vector());
+        let handle = self.world.physics.insert_body(builder);
+        for (ci, c) in b.colliders.iter().enumerate() {
+            self.add_collider(handle, format!("bodies[{bi}].colliders[{ci}].shape"), c)?;
+        }
+        Ok(handle)
+    }
+
+    /// Inserts collider `c` on `body` (its shape's errors name `field`) and records its name.
+    fn add_collider(
+        &mut self,
+        body: RigidBodyHandle,
+        field: String,
+        c: &ColliderDesc,
+    ) -> Result<(), SceneError> {
+        let shape = c
+            .shape
+            .build(self.base_dir)
+            .map_err(|m| self.invalid(field, m))?;
+        let mut cb = ColliderBuilder::new(shape)
+            .position(crate::math::Pose::from_parts(
+                c.position.vector(),
+                Rotation::from_scaled_axis(c.rotation.vector()),
+            ))
+            .sensor(c.sensor);
+        if let Some(d) = c.density {
+            cb = cb.density(d.0);
+        }
+        if let Some(f) = c.friction {
+            cb = cb.friction(f.0);
+        }
+        if let Some(r) = c.restitution {
+            cb = cb.restitution(r.0);
+        }
+        let ch = self.world.physics.insert_collider(cb, Some(body));
+        if let Some(n) = &c.name {
+            self.named_colliders.push((n.0.clone(), ch));
+        }
+        Ok(())
+    }
+
+    /// Builds fluid `fi` (its blocks, particles, emitters, sinks and capacity) and inserts it;
+    /// returns its handle. Sinks may name any collider of the file (bodies come first).
+    fn add_fluid(&mut self, fi: usize, f: &FluidDesc) -> Result<FluidHandle, SceneError> {
+        let field = |name: &str| format!("fluids[{fi}]{name}");
+        let params = f
+            .params()
+            .map_err(|e| self.invalid(field(""), e.to_string()))?;
+        let mut fluid = Fluid::new(params).map_err(|e| self.invalid(field(""), e.to_string()))?;
+        for (k, b) in f.blocks.iter().enumerate() {
+            fluid
+                .add_block(b.min.vector(), b.size.vector())
+                .map_err(|e| self.invalid(field(&format!(".blocks[{k}]")), e.to_string()))?;
+        }
+        let points: Vec<Vector> = f.particles.iter().map(|p| p.vector()).collect();
+        fluid
+            .add_particles(&points)
+            .map_err(|e| self.invalid(field(".particles"), e.to_string()))?;
+        self.add_sources(fi, f, &mut fluid)?;
+        if f.capacity.is_some() {
+            fluid
+                .set_capacity(f.capacity)
+                .map_err(|e| self.invalid(field(".capacity"), e.to_string()))?;
+        }
+        Ok(self.world.fluids.insert(fluid))
+    }
+
+    /// Adds fluid `fi`'s emitters (at the fluid's spacing) and sinks (their collider names
+    /// resolved against the colliders inserted so far) to `fluid`.
+    fn add_sources(&self, fi: usize, f: &FluidDesc, fluid: &mut Fluid) -> Result<(), SceneError> {
+        let spacing = fluid.params().particle_spacing;
+        for (k, e) in f.emitters.iter().enumerate() {
+            let field = format!("fluids[{fi}].emitters[{k}]");
+            let emitter = e
+                .emitter(spacing)
+                .map_err(|m| self.invalid(field.clone(), m))?;
+            fluid
+                .add_emitter(emitter)
+                .map_err(|e| self.invalid(field, e.to_string()))?;
+        }
+        for (k, s) in f.sinks.iter().enumerate() {
+            let field = format!("fluids[{fi}].sinks[{k}]");
+            let sink = s
+                .sink(|name| {
+                    self.named_colliders
+                        .iter()
+                        .find(|(n, _)| n == name)
+                        .map(|(_, h)| *h)
+                })
+                .map_err(|m| self.invalid(field.clone(), m))?;
+            fluid
+                .add_sink(sink)
+                .map_err(|e| self.invalid(field, e.to_string()))?;
+        }
+        Ok(())
     }
 }
 

@@ -261,31 +261,13 @@ impl ShapeDesc {
                 c,
                 border_radius,
             } => SharedShape::round_triangle(a.vector(), b.vector(), c.vector(), border_radius.0),
-            ShapeDesc::Polyline { vertices, indices } => {
-                if vertices.len() < 2 {
-                    return Err("a polyline needs at least 2 vertices".into());
-                }
-                let idx = indices
-                    .as_ref()
-                    .map(|v| v.iter().map(|&(a, b)| [a, b]).collect::<Vec<_>>());
-                if let Some(idx) = &idx {
-                    check_indices(idx, vertices.len())?;
-                }
-                SharedShape::polyline(points(vertices), idx)
-            }
+            ShapeDesc::Polyline { vertices, indices } => polyline(vertices, indices.as_deref())?,
             ShapeDesc::TriMesh { vertices, indices } => {
                 let idx: Vec<[u32; 3]> = indices.iter().map(|&(a, b, c)| [a, b, c]).collect();
                 check_indices(&idx, vertices.len())?;
                 SharedShape::trimesh(points(vertices), idx).map_err(|e| format!("{e:?}"))?
             }
-            ShapeDesc::TriMeshFile { path, scale } => {
-                let file = base_dir.join(path);
-                let (vertices, idx) = read_obj(&file)?;
-                let s = scale.map(|s| s.vector()).unwrap_or(Vector::ONE);
-                let vertices = vertices.into_iter().map(|v| v * s).collect();
-                SharedShape::trimesh(vertices, idx)
-                    .map_err(|e| format!("{}: {e:?}", file.display()))?
-            }
+            ShapeDesc::TriMeshFile { path, scale } => trimesh_file(&base_dir.join(path), *scale)?,
             ShapeDesc::ConvexHull { points: p } => SharedShape::convex_hull(&points(p))
                 .ok_or("the convex hull is degenerate (fewer than 4 points not on a plane)")?,
             ShapeDesc::RoundConvexHull {
@@ -293,24 +275,7 @@ impl ShapeDesc {
                 border_radius,
             } => SharedShape::round_convex_hull(&points(p), border_radius.0)
                 .ok_or("the convex hull is degenerate (fewer than 4 points not on a plane)")?,
-            ShapeDesc::HeightField { heights, scale } => {
-                let nrows = heights.len();
-                let ncols = heights.first().map_or(0, |r| r.len());
-                if nrows < 2 || ncols < 2 || heights.iter().any(|r| r.len() != ncols) {
-                    return Err("heights must be at least 2 rows of at least 2 values, all rows of the same length".into());
-                }
-                if heights.iter().flatten().any(|h| !h.is_finite()) {
-                    return Err("a height is not a finite number".into());
-                }
-                // parry's Array2 is column-major with rows along z.
-                let mut data = Vec::with_capacity(nrows * ncols);
-                for j in 0..ncols {
-                    for row in heights {
-                        data.push(row[j]);
-                    }
-                }
-                SharedShape::heightfield(Array2::new(nrows, ncols, data), scale.vector())
-            }
+            ShapeDesc::HeightField { heights, scale } => heightfield(heights, scale)?,
             ShapeDesc::HalfSpace { normal } => {
                 let n = normal.vector();
                 if n.length() < 1e-6 {
@@ -327,29 +292,82 @@ impl ShapeDesc {
                 }
                 SharedShape::voxels_from_points(voxel_size.vector(), &points(p))
             }
-            ShapeDesc::Compound { parts } => {
-                if parts.is_empty() {
-                    return Err("a compound needs at least one part".into());
-                }
-                let mut shapes = Vec::with_capacity(parts.len());
-                for (k, part) in parts.iter().enumerate() {
-                    if matches!(part.shape, ShapeDesc::Compound { .. }) {
-                        return Err(format!("part {k}: a compound cannot hold a compound"));
-                    }
-                    let s = part
-                        .shape
-                        .build(base_dir)
-                        .map_err(|e| format!("part {k}: {e}"))?;
-                    let pose = Pose::from_parts(
-                        part.position.vector(),
-                        Rotation::from_scaled_axis(part.rotation.vector()),
-                    );
-                    shapes.push((pose, s));
-                }
-                SharedShape::compound(shapes)
-            }
+            ShapeDesc::Compound { parts } => compound(parts, base_dir)?,
         })
     }
+}
+
+/// A polyline through `vertices`, joined in order or by the segments `indices` (checked
+/// against the vertex count, so a bad index is an error rather than a panic).
+fn polyline(vertices: &[Vec3], indices: Option<&[(u32, u32)]>) -> Result<SharedShape, String> {
+    if vertices.len() < 2 {
+        return Err("a polyline needs at least 2 vertices".into());
+    }
+    let idx = indices.map(|v| v.iter().map(|&(a, b)| [a, b]).collect::<Vec<_>>());
+    if let Some(idx) = &idx {
+        check_indices(idx, vertices.len())?;
+    }
+    Ok(SharedShape::polyline(points(vertices), idx))
+}
+
+/// The triangle mesh of the OBJ file `file`, its vertices scaled by `scale` per axis (none:
+/// as read). Errors name the file.
+fn trimesh_file(file: &Path, scale: Option<PositiveVec3>) -> Result<SharedShape, String> {
+    let (vertices, idx) = read_obj(file)?;
+    let s = scale.map(|s| s.vector()).unwrap_or(Vector::ONE);
+    let vertices = vertices.into_iter().map(|v| v * s).collect();
+    SharedShape::trimesh(vertices, idx).map_err(|e| format!("{}: {e:?}", file.display()))
+}
+
+/// A height field from `heights` (rows along z, values along x; at least 2 × 2, rectangular,
+/// finite), reordered into parry's column-major grid and scaled by `scale`.
+fn heightfield(heights: &[Vec<Real>], scale: &PositiveVec3) -> Result<SharedShape, String> {
+    let nrows = heights.len();
+    let ncols = heights.first().map_or(0, |r| r.len());
+    if nrows < 2 || ncols < 2 || heights.iter().any(|r| r.len() != ncols) {
+        return Err(
+            "heights must be at least 2 rows of at least 2 values, all rows of the same length"
+                .into(),
+        );
+    }
+    if heights.iter().flatten().any(|h| !h.is_finite()) {
+        return Err("a height is not a finite number".into());
+    }
+    // parry's Array2 is column-major with rows along z.
+    let mut data = Vec::with_capacity(nrows * ncols);
+    for j in 0..ncols {
+        for row in heights {
+            data.push(row[j]);
+        }
+    }
+    Ok(SharedShape::heightfield(
+        Array2::new(nrows, ncols, data),
+        scale.vector(),
+    ))
+}
+
+/// A compound of `parts`, each built (file paths against `base_dir`) and placed at its pose;
+/// at least one part and no nested compound (parry panics on nested composite shapes). Errors name the part.
+fn compound(parts: &[CompoundPart], base_dir: &Path) -> Result<SharedShape, String> {
+    if parts.is_empty() {
+        return Err("a compound needs at least one part".into());
+    }
+    let mut shapes = Vec::with_capacity(parts.len());
+    for (k, part) in parts.iter().enumerate() {
+        if matches!(part.shape, ShapeDesc::Compound { .. }) {
+            return Err(format!("part {k}: a compound cannot hold a compound"));
+        }
+        let s = part
+            .shape
+            .build(base_dir)
+            .map_err(|e| format!("part {k}: {e}"))?;
+        let pose = Pose::from_parts(
+            part.position.vector(),
+            Rotation::from_scaled_axis(part.rotation.vector()),
+        );
+        shapes.push((pose, s));
+    }
+    Ok(SharedShape::compound(shapes))
 }
 
 /// Reads the triangles of an OBJ file (all models merged) with `tobj`.
