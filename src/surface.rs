@@ -13,6 +13,7 @@ use crate::fluid::{Fluid, FluidSet};
 use crate::math::{Real, Vector};
 use crate::mesh::TriangleMesh;
 use splashsurf_lib::nalgebra::Vector3;
+use std::borrow::Cow;
 use std::fmt;
 
 /// Reconstruction settings, relative to each fluid's particle spacing.
@@ -126,30 +127,7 @@ pub fn reconstruct_points(
     rest_density: Real,
     options: &SurfaceOptions,
 ) -> Result<TriangleMesh, SurfaceError> {
-    let bad = |what: &str, v: Real| SurfaceError {
-        message: format!("{what} must be positive and finite, got {v}"),
-    };
-    if !(0.0..=1.0).contains(&options.smoothed_centres)
-        || !(0.0..=1.0).contains(&options.mesh_smoothing)
-    {
-        return Err(SurfaceError {
-            message: format!(
-                "smoothed_centres and mesh_smoothing must be in [0, 1], got {} and {}",
-                options.smoothed_centres, options.mesh_smoothing
-            ),
-        });
-    }
-    for (what, v) in [
-        ("spacing", spacing),
-        ("rest density", rest_density),
-        ("support_factor", options.support_factor),
-        ("cube_size_factor", options.cube_size_factor),
-        ("iso_surface_threshold", options.iso_surface_threshold),
-    ] {
-        if !(v.is_finite() && v > 0.0) {
-            return Err(bad(what, v));
-        }
-    }
+    check_settings(spacing, rest_density, options)?;
     if positions.is_empty() {
         return Ok(TriangleMesh::default());
     }
@@ -158,28 +136,8 @@ pub fn reconstruct_points(
             message: format!("particle {i} has a non-finite position"),
         });
     }
-    let smoothed;
-    let positions = if options.smoothed_centres > 0.0 {
-        let mut a = crate::visual::Anisotropy::new(crate::visual::AnisotropySettings {
-            // The reconstruction kernel's support: the centres are smoothed over the
-            // neighbourhood the surface is built from.
-            radius: options.support_factor,
-            smoothing: options.smoothed_centres,
-            ..Default::default()
-        })
-        .map_err(|e| SurfaceError {
-            message: e.to_string(),
-        })?;
-        smoothed = a
-            .compute_points(positions, spacing)
-            .iter()
-            .map(|e| e.center)
-            .collect::<Vec<_>>();
-        &smoothed[..]
-    } else {
-        positions
-    };
-    let points: Vec<Vector3<f32>> = positions
+    let centres = centres(positions, spacing, options)?;
+    let points: Vec<Vector3<f32>> = centres
         .iter()
         .map(|p| Vector3::new(p.x, p.y, p.z))
         .collect();
@@ -201,6 +159,88 @@ pub fn reconstruct_points(
         }
         SurfaceError { message }
     })?;
+    postprocess(&mut r, options);
+    let mesh = &r.mesh;
+    Ok(TriangleMesh {
+        vertices: mesh
+            .vertices
+            .iter()
+            .map(|v| Vector::new(v.x, v.y, v.z))
+            .collect(),
+        triangles: mesh
+            .triangles
+            .iter()
+            .map(|t| [t[0] as u32, t[1] as u32, t[2] as u32])
+            .collect(),
+    })
+}
+
+/// Refuses settings splashsurf cannot build from: the smoothing fractions outside [0, 1],
+/// and a spacing, rest density or size factor that is not positive and finite.
+fn check_settings(
+    spacing: Real,
+    rest_density: Real,
+    options: &SurfaceOptions,
+) -> Result<(), SurfaceError> {
+    if !(0.0..=1.0).contains(&options.smoothed_centres)
+        || !(0.0..=1.0).contains(&options.mesh_smoothing)
+    {
+        return Err(SurfaceError {
+            message: format!(
+                "smoothed_centres and mesh_smoothing must be in [0, 1], got {} and {}",
+                options.smoothed_centres, options.mesh_smoothing
+            ),
+        });
+    }
+    for (what, v) in [
+        ("spacing", spacing),
+        ("rest density", rest_density),
+        ("support_factor", options.support_factor),
+        ("cube_size_factor", options.cube_size_factor),
+        ("iso_surface_threshold", options.iso_surface_threshold),
+    ] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(SurfaceError {
+                message: format!("{what} must be positive and finite, got {v}"),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The centres the surface is built around: the particles' positions, or with
+/// [`SurfaceOptions::smoothed_centres`] above 0 the Laplacian-smoothed centres
+/// [`crate::visual::Anisotropy`] computes (borrowed when unchanged, to avoid a copy).
+fn centres<'a>(
+    positions: &'a [Vector],
+    spacing: Real,
+    options: &SurfaceOptions,
+) -> Result<Cow<'a, [Vector]>, SurfaceError> {
+    if options.smoothed_centres <= 0.0 {
+        return Ok(Cow::Borrowed(positions));
+    }
+    let mut a = crate::visual::Anisotropy::new(crate::visual::AnisotropySettings {
+        // The reconstruction kernel's support: the centres are smoothed over the
+        // neighbourhood the surface is built from.
+        radius: options.support_factor,
+        smoothing: options.smoothed_centres,
+        ..Default::default()
+    })
+    .map_err(|e| SurfaceError {
+        message: e.to_string(),
+    })?;
+    Ok(Cow::Owned(
+        a.compute_points(positions, spacing)
+            .iter()
+            .map(|e| e.center)
+            .collect(),
+    ))
+}
+
+/// splashsurf's post-processing of the marching-cubes mesh, each step only when `options`
+/// asks for it, in this order: [`SurfaceOptions::cleanup`],
+/// [`SurfaceOptions::decimate_barnacles`], [`SurfaceOptions::mesh_smoothing_iterations`].
+fn postprocess(r: &mut splashsurf_lib::SurfaceReconstruction<i64, f32>, options: &SurfaceOptions) {
     if options.cleanup {
         splashsurf_lib::postprocessing::marching_cubes_cleanup(
             &mut r.mesh,
@@ -225,19 +265,6 @@ pub fn reconstruct_points(
             &weights,
         );
     }
-    let mesh = &r.mesh;
-    Ok(TriangleMesh {
-        vertices: mesh
-            .vertices
-            .iter()
-            .map(|v| Vector::new(v.x, v.y, v.z))
-            .collect(),
-        triangles: mesh
-            .triangles
-            .iter()
-            .map(|t| [t[0] as u32, t[1] as u32, t[2] as u32])
-            .collect(),
-    })
 }
 
 /// The surfaces of every fluid of the set, in one mesh.
