@@ -439,33 +439,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     println!(
         "state hash           {:016x} (FNV-1a of ids, positions, velocities: equal hashes, bitwise equal runs)",
-        state_hash(&scene.world.fluids[scene.fluid])
+        scene.world.fluids[scene.fluid].state_hash()
     );
     if scene.escaped() > 0 || non_finite > 0 {
         return Err("particles escaped or became non-finite".into());
     }
     Ok(())
-}
-
-/// 64-bit FNV-1a over the bits of every particle's id, position and velocity, in order.
-fn state_hash(fluid: &rapier_sph::Fluid) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    let mut eat = |w: u32| {
-        for b in w.to_le_bytes() {
-            h ^= b as u64;
-            h = h.wrapping_mul(0x0000_0100_0000_01b3);
-        }
-    };
-    for ((p, v), &id) in fluid
-        .positions()
-        .iter()
-        .zip(fluid.velocities())
-        .zip(fluid.ids())
-    {
-        eat(id);
-        for c in [p.x, p.y, p.z, v.x, v.y, v.z] {
-            eat(c.to_bits());
-        }
-    }
-    h
 }

@@ -47,6 +47,17 @@ pub enum SphError {
         /// How many positions were checked.
         positions: usize,
     },
+    /// Particles are inside a solid collider ([`crate::check::no_particle_in_solids`]).
+    ParticlesInSolid {
+        /// `(particle id, collider)` of each, sorted by id.
+        particles: Vec<(u32, rapier3d::geometry::ColliderHandle)>,
+    },
+    /// Particles are outside the container that should hold them
+    /// ([`crate::check::all_inside`]).
+    ParticlesOutside {
+        /// Their ids, sorted.
+        ids: Vec<u32>,
+    },
     /// Reference data of a validation scene could not be read (the `validation` feature).
     ReferenceData {
         /// The file or folder.
@@ -85,6 +96,22 @@ impl fmt::Display for SphError {
                  out through its surface; build a tank without ORIENTED (a surface) or with \
                  its normals facing the fluid"
             ),
+            SphError::ParticlesInSolid { particles } => {
+                let first: Vec<u32> = particles.iter().take(8).map(|p| p.0).collect();
+                write!(
+                    f,
+                    "{} particles inside solid colliders (first ids: {first:?})",
+                    particles.len()
+                )
+            }
+            SphError::ParticlesOutside { ids } => {
+                let first = &ids[..ids.len().min(8)];
+                write!(
+                    f,
+                    "{} particles outside the container (first ids: {first:?})",
+                    ids.len()
+                )
+            }
             SphError::ReferenceData { path, reason } => {
                 write!(f, "reference data {path}: {reason}")
             }

@@ -110,6 +110,7 @@
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub(crate) mod boundary;
+pub mod check;
 pub(crate) mod density;
 pub mod diagnostics;
 pub mod domain;
@@ -152,9 +153,9 @@ pub mod world;
 
 pub use diagnostics::{Stage, StageTimings, StepReport};
 pub use domain::Domain;
-pub use emitter::{Emitter, EmitterHandle, Nozzle, Sink, SinkHandle, SinkRegion};
+pub use emitter::{Attachment, Emitter, EmitterHandle, Nozzle, Sink, SinkHandle, SinkRegion};
 pub use error::{SphError, SphResult};
-pub use fluid::{Fluid, FluidHandle, FluidSet};
+pub use fluid::{Fluid, FluidHandle, FluidSet, IntoFluidParams};
 pub use kernel::KernelKind;
 pub use params::{EquationOfState, FluidParams, FluidParamsBuilder};
 pub use pipeline::{FluidPipeline, TimeStepping};
@@ -174,4 +175,6 @@ pub mod prelude {
         Pbf, Region, RegionTracker, Sink, SinkRegion, Solver, SphError, SphResult, Springs, Stage,
         StepReport, TimeStepping,
     };
+    // Emitters carried by bodies, handles, and the one-call `Fluid::new(builder)`.
+    pub use crate::{Attachment, EmitterHandle, IntoFluidParams, SinkHandle};
 }

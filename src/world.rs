@@ -4,7 +4,7 @@ use crate::diagnostics::StepReport;
 use crate::error::SphResult;
 use crate::fluid::FluidSet;
 use crate::pipeline::FluidPipeline;
-use rapier3d::pipeline::PhysicsWorld;
+use rapier3d::pipeline::{EventHandler, PhysicsHooks, PhysicsWorld};
 
 /// A rapier [`PhysicsWorld`] plus fluids, stepped together: rapier first, then the fluids,
 /// with the world's gravity and time step (`physics.integration_parameters.dt`).
@@ -52,10 +52,46 @@ impl FluidWorld {
     ///
     /// As [`FluidPipeline::step`]: [`crate::SphError::InvalidTimeStep`] for a time step that
     /// is not positive and finite, [`crate::SphError::InvalidParameter`] for a non-finite
-    /// gravity or `rapier_substeps` of 0; the fluids are left unchanged (rapier has
-    /// stepped).
+    /// gravity, [`crate::SphError::InvalidParameter`] naming `num_solver_iterations` when
+    /// it is 0; the fluids are left unchanged (rapier has stepped).
     pub fn step(&mut self) -> SphResult<&StepReport> {
         self.physics.step();
+        self.step_fluids()
+    }
+
+    /// [`FluidWorld::step`] with rapier's physics hooks and event handler
+    /// (`PhysicsWorld::step_with_events`): collision events, contact forces and contact
+    /// filtering for the game, then the fluids.
+    ///
+    /// # Errors
+    ///
+    /// As [`FluidWorld::step`].
+    ///
+    /// # Examples
+    ///
+    /// ```
+    /// use rapier_sph::prelude::*;
+    /// use rapier_sph::rapier3d::prelude::{ChannelEventCollector, ColliderBuilder, RigidBodyBuilder};
+    ///
+    /// let mut world = FluidWorld::new();
+    /// let floor = world.physics.insert_body(RigidBodyBuilder::fixed());
+    /// world.physics.insert_collider(ColliderBuilder::cuboid(1.0, 0.1, 1.0), Some(floor));
+    /// let mut water = Fluid::new(FluidParamsBuilder::water(0.05))?;
+    /// water.add_block(Vector::new(-0.2, 0.1, -0.2), Vector::new(0.4, 0.2, 0.4))?;
+    /// world.fluids.insert(water);
+    /// let (collisions, _collision_events) = std::sync::mpsc::channel();
+    /// let (forces, _force_events) = std::sync::mpsc::channel();
+    /// let (tears, _tear_events) = std::sync::mpsc::channel();
+    /// let events = ChannelEventCollector::new(collisions, forces, tears);
+    /// world.step_with_events(&(), &events)?;
+    /// # Ok::<(), rapier_sph::SphError>(())
+    /// ```
+    pub fn step_with_events(
+        &mut self,
+        hooks: &dyn PhysicsHooks,
+        events: &dyn EventHandler,
+    ) -> SphResult<&StepReport> {
+        self.physics.step_with_events(hooks, events);
         self.step_fluids()
     }
 
@@ -67,15 +103,7 @@ impl FluidWorld {
     ///
     /// As [`FluidPipeline::step`].
     pub fn step_fluids(&mut self) -> SphResult<&StepReport> {
-        let p = &mut self.physics;
-        self.pipeline.rapier_substeps = p.integration_parameters.num_solver_iterations;
-        self.pipeline.step(
-            p.gravity,
-            p.integration_parameters.dt,
-            &mut self.fluids,
-            &mut p.bodies,
-            &p.colliders,
-            &p.broad_phase,
-        )
+        self.pipeline
+            .step_world(&mut self.physics, &mut self.fluids)
     }
 }

@@ -54,10 +54,14 @@
 //! particles half a spacing off, drains what rests on it; a sensor collider drains what
 //! enters it.
 
+mod emit;
 mod run;
+
+pub(crate) use emit::EmitWorld;
 
 use crate::error::{SphError, SphResult};
 use crate::math::{Real, Vector, is_finite};
+use rapier3d::dynamics::RigidBodyHandle;
 use rapier3d::geometry::ColliderHandle;
 
 /// Fastest emission rate (particles per second): 2^32. A fluid hands out at most 2^32 − 1
@@ -99,14 +103,33 @@ pub enum Nozzle {
     },
 }
 
+/// What an emitter is carried by ([`crate::Fluid::attach_emitter`]): a hose in a hand, a
+/// watering can, a leaking barrel. Each frame the nozzle takes the pose of the body or
+/// collider at the frame's end (the emitter's position and direction are then in its frame),
+/// and every particle it emits adds the body's velocity at the nozzle, `v + ω × (x − c)`, to
+/// the jet's.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub enum Attachment {
+    /// A rigid body: the emitter's position and direction are in the body's frame.
+    Body(RigidBodyHandle),
+    /// A collider: the emitter's position and direction are in the collider's frame, the
+    /// velocity is its body's (none for a collider without a body).
+    Collider(ColliderHandle),
+}
+
 /// A nozzle that adds particles to its fluid. Build it with [`Emitter::new`] and the setters,
-/// add it with [`crate::Fluid::add_emitter`](crate::Fluid::add_emitter) (which validates it).
+/// add it with [`crate::Fluid::add_emitter`](crate::Fluid::add_emitter) (which validates it),
+/// and attach it to a body or collider with [`crate::Fluid::attach_emitter`] to carry it.
 #[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub struct Emitter {
     nozzle: Nozzle,
     position: Vector,
     direction: Vector,
+    /// What carries it (`None`: `position` and `direction` are in world space).
+    #[cfg_attr(feature = "snapshot", serde(default))]
+    attachment: Option<Attachment>,
     speed: Real,
     rate: Real,
     start: Real,
@@ -135,6 +158,7 @@ impl Emitter {
             nozzle,
             position,
             direction,
+            attachment: None,
             speed,
             rate,
             start: 0.0,
@@ -240,14 +264,19 @@ impl Emitter {
         self.nozzle
     }
 
-    /// Centre of the nozzle (m).
+    /// Center of the nozzle (m; in the frame of its [`Attachment`], if attached).
     pub fn position(&self) -> Vector {
         self.position
     }
 
-    /// Unit direction of the jet.
+    /// Unit direction of the jet (in the frame of its [`Attachment`], if attached).
     pub fn direction(&self) -> Vector {
         self.direction.normalize_or_zero()
+    }
+
+    /// The body or collider carrying it, if any ([`crate::Fluid::attach_emitter`]).
+    pub fn attachment(&self) -> Option<Attachment> {
+        self.attachment
     }
 
     /// Jet speed (m/s).
@@ -276,7 +305,9 @@ impl Emitter {
         self.enabled
     }
 
-    /// Moves the nozzle (e.g. a hose carried by a character).
+    /// Moves the nozzle (a hose aimed by game code; for one carried by a body,
+    /// [`crate::Fluid::attach_emitter`] makes it follow by itself). For an attached emitter,
+    /// `position` and `direction` are in the body's (or collider's) frame.
     ///
     /// # Errors
     ///
@@ -383,7 +414,7 @@ impl Emitter {
         })
     }
 
-    /// Slot positions relative to the centre, with their jet directions.
+    /// Slot positions relative to the center, with their jet directions.
     fn slot_offsets(&self, s: Real) -> Vec<(Vector, Vector)> {
         let dir = self.direction();
         let (u, w) = dir.any_orthonormal_pair();
@@ -421,7 +452,7 @@ impl Emitter {
         }
     }
 
-    /// Bounding radius of the slots around the centre.
+    /// Bounding radius of the slots around the center.
     fn reach(&self) -> Real {
         match self.nozzle {
             Nozzle::Disk { radius } | Nozzle::Sphere { radius } => radius,
@@ -636,4 +667,20 @@ impl<T> Slots<T> {
 pub(crate) struct Sources {
     pub emitters: Slots<Emitter>,
     pub sinks: Slots<Sink>,
+}
+
+impl Sources {
+    /// Every emitter's clock and counts and every sink's count back to zero, as when they were
+    /// added ([`crate::Fluid::reset`]).
+    pub(crate) fn restart(&mut self) {
+        for e in self.emitters.iter_mut() {
+            e.clock = 0.0;
+            e.due = 0;
+            e.emitted = 0;
+            e.next_slot = 0;
+        }
+        for s in self.sinks.iter_mut() {
+            s.drained = 0;
+        }
+    }
 }

@@ -2,14 +2,24 @@
 //! particles due in a frame (after its substeps), its sinks remove the particles inside them
 //! (after every substep). See the module docs of [`crate::emitter`].
 
-use super::{Emitter, EmitterHandle, MAX_ATTEMPTS_PER_FRAME, Sink, SinkHandle, SinkRegion};
-use crate::error::SphResult;
+use super::emit::{EmitWorld, NozzlePose, Placer, Plan, Window, jet_velocity};
+use super::{Attachment, Emitter, EmitterHandle, Sink, SinkHandle, SinkRegion};
+use crate::error::{SphError, SphResult};
 use crate::fluid::Fluid;
 use crate::math::{Real, Vector};
-use parry3d::bounding_volume::{Aabb, BoundingVolume};
-use parry3d::partitioning::{Bvh, BvhNode};
-use parry3d::query::Ray;
-use rapier3d::geometry::{ColliderHandle, ColliderSet};
+use crate::params::FluidParams;
+use parry3d::bounding_volume::BoundingVolume;
+use rapier3d::dynamics::RigidBodySet;
+use rapier3d::geometry::ColliderSet;
+
+/// The error for an emitter handle that names no emitter of the fluid.
+fn unknown_emitter(handle: EmitterHandle) -> SphError {
+    SphError::InvalidParameter {
+        field: "emitter",
+        value: handle.index as f64,
+        reason: "names no emitter of this fluid (removed, or of another fluid)",
+    }
+}
 
 /// What the emitters of one fluid did during one frame.
 #[derive(Copy, Clone, Debug, Default)]
@@ -53,6 +63,107 @@ impl Fluid {
         emitter.check_slots(self.params().particle_spacing)?;
         let (index, generation) = self.sources.emitters.insert(emitter);
         Ok(EmitterHandle { index, generation })
+    }
+
+    /// Attaches an emitter to a rigid body or a collider, which then carries it: each frame
+    /// the nozzle takes the body's (or collider's) pose, its position and direction being
+    /// read in that frame, and the particles it emits add the body's velocity at the nozzle to
+    /// the jet's (see [`Attachment`]). Place the nozzle outside the body's own colliders (a
+    /// particle is never emitted inside a solid). If the body or collider is removed later,
+    /// the emitter's due particles are counted as blocked ([`crate::StepReport::emitter_blocked`])
+    /// until it is attached again or detached.
+    ///
+    /// # Errors
+    /// [`crate::SphError::InvalidParameter`] naming `emitter` when the handle names no emitter
+    /// of this fluid, `body` or `collider` when the attachment names nothing in `bodies` or
+    /// `colliders`; nothing changes.
+    ///
+    /// # Examples
+    /// ```
+    /// use rapier_sph::prelude::*;
+    /// use rapier_sph::rapier3d::prelude::{ColliderBuilder, RigidBodyBuilder};
+    ///
+    /// let mut world = FluidWorld::new();
+    /// // A watering can carried at 1 m/s along x; its spout 20 cm in front, pointing down.
+    /// let can = world.physics.insert_body(
+    ///     RigidBodyBuilder::kinematic_velocity_based()
+    ///         .translation(Vector::new(0.0, 1.0, 0.0))
+    ///         .linvel(Vector::new(1.0, 0.0, 0.0)),
+    /// );
+    /// world.physics.insert_collider(ColliderBuilder::cuboid(0.1, 0.1, 0.1), Some(can));
+    /// let mut water = Fluid::new(FluidParamsBuilder::water(0.04))?;
+    /// let spout = water.add_emitter(Emitter::new(Nozzle::Disk { radius: 0.03 },
+    ///     Vector::new(0.2, 0.0, 0.0), Vector::NEG_Y, 1.0, 300.0))?;
+    /// water.attach_emitter(spout, Attachment::Body(can), &world.physics.bodies,
+    ///                      &world.physics.colliders)?;
+    /// let water = world.fluids.insert(water);
+    /// for _ in 0..6 {
+    ///     world.step()?;
+    /// }
+    /// let fluid = &world.fluids[water];
+    /// assert!(fluid.len() > 0);
+    /// // Every drop left the spout with the can's 1 m/s along x.
+    /// assert!(fluid.velocities().iter().all(|v| v.x > 0.9));
+    /// // A body that does not exist is refused, naming it.
+    /// let mut other = rapier_sph::rapier3d::prelude::RigidBodySet::new();
+    /// let gone = other.insert(RigidBodyBuilder::dynamic());
+    /// let stale = rapier_sph::rapier3d::prelude::RigidBodySet::new();
+    /// assert!(world.fluids[water].emitter(spout).is_some());
+    /// let r = world.fluids[water].attach_emitter(spout, Attachment::Body(gone), &stale,
+    ///                                            &world.physics.colliders);
+    /// assert!(matches!(r, Err(SphError::InvalidParameter { field: "body", .. })));
+    /// # Ok::<(), SphError>(())
+    /// ```
+    pub fn attach_emitter(
+        &mut self,
+        emitter: EmitterHandle,
+        to: Attachment,
+        bodies: &RigidBodySet,
+        colliders: &ColliderSet,
+    ) -> SphResult<()> {
+        match to {
+            Attachment::Body(h) if bodies.get(h).is_none() => {
+                return Err(SphError::InvalidParameter {
+                    field: "body",
+                    value: h.into_raw_parts().0 as f64,
+                    reason: "names no rigid body of the set (removed, or from another set)",
+                });
+            }
+            Attachment::Collider(h) if colliders.get(h).is_none() => {
+                return Err(crate::fluid::unknown_collider(h));
+            }
+            _ => {}
+        }
+        let e = self.emitter_mut(emitter).ok_or(unknown_emitter(emitter))?;
+        e.attachment = Some(to);
+        Ok(())
+    }
+
+    /// Detaches an emitter ([`Fluid::attach_emitter`]): it stays where it is, its position and
+    /// direction now in world space (taken from the body or collider's current pose, if it
+    /// still exists in `bodies` or `colliders`, so the nozzle does not jump). Returns the
+    /// attachment it had.
+    ///
+    /// # Errors
+    /// [`crate::SphError::InvalidParameter`] naming `emitter` when the handle names no emitter
+    /// of this fluid.
+    pub fn detach_emitter(
+        &mut self,
+        emitter: EmitterHandle,
+        bodies: &RigidBodySet,
+        colliders: &ColliderSet,
+    ) -> SphResult<Option<Attachment>> {
+        let e = self.emitter_mut(emitter).ok_or(unknown_emitter(emitter))?;
+        let pose = match e.attachment {
+            Some(Attachment::Body(h)) => bodies.get(h).map(|b| *b.position()),
+            Some(Attachment::Collider(h)) => colliders.get(h).map(|c| *c.position()),
+            None => None,
+        };
+        if let Some(pose) = pose {
+            e.position = pose.transform_point(e.position);
+            e.direction = pose.rotation * e.direction;
+        }
+        Ok(e.attachment.take())
     }
 
     /// Removes an emitter, returning it.
@@ -147,11 +258,11 @@ impl Fluid {
             }
             let removed = match sink.region {
                 SinkRegion::Aabb { min, max } => {
-                    self.remove_particles_where(|x, _, _| x.cmpge(min).all() && x.cmple(max).all())
+                    self.remove_where(|x, _, _| x.cmpge(min).all() && x.cmple(max).all())
                 }
                 SinkRegion::Ball { centre, radius } => {
                     let r2 = radius * radius;
-                    self.remove_particles_where(|x, _, _| (x - centre).length_squared() <= r2)
+                    self.remove_where(|x, _, _| (x - centre).length_squared() <= r2)
                 }
                 SinkRegion::Collider { handle, reach } => {
                     let Some(co) = colliders.get(handle) else {
@@ -160,7 +271,7 @@ impl Fluid {
                     let reach = reach.unwrap_or(spacing);
                     let aabb = co.compute_aabb().loosened(reach);
                     let (shape, pose) = (co.shape(), co.position());
-                    self.remove_particles_where(|x, _, _| {
+                    self.remove_where(|x, _, _| {
                         aabb.contains_local_point(x)
                             && shape
                                 .project_point_with_max_dist(pose, x, true, reach)
@@ -179,207 +290,149 @@ impl Fluid {
     /// Runs the fluid's emitters over a frame of `dt` seconds that ends now: places the
     /// particles due during the frame where they are at its end (see the [module
     /// docs](crate::emitter)).
-    pub(crate) fn run_emitters(
-        &mut self,
-        dt: Real,
-        bvh: Option<&Bvh>,
-        colliders: &ColliderSet,
-    ) -> EmitCounts {
-        let mut counts = EmitCounts::default();
+    pub(crate) fn run_emitters(&mut self, dt: Real, world: EmitWorld<'_>) -> EmitCounts {
         if self.sources.emitters.is_empty() {
-            return counts;
+            return EmitCounts::default();
         }
-        let p = self.params().clone();
-        let (s, r) = (p.particle_spacing, p.particle_radius);
-        let min_d2 = (0.9 * s) * (0.9 * s);
+        let params = self.params().clone();
+        let mut frame = EmitFrame {
+            dt,
+            params: &params,
+            world,
+            new_x: Vec::new(),
+            new_v: Vec::new(),
+            counts: EmitCounts::default(),
+        };
         let mut emitters = std::mem::take(&mut self.sources.emitters);
-        let mut new_x: Vec<Vector> = Vec::new();
-        let mut new_v: Vec<Vector> = Vec::new();
         for e in emitters.iter_mut() {
-            let c0 = e.clock;
-            e.clock += dt as f64;
-            let c1 = e.clock;
-            let (start, rate) = (e.start as f64, e.rate as f64);
-            let at = |k: u64| start + k as f64 / rate;
-            // Instants before this frame that were not emitted (the emitter was off or
-            // paused) are skipped: a paused stream does not build up.
-            if at(e.due) < c0 {
-                e.due = ((c0 - start) * rate).ceil().max(0.0) as u64;
-            }
-            if !e.enabled {
-                continue;
-            }
-            if at(e.due) > c1 || at(e.due) > e.stop as f64 {
-                continue;
-            }
-            if e.check_slots(s).is_err() {
-                // Refused by `add_emitter` and `set_params`; a state restored from elsewhere
-                // cannot make a frame build billions of slots.
-                continue;
-            }
-            let slots = e.slot_offsets(s);
-            let travel = e.speed * dt;
-            let reach = e.reach() + travel + s;
-            // Particles near the nozzle (old ones; new ones are added to `near` as placed).
-            let mut near = NearGrid::new(s);
-            for x in &self.positions {
-                if (*x - e.position).length_squared() <= reach * reach {
-                    near.insert(*x);
-                }
-            }
-            // At most `attempts` due instants are tried this frame (see the module docs,
-            // "Bounds"): beyond it every `stride`-th is tried and the rest count as blocked.
-            let end = c1.min(e.stop as f64);
-            let last = ((end - start) * rate).floor();
-            let due_count = last - e.due as f64 + 1.0;
-            let layers = (e.speed as f64 * dt as f64 / (0.9 * s as f64)).floor();
-            let attempts = (4.0 * slots.len() as f64 * (layers + 1.0))
-                .min(MAX_ATTEMPTS_PER_FRAME as f64)
-                .max(1.0);
-            let stride = if due_count > attempts {
-                (due_count / attempts).ceil().min(u64::MAX as f64) as u64
-            } else {
-                1
-            };
-            // The memory the fluid would need if every try were placed: when it cannot be
-            // reserved, the emitter pauses for the frame as at the capacity.
-            let most = due_count.max(0.0).min(attempts);
-            if most >= 1.0
-                && crate::fluid::check_particle_count(
-                    (self.positions.len() + new_x.len()) as f64 + most,
-                    crate::fluid::bytes_per_particle(&p),
-                    "rate",
-                )
-                .is_err()
-            {
-                counts.capacity_reached = true;
-                counts.blocked = counts.blocked.saturating_add(due_count as usize);
-                continue;
-            }
-            let first = e.due;
-            let mut tried = 0u64;
-            // Colliders near the nozzle, from rapier's broad-phase.
-            let mut solids: Vec<ColliderHandle> = Vec::new();
-            if let Some(bvh) = bvh {
-                let aabb = Aabb::new(
-                    e.position - Vector::splat(reach),
-                    e.position + Vector::splat(reach),
-                );
-                for leaf in bvh.leaves(|node: &BvhNode| node.aabb().intersects(&aabb)) {
-                    if let Some((co, h)) = colliders.get_unknown_gen(leaf)
-                        && co.is_enabled()
-                        && !co.is_sensor()
-                        && p.collision_groups.test(co.collision_groups())
-                    {
-                        solids.push(h);
-                    }
-                }
-            }
-            let placeable = |x: Vector, from: Vector, near: &NearGrid| -> bool {
-                if near.any_within(x, min_d2) {
-                    return false;
-                }
-                let motion = x - from;
-                let ray = Ray::new(from, motion);
-                solids.iter().all(|&h| {
-                    let co = &colliders[h];
-                    let (shape, pose) = (co.shape(), co.position());
-                    !shape.contains_point(pose, from)
-                        && shape
-                            .project_point_with_max_dist(pose, x, true, r)
-                            .is_none()
-                        && (motion == Vector::ZERO
-                            || shape.cast_ray(pose, &ray, 1.0, true).is_none())
-                })
-            };
-            while at(e.due) <= c1 && at(e.due) <= e.stop as f64 {
-                if e.budget.is_some_and(|b| e.emitted >= b) {
-                    break;
-                }
-                if self
-                    .capacity
-                    .is_some_and(|cap| self.positions.len() + new_x.len() >= cap)
-                    || new_x.len() >= self.ids_left()
-                {
-                    counts.capacity_reached = true;
-                    break;
-                }
-                let age = (c1 - at(e.due)) as Real;
-                let (offset, dir) = slots[e.next_slot % slots.len()];
-                let from = e.position + offset;
-                let x = from + dir * (e.speed * age);
-                e.due = e.due.saturating_add(stride);
-                tried += 1;
-                e.next_slot = (e.next_slot + 1) % slots.len();
-                if placeable(x, from, &near) {
-                    near.insert(x);
-                    new_x.push(x);
-                    new_v.push(dir * e.speed);
-                    e.emitted += 1;
-                    counts.emitted += 1;
-                } else {
-                    counts.blocked += 1;
-                }
-            }
-            if stride > 1 {
-                // The instants skipped between the tried ones were due and not emitted.
-                let next = e.due.min(last as u64 + 1);
-                e.due = next;
-                let skipped = next.saturating_sub(first).saturating_sub(tried);
-                counts.blocked = counts
-                    .blocked
-                    .saturating_add(usize::try_from(skipped).unwrap_or(usize::MAX));
-            }
+            self.run_emitter(e, &mut frame);
         }
         self.sources.emitters = emitters;
+        let EmitFrame {
+            new_x,
+            new_v,
+            counts,
+            ..
+        } = frame;
         if !new_x.is_empty() {
             self.append_unchecked(&new_x, &new_v);
             self.emitted += new_x.len();
         }
         counts
     }
-}
 
-/// Points in cubic cells of one particle spacing, hashed: [`NearGrid::any_within`] scans the 27
-/// cells around a point, which hold every point closer than a spacing (the emitter asks for
-/// `0.9·spacing`), so it answers exactly as a scan of every point would.
-struct NearGrid {
-    inv_cell: f64,
-    cells: std::collections::HashMap<[i64; 3], Vec<Vector>>,
-}
-
-impl NearGrid {
-    fn new(cell: Real) -> Self {
-        Self {
-            inv_cell: 1.0 / cell as f64,
-            cells: std::collections::HashMap::new(),
+    /// One emitter's frame: its window of due instants, its nozzle's pose, the plan of tries,
+    /// the memory check, then the placements.
+    fn run_emitter(&self, e: &mut Emitter, f: &mut EmitFrame<'_>) {
+        let Some(window) = e.open_window(f.dt) else {
+            return;
+        };
+        let s = f.params.particle_spacing;
+        if e.check_slots(s).is_err() {
+            // Refused by `add_emitter` and `set_params`; a state restored from elsewhere
+            // cannot make a frame build billions of slots.
+            return;
         }
+        let Some(pose) = e.nozzle_pose(&f.world) else {
+            // Attached to a body or collider that no longer exists: its due particles are
+            // blocked (and skipped at the next frame, as a paused emitter's).
+            let plan = e.plan(&window, 1, f.dt, s);
+            f.counts.blocked = (f.counts.blocked).saturating_add(plan.due_count as usize);
+            return;
+        };
+        let slots = e.world_slots(s, &pose);
+        let reach = e.reach() + e.speed * f.dt + s;
+        let plan = e.plan(&window, slots.len(), f.dt, s);
+        // The memory the fluid would need if every try were placed: when it cannot be
+        // reserved, the emitter pauses for the frame as at the capacity.
+        let most = plan.due_count.max(0.0).min(plan.attempts);
+        if most >= 1.0
+            && crate::fluid::check_particle_count(
+                (self.positions.len() + f.new_x.len()) as f64 + most,
+                crate::fluid::bytes_per_particle(f.params),
+                "rate",
+            )
+            .is_err()
+        {
+            f.counts.capacity_reached = true;
+            f.counts.blocked = f.counts.blocked.saturating_add(plan.due_count as usize);
+            return;
+        }
+        let placer = Placer::new(&self.positions, pose.position, reach, f.params, &f.world);
+        let mut jet = Jet {
+            window,
+            plan,
+            slots,
+            pose,
+            placer,
+        };
+        self.place_due(e, &mut jet, f);
     }
 
-    fn key(&self, x: Vector) -> [i64; 3] {
-        let k = |v: Real| (v as f64 * self.inv_cell).floor() as i64;
-        [k(x.x), k(x.y), k(x.z)]
-    }
-
-    fn insert(&mut self, x: Vector) {
-        let key = self.key(x);
-        self.cells.entry(key).or_default().push(x);
-    }
-
-    /// Whether a point lies closer to `x` than `sqrt(d2)` (at most a cell).
-    fn any_within(&self, x: Vector, d2: Real) -> bool {
-        let [i, j, k] = self.key(x);
-        for a in i - 1..=i + 1 {
-            for b in j - 1..=j + 1 {
-                for c in k - 1..=k + 1 {
-                    if let Some(points) = self.cells.get(&[a, b, c])
-                        && points.iter().any(|q| (*q - x).length_squared() < d2)
-                    {
-                        return true;
-                    }
-                }
+    /// Tries the frame's due particles in turn over the slots (every `stride`-th due instant),
+    /// placing those that fit; stops at the budget, the capacity or when the ids run out.
+    fn place_due(&self, e: &mut Emitter, jet: &mut Jet<'_>, f: &mut EmitFrame<'_>) {
+        let (w, stride) = (jet.window, jet.plan.stride);
+        let first = e.due;
+        let mut tried = 0u64;
+        while w.at(e.due) <= w.c1 && w.at(e.due) <= e.stop as f64 {
+            if e.budget.is_some_and(|b| e.emitted >= b) {
+                break;
+            }
+            if self
+                .capacity
+                .is_some_and(|cap| self.positions.len() + f.new_x.len() >= cap)
+                || f.new_x.len() >= self.ids_left()
+            {
+                f.counts.capacity_reached = true;
+                break;
+            }
+            let age = (w.c1 - w.at(e.due)) as Real;
+            let (offset, dir) = jet.slots[e.next_slot % jet.slots.len()];
+            let from = jet.pose.position + offset;
+            let x = from + dir * (e.speed * age);
+            e.due = e.due.saturating_add(stride);
+            tried += 1;
+            e.next_slot = (e.next_slot + 1) % jet.slots.len();
+            if jet.placer.placeable(x, from) {
+                jet.placer.near.insert(x);
+                f.new_x.push(x);
+                f.new_v.push(jet_velocity(&jet.pose, from, dir, e.speed));
+                e.emitted += 1;
+                f.counts.emitted += 1;
+            } else {
+                f.counts.blocked += 1;
             }
         }
-        false
+        if stride > 1 {
+            // The instants skipped between the tried ones were due and not emitted.
+            let next = e.due.min(jet.plan.last as u64 + 1);
+            e.due = next;
+            let skipped = next.saturating_sub(first).saturating_sub(tried);
+            f.counts.blocked = f
+                .counts
+                .blocked
+                .saturating_add(usize::try_from(skipped).unwrap_or(usize::MAX));
+        }
     }
+}
+
+/// One frame of one fluid's emitters: its inputs, and the particles and counts it makes.
+struct EmitFrame<'a> {
+    dt: Real,
+    params: &'a FluidParams,
+    world: EmitWorld<'a>,
+    new_x: Vec<Vector>,
+    new_v: Vec<Vector>,
+    counts: EmitCounts,
+}
+
+/// One emitter's frame once planned: its window, plan, slots (world space), nozzle pose and
+/// what is near it.
+struct Jet<'a> {
+    window: Window,
+    plan: Plan,
+    slots: Vec<(Vector, Vector)>,
+    pose: NozzlePose<'a>,
+    placer: Placer<'a>,
 }

@@ -1,12 +1,17 @@
 //! Fluids: particles stored as structure of arrays, and the set that holds several fluids.
 
 mod attributes;
+mod edit;
+mod fill;
 mod fluid_set;
 #[cfg(feature = "snapshot")]
 pub(crate) mod snapshot;
 
 pub(crate) use attributes::Attributes;
 
+pub use edit::IntoFluidParams;
+pub use fill::shape_lattice;
+pub(crate) use fill::unknown_collider;
 pub use fluid_set::{FluidHandle, FluidSet};
 
 use crate::error::{SphError, SphResult};
@@ -107,6 +112,12 @@ pub struct Fluid {
     pub(crate) attributes: Attributes,
     next_id: u32,
     quarantined: usize,
+    /// Particles removed by the game ([`Fluid::remove_particles`],
+    /// [`Fluid::remove_particles_where`], [`Fluid::clear`]) over the fluid's life.
+    removed: usize,
+    /// Bumped by [`Fluid::clear`] and [`Fluid::reset`]: the pipeline then starts the fluid's
+    /// solver state afresh (its runtimes are matched by handle and epoch).
+    pub(crate) epoch: u64,
     /// Particles added by emitters / removed by sinks over the fluid's life.
     pub(crate) emitted: usize,
     pub(crate) drained: usize,
@@ -123,8 +134,24 @@ pub struct Fluid {
 }
 
 impl Fluid {
-    /// An empty fluid. The parameters are validated again here.
-    pub fn new(params: FluidParams) -> SphResult<Self> {
+    /// An empty fluid, from parameters or straight from their builder (one fallible call, as
+    /// rapier's builders go straight into its sets). Parameters are validated again here.
+    ///
+    /// # Errors
+    /// [`FluidParams::validate`]'s errors, naming the first bad field.
+    ///
+    /// # Examples
+    /// ```
+    /// use rapier_sph::{Fluid, FluidParamsBuilder};
+    /// let water = Fluid::new(FluidParamsBuilder::water(0.05))?; // the builder, built here
+    /// let params = FluidParamsBuilder::water(0.05).viscosity(0.2).build()?;
+    /// let thinner = Fluid::new(params)?; // or parameters built before
+    /// assert!(water.is_empty() && thinner.params().viscosity == 0.2);
+    /// assert!(Fluid::new(FluidParamsBuilder::water(-1.0)).is_err()); // names `particle_spacing`
+    /// # Ok::<(), rapier_sph::SphError>(())
+    /// ```
+    pub fn new(params: impl IntoFluidParams) -> SphResult<Self> {
+        let params = params.into_fluid_params()?;
         params.validate()?;
         Ok(Self {
             params,
@@ -137,6 +164,8 @@ impl Fluid {
             attributes: Attributes::default(),
             next_id: 0,
             quarantined: 0,
+            removed: 0,
+            epoch: 0,
             emitted: 0,
             drained: 0,
             sources: Default::default(),
@@ -348,6 +377,13 @@ impl Fluid {
         self.drained
     }
 
+    /// Particles removed by the game over the fluid's life ([`Fluid::remove_particles`],
+    /// [`Fluid::remove_particles_where`], [`Fluid::clear`]). Every particle ever added is
+    /// live, drained, quarantined or removed.
+    pub fn removed(&self) -> usize {
+        self.removed
+    }
+
     /// Fills the box `[min, min + size)` with particles on a cubic lattice at the fluid's
     /// particle spacing (the first particle half a spacing inside `min`). Returns the ids.
     ///
@@ -405,8 +441,29 @@ impl Fluid {
     }
 
     /// Removes every particle for which `remove(position, velocity, id)` is true. Returns how
-    /// many were removed. (Sinks use this; nothing else removes particles.)
+    /// many were removed; they are counted in [`Fluid::removed`].
+    ///
+    /// # Examples
+    /// ```
+    /// use rapier_sph::{Fluid, FluidParamsBuilder, math::Vector};
+    /// let mut fluid = Fluid::new(FluidParamsBuilder::water(0.1))?;
+    /// fluid.add_block(Vector::ZERO, Vector::splat(0.5))?; // 5 × 5 × 5
+    /// assert_eq!(fluid.remove_particles_where(|x, _, _| x.y > 0.3), 50); // the top two layers
+    /// assert_eq!((fluid.len(), fluid.removed()), (75, 50));
+    /// # Ok::<(), rapier_sph::SphError>(())
+    /// ```
     pub fn remove_particles_where(
+        &mut self,
+        remove: impl FnMut(Vector, Vector, u32) -> bool,
+    ) -> usize {
+        let n = self.remove_where(remove);
+        self.removed += n;
+        n
+    }
+
+    /// [`Fluid::remove_particles_where`] without counting them as removed by the game (sinks
+    /// and the quarantine count their own).
+    pub(crate) fn remove_where(
         &mut self,
         mut remove: impl FnMut(Vector, Vector, u32) -> bool,
     ) -> usize {
@@ -454,7 +511,7 @@ impl Fluid {
     /// removed; the pipeline calls this at the start of every frame and after any substep that
     /// produced such a particle, and reports the count as `StepReport::quarantined`.
     pub fn quarantine_non_finite(&mut self) -> usize {
-        let removed = self.remove_particles_where(|x, v, _| !is_finite(x) || !is_finite(v));
+        let removed = self.remove_where(|x, v, _| !is_finite(x) || !is_finite(v));
         self.quarantined += removed;
         removed
     }

@@ -20,6 +20,8 @@ pub(crate) struct FluidState {
     attributes: Attributes,
     next_id: u32,
     quarantined: usize,
+    #[serde(default)]
+    removed: usize,
     needs_depenetration: bool,
     #[serde(default)]
     relax_pending: bool,
@@ -42,6 +44,7 @@ impl FluidState {
             attributes: f.attributes.clone(),
             next_id: f.next_id,
             quarantined: f.quarantined,
+            removed: f.removed,
             needs_depenetration: f.needs_depenetration,
             relax_pending: f.relax_pending,
             emitted: f.emitted,
@@ -112,6 +115,7 @@ impl FluidState {
         f.attributes = attributes;
         f.next_id = self.next_id;
         f.quarantined = self.quarantined;
+        f.removed = self.removed;
         f.needs_depenetration = self.needs_depenetration;
         f.relax_pending = self.relax_pending;
         f.emitted = self.emitted;

@@ -29,9 +29,9 @@ use crate::math::{Real, Vector};
 use crate::neighbors::NeighborLists;
 use contact::Scene;
 use parry3d::query::DefaultQueryDispatcher;
-use rapier3d::dynamics::{RigidBodyHandle, RigidBodySet};
+use rapier3d::dynamics::{IntegrationParameters, RigidBodyHandle, RigidBodySet};
 use rapier3d::geometry::{BroadPhaseBvh, ColliderSet};
-use rapier3d::pipeline::QueryFilter;
+use rapier3d::pipeline::{PhysicsWorld, QueryFilter};
 use substep::SubstepInput;
 use workspace::Runtimes;
 
@@ -45,8 +45,9 @@ pub struct FluidPipeline {
     pub time_stepping: TimeStepping,
     /// The substeps rapier takes per step (its `integration_parameters.num_solver_iterations`,
     /// default 4): moving bodies are followed along the path rapier's substeps give them
-    /// (see `boundary::Coupling::begin_frame`). [`crate::FluidWorld`] keeps it in
-    /// sync; set it when you step rapier with other parameters.
+    /// (see `boundary::Coupling::begin_frame`). [`FluidPipeline::step_world`],
+    /// [`FluidPipeline::step_with_parameters`] and [`crate::FluidWorld`] keep it in sync with
+    /// rapier's; set it yourself only for [`FluidPipeline::step`].
     pub rapier_substeps: usize,
     report: StepReport,
     coupling: Coupling,
@@ -193,6 +194,7 @@ impl FluidPipeline {
                 bodies,
             }),
             colliders,
+            bodies: &*bodies,
             fluids,
             runtimes: &mut self.runtimes,
             coupling: &mut self.coupling,
@@ -213,6 +215,85 @@ impl FluidPipeline {
         report.coupled_bodies = self.coupling.apply(bodies);
         self.report = report;
         Ok(&self.report)
+    }
+
+    /// Advances every fluid by one frame of a rapier [`PhysicsWorld`] that has just stepped
+    /// (with `step` or `step_with_events`): its gravity, its `integration_parameters.dt` and
+    /// its substep count ([`FluidPipeline::rapier_substeps`] follows
+    /// `num_solver_iterations`), its bodies, colliders and broad-phase.
+    ///
+    /// # Errors
+    /// As [`FluidPipeline::step_with_parameters`]; nothing changes on error.
+    ///
+    /// # Examples
+    /// ```
+    /// use rapier_sph::prelude::*;
+    /// use rapier_sph::rapier3d::prelude::{ColliderBuilder, PhysicsWorld, RigidBodyBuilder};
+    ///
+    /// let mut world = PhysicsWorld::default();
+    /// let floor = world.insert_body(RigidBodyBuilder::fixed());
+    /// world.insert_collider(ColliderBuilder::cuboid(1.0, 0.1, 1.0), Some(floor));
+    /// let mut fluids = FluidSet::new();
+    /// let mut water = Fluid::new(FluidParamsBuilder::water(0.05))?;
+    /// water.add_block(Vector::new(-0.2, 0.1, -0.2), Vector::new(0.4, 0.2, 0.4))?;
+    /// fluids.insert(water);
+    /// let mut pipeline = FluidPipeline::new();
+    /// world.integration_parameters.num_solver_iterations = 2;
+    /// for _frame in 0..3 {
+    ///     world.step_with_events(&(), &()); // rapier first, with the game's hooks and events
+    ///     pipeline.step_world(&mut world, &mut fluids)?; // then the fluid, in one call
+    /// }
+    /// assert_eq!(pipeline.rapier_substeps, 2);
+    /// # Ok::<(), rapier_sph::SphError>(())
+    /// ```
+    pub fn step_world(
+        &mut self,
+        world: &mut PhysicsWorld,
+        fluids: &mut FluidSet,
+    ) -> SphResult<&StepReport> {
+        self.step_with_parameters(
+            world.gravity,
+            &world.integration_parameters,
+            fluids,
+            &mut world.bodies,
+            &world.colliders,
+            &world.broad_phase,
+        )
+    }
+
+    /// [`FluidPipeline::step`] with the frame's length and rapier's substep count taken from
+    /// rapier's own `integration`: `dt` and `num_solver_iterations`
+    /// ([`FluidPipeline::rapier_substeps`] is set to it). For a game that keeps rapier's sets
+    /// itself; [`FluidPipeline::step_world`] for one that uses rapier's `PhysicsWorld`.
+    ///
+    /// # Errors
+    /// [`SphError::InvalidParameter`] naming `num_solver_iterations` when it is 0; then
+    /// [`FluidPipeline::step`]'s errors (`dt` not positive and finite: `InvalidTimeStep`).
+    /// Nothing changes on error.
+    pub fn step_with_parameters(
+        &mut self,
+        gravity: Vector,
+        integration: &IntegrationParameters,
+        fluids: &mut FluidSet,
+        bodies: &mut RigidBodySet,
+        colliders: &ColliderSet,
+        broad_phase: &BroadPhaseBvh,
+    ) -> SphResult<&StepReport> {
+        let substeps = integration.num_solver_iterations;
+        if substeps == 0 {
+            return Err(SphError::InvalidParameter {
+                field: "num_solver_iterations",
+                value: 0.0,
+                reason: "rapier takes at least one substep per step",
+            });
+        }
+        let before = std::mem::replace(&mut self.rapier_substeps, substeps);
+        let dt = integration.dt;
+        if let Err(e) = self.validate(gravity, dt) {
+            self.rapier_substeps = before;
+            return Err(e);
+        }
+        self.step(gravity, dt, fluids, bodies, colliders, broad_phase)
     }
 
     /// The checks of [`FluidPipeline::step`]'s arguments and of the pipeline's settings.
@@ -246,6 +327,8 @@ struct Frame<'a> {
     policy: TimeStepping,
     scene: Option<Scene<'a>>,
     colliders: &'a ColliderSet,
+    /// Every body (attached emitters follow theirs, with or without colliders near).
+    bodies: &'a RigidBodySet,
     fluids: &'a mut FluidSet,
     runtimes: &'a mut Runtimes,
     coupling: &'a mut Coupling,
@@ -328,9 +411,13 @@ impl Frame<'_> {
 
     /// Emitters: the particles due during the frame, where they are at its end.
     fn emit(&mut self) {
-        let bvh = self.scene.map(|s| s.bvh);
+        let world = crate::emitter::EmitWorld {
+            bvh: self.scene.map(|s| s.bvh),
+            colliders: self.colliders,
+            bodies: self.bodies,
+        };
         for (_, fluid) in self.fluids.iter_mut() {
-            let e = fluid.run_emitters(self.dt, bvh, self.colliders);
+            let e = fluid.run_emitters(self.dt, world);
             self.report.emitted += e.emitted;
             self.report.emitter_blocked += e.blocked;
             self.report.capacity_reached |= e.capacity_reached;

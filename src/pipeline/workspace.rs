@@ -77,6 +77,9 @@ impl Workspace {
 pub(crate) struct FluidRuntime {
     /// The fluid this belongs to.
     pub handle: FluidHandle,
+    /// The fluid's epoch ([`crate::Fluid::clear`] and [`crate::Fluid::reset`] bump it) when
+    /// the solver state was made: a cleared fluid's state starts afresh.
+    pub epoch: u64,
     /// The solver's state (rebuilt when the fluid's parameters change solver).
     pub solver: SolverState,
     /// Scratch.
@@ -91,15 +94,14 @@ pub(crate) struct Runtimes {
 
 impl Runtimes {
     /// Matches the entries to `fluids` (same handles, same order; a new fluid gets a fresh
-    /// entry, a removed one's entry is dropped, a fluid whose parameters changed solver gets a
-    /// fresh solver state). Allocates nothing when nothing changed.
+    /// entry, a removed one's entry is dropped, a fluid whose parameters changed solver or
+    /// that was cleared or reset since gets a fresh solver state). Allocates nothing when
+    /// nothing changed.
     pub fn sync(&mut self, fluids: &FluidSet) {
         let same = self.entries.len() == fluids.len()
-            && self
-                .entries
-                .iter()
-                .zip(fluids.iter())
-                .all(|(e, (h, f))| e.handle == h && e.solver.is_for(&f.params().solver));
+            && self.entries.iter().zip(fluids.iter()).all(|(e, (h, f))| {
+                e.handle == h && e.epoch == f.epoch && e.solver.is_for(&f.params().solver)
+            });
         if same {
             return;
         }
@@ -109,13 +111,15 @@ impl Runtimes {
             let entry = match old.iter().position(|e| e.handle == handle) {
                 Some(k) => {
                     let mut e = old.swap_remove(k);
-                    if !e.solver.is_for(solver) {
+                    if !e.solver.is_for(solver) || e.epoch != fluid.epoch {
                         e.solver = SolverState::new(solver);
+                        e.epoch = fluid.epoch;
                     }
                     e
                 }
                 None => FluidRuntime {
                     handle,
+                    epoch: fluid.epoch,
                     solver: SolverState::new(solver),
                     ws: Workspace::default(),
                 },
