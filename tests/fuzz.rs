@@ -146,3 +146,178 @@ proptest! {
         }
     }
 }
+
+/// One call a game makes between steps, with arbitrary arguments.
+#[derive(Clone, Debug)]
+enum GameCall {
+    /// Fill a ball of this radius at this point.
+    FillBall(Real, (Real, Real, Real)),
+    /// Fill a box of these half extents, turned by this angle about z.
+    FillBox((Real, Real, Real), Real),
+    /// Remove these ids (some never handed out).
+    Remove(Vec<u32>),
+    Clear,
+    Reset,
+    /// Attach the emitter to the body (0), its collider (1), a removed body (2) or a handle
+    /// of another set (3); 4 detaches it.
+    Attach(u8),
+    /// Remove the carrying body (and its collider) from the world.
+    RemoveBody,
+}
+
+fn game_call() -> impl Strategy<Value = GameCall> {
+    prop_oneof![
+        (any_real(), (any_real(), any_real(), any_real()))
+            .prop_map(|(r, c)| GameCall::FillBall(r, c)),
+        ((any_real(), any_real(), any_real()), any_real())
+            .prop_map(|(h, a)| GameCall::FillBox(h, a)),
+        prop::collection::vec(any::<u32>(), 0..6).prop_map(GameCall::Remove),
+        prop::collection::vec(0u32..200, 0..6).prop_map(GameCall::Remove),
+        Just(GameCall::Clear),
+        Just(GameCall::Reset),
+        (0u8..5).prop_map(GameCall::Attach),
+        Just(GameCall::RemoveBody),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// The game calls (fill any shape, remove by id, clear, reset, attach an emitter to a
+    /// moving body, a collider or a handle that names nothing, remove that body) with any
+    /// arguments, between steps of any solver: no panic; an error exactly for bad input
+    /// (non-finite or non-positive sizes, unknown ids or handles), changing nothing; after
+    /// every step each particle is finite and every particle ever added is live, drained,
+    /// quarantined or removed.
+    #[test]
+    fn game_calls_never_panic_and_keep_the_books(
+        solver in solver(),
+        calls in prop::collection::vec(game_call(), 1..8),
+    ) {
+        use rapier_sph::math::{Pose, Rotation};
+        use rapier_sph::rapier3d::parry::shape::{Ball, Cuboid};
+        let mut world = FluidWorld::new();
+        let floor = world.physics.insert_body(RigidBodyBuilder::fixed());
+        world.physics.insert_collider(
+            ColliderBuilder::cuboid(2.0, 0.1, 2.0).translation(Vector::new(0.0, -0.1, 0.0)),
+            Some(floor),
+        );
+        let body = world.physics.insert_body(
+            RigidBodyBuilder::kinematic_velocity_based()
+                .translation(Vector::new(0.0, 0.6, 0.0))
+                .linvel(Vector::new(0.5, 0.0, 0.0))
+                .angvel(Vector::new(0.0, 2.0, 0.0)),
+        );
+        let co = world.physics.insert_collider(ColliderBuilder::ball(0.05), Some(body));
+        let gone = world.physics.insert_body(RigidBodyBuilder::fixed());
+        world.physics.remove_body(gone);
+        let mut elsewhere = RigidBodySet::new();
+        for _ in 0..8 {
+            elsewhere.insert(RigidBodyBuilder::fixed());
+        }
+        let stranger = elsewhere.insert(RigidBodyBuilder::fixed());
+        world.physics.step();
+        let mut fluid = Fluid::new(FluidParamsBuilder::water(0.05).solver(solver)).unwrap();
+        let hose = fluid
+            .add_emitter(Emitter::new(Nozzle::Disk { radius: 0.05 }, Vector::new(0.15, 0.0, 0.0),
+                                      Vector::X, 1.0, 200.0))
+            .unwrap();
+        fluid.set_capacity(Some(3_000)).unwrap();
+        let h = world.fluids.insert(fluid);
+        // Particles added since the last reset, by the game and by the emitter.
+        let mut added = 0usize;
+        for call in calls {
+            let p = &world.physics;
+            let f = &mut world.fluids[h];
+            let before = (f.len(), f.removed(), f.state_hash());
+            let result: Result<(), SphError> = match call {
+                GameCall::FillBall(r, (x, y, z)) => {
+                    let r = if r.is_finite() { r % 0.3 } else { r };
+                    let c = Vector::new(x % 1.0, (y % 1.0).abs() + 0.3, z % 1.0);
+                    let res = f.fill_shape(&Ball::new(r), &Pose::from_translation(c));
+                    let good = r.is_finite() && r > 0.0 && c.is_finite();
+                    check_fill(&res, good)?;
+                    res.map(|ids| added += ids.len())
+                }
+                GameCall::FillBox((a, b, c), angle) => {
+                    let half = Vector::new(a % 0.3, b % 0.3, c % 0.3);
+                    let pose = Pose::from_parts(Vector::new(0.0, 0.5, 0.0),
+                                                Rotation::from_rotation_z(angle));
+                    let res = f.fill_shape(&Cuboid::new(half), &pose);
+                    let good = half.is_finite() && half.min_element() > 0.0 && angle.is_finite();
+                    check_fill(&res, good)?;
+                    res.map(|ids| added += ids.len())
+                }
+                GameCall::Remove(ids) => {
+                    let unknown = ids.iter().any(|&id| id as usize >= added_ids(f));
+                    let res = f.remove_particles(&ids).map(|_| ());
+                    prop_assert_eq!(res.is_err(), unknown, "ids {:?}", ids);
+                    res
+                }
+                GameCall::Clear => {
+                    f.clear();
+                    Ok(())
+                }
+                GameCall::Reset => {
+                    f.reset();
+                    added = 0;
+                    Ok(())
+                }
+                GameCall::Attach(k) => {
+                    let res = match k {
+                        0 => f.attach_emitter(hose, Attachment::Body(body), &p.bodies, &p.colliders),
+                        1 => f.attach_emitter(hose, Attachment::Collider(co), &p.bodies, &p.colliders),
+                        2 => f.attach_emitter(hose, Attachment::Body(gone), &p.bodies, &p.colliders),
+                        3 => f.attach_emitter(hose, Attachment::Body(stranger), &p.bodies, &p.colliders),
+                        _ => f.detach_emitter(hose, &p.bodies, &p.colliders).map(|_| ()),
+                    };
+                    let bad = k == 2 || k == 3
+                        || (k == 0 && p.bodies.get(body).is_none())
+                        || (k == 1 && p.colliders.get(co).is_none());
+                    prop_assert_eq!(res.is_err(), bad, "attach {}", k);
+                    res
+                }
+                GameCall::RemoveBody => {
+                    world.physics.remove_body(body);
+                    Ok(())
+                }
+            };
+            let f = &world.fluids[h];
+            if result.is_err() {
+                // Refused: nothing changed.
+                prop_assert_eq!((f.len(), f.removed(), f.state_hash()), before);
+            }
+            let r = world.step().unwrap();
+            added += r.emitted;
+            let f = &world.fluids[h];
+            for (x, v) in f.positions().iter().zip(f.velocities()) {
+                prop_assert!(x.is_finite() && v.is_finite(), "{:?} {:?}", x, v);
+            }
+            prop_assert_eq!(f.len() + f.removed() + f.drained() + f.quarantined(), added);
+        }
+    }
+}
+
+/// A fill of bad input is refused naming `shape` or `pose`; a good one succeeds or meets the
+/// fluid's capacity.
+fn check_fill(res: &SphResult<std::ops::Range<u32>>, good: bool) -> Result<(), TestCaseError> {
+    match (res, good) {
+        (Ok(_), true) | (Err(SphError::InvalidParticle { .. }), true) => Ok(()),
+        (
+            Err(SphError::InvalidParameter {
+                field: "shape" | "pose",
+                ..
+            }),
+            false,
+        ) => Ok(()),
+        (other, _) => Err(TestCaseError::fail(format!(
+            "fill (good input: {good}): {other:?}"
+        ))),
+    }
+}
+
+/// Ids handed out so far (every id below it was): the largest live id bounds it from below,
+/// and the fluid's counters give it exactly.
+fn added_ids(f: &Fluid) -> usize {
+    f.len() + f.removed() + f.drained() + f.quarantined()
+}

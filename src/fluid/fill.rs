@@ -35,8 +35,9 @@ fn lattice_over(aabb: &Aabb, s: Real) -> ([u64; 3], Vector) {
 ///
 /// # Errors
 /// [`SphError::InvalidParameter`] naming `spacing` (not positive and finite), `pose` (not
-/// finite) or `shape` (an unbounded shape such as a half-space, or a bounding box holding more
-/// than [`MAX_PARTICLES`] lattice points, which would take hours to scan).
+/// finite) or `shape` (an unbounded shape such as a half-space, a negative or zero size along
+/// an axis, or a bounding box holding more than [`MAX_PARTICLES`] lattice points, which would
+/// take hours to scan).
 ///
 /// # Examples
 /// ```
@@ -65,14 +66,24 @@ pub fn shape_lattice(shape: &dyn Shape, pose: &Pose, spacing: Real) -> SphResult
             reason: "must be finite",
         });
     }
-    let aabb = shape.compute_aabb(pose);
-    if !is_finite(aabb.mins) || !is_finite(aabb.maxs) {
+    let local = shape.compute_local_aabb();
+    if !is_finite(local.mins) || !is_finite(local.maxs) {
         return Err(SphError::InvalidParameter {
             field: "shape",
-            value: (aabb.maxs - aabb.mins).max_element() as f64,
-            reason: "an unbounded shape (a half-space) cannot be filled",
+            value: (local.maxs - local.mins).max_element() as f64,
+            reason: "an unbounded shape (a half-space) or one of non-finite size cannot be filled",
         });
     }
+    let size = (local.maxs - local.mins).min_element();
+    if !(size > 0.0) {
+        return Err(SphError::InvalidParameter {
+            field: "shape",
+            value: size as f64,
+            reason: "a shape to fill needs a positive size along every axis (not a negative \
+                     or zero radius or half extent)",
+        });
+    }
+    let aabb = shape.compute_aabb(pose);
     let (n, first) = lattice_over(&aabb, spacing);
     let total = n[0] as f64 * n[1] as f64 * n[2] as f64;
     if total > MAX_PARTICLES as f64 {
