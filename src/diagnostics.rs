@@ -103,6 +103,19 @@ impl StageTimings {
 }
 
 /// What one call to [`crate::FluidPipeline::step`] did.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::prelude::*;
+/// let mut world = FluidWorld::new();
+/// let mut water = Fluid::new(FluidParamsBuilder::water(0.05))?;
+/// water.add_block(Vector::ZERO, Vector::splat(0.2))?;
+/// world.fluids.insert(water);
+/// let report = world.step()?;
+/// assert_eq!((report.particles, report.quarantined, report.emitted), (64, 0, 0));
+/// println!("{} substeps; where the time went:\n{}", report.substeps, report.timings);
+/// # Ok::<(), SphError>(())
+/// ```
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct StepReport {
     /// Wall time of each stage.

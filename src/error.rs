@@ -3,6 +3,17 @@
 use std::fmt;
 
 /// Everything that can go wrong when building parameters, adding particles or stepping.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::{Fluid, FluidParamsBuilder, SphError};
+/// match Fluid::new(FluidParamsBuilder::water(0.05).viscosity(-1.0)) {
+///     Err(SphError::InvalidParameter { field, value, .. }) => {
+///         assert_eq!((field, value), ("viscosity", -1.0));
+///     }
+///     other => panic!("expected a typed error, got {other:?}"),
+/// }
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum SphError {

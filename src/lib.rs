@@ -53,27 +53,28 @@
 //! let floor = world.insert_body(RigidBodyBuilder::fixed());
 //! world.insert_collider(ColliderBuilder::cuboid(2.0, 0.1, 2.0), Some(floor));
 //!
-//! // ...and a block of water above it.
-//! let params = FluidParamsBuilder::water(0.05).build()?;
-//! let mut fluid = Fluid::new(params)?;
+//! // ...and a block of water above it (the builder goes straight in: one fallible call).
+//! let mut fluid = Fluid::new(FluidParamsBuilder::water(0.05))?;
 //! fluid.add_block(Vector::new(-0.25, 0.2, -0.25), Vector::new(0.5, 0.5, 0.5))?;
 //! let mut fluids = FluidSet::new();
 //! let water = fluids.insert(fluid);
 //! let mut pipeline = FluidPipeline::new();
 //!
-//! let frame_dt = 1.0 / 60.0;
-//! world.integration_parameters.dt = frame_dt;
+//! world.integration_parameters.dt = 1.0 / 60.0;
 //! for _frame in 0..10 {
 //!     world.step(); // rapier first (it fills the broad-phase the fluid queries)
-//!     // The pipeline splits the frame into stable substeps (CFL and acoustic limits).
-//!     let report = pipeline.step(world.gravity, frame_dt, &mut fluids,
-//!                                &mut world.bodies, &world.colliders, &world.broad_phase)?;
+//!     // The fluid follows with rapier's gravity, dt and substep count, split into stable
+//!     // substeps (CFL and acoustic limits).
+//!     let report = pipeline.step_world(&mut world, &mut fluids)?;
 //!     assert!(report.substeps >= 1 && !report.substep_cap_hit);
 //! }
 //! // Nothing fell through the floor.
 //! assert!(fluids[water].positions().iter().all(|p| p.y > 0.1));
 //! # Ok::<(), rapier_sph::SphError>(())
 //! ```
+//!
+//! `world.step_with_events(&hooks, &events)` (rapier's events) works the same way; a game that
+//! keeps rapier's sets itself calls [`FluidPipeline::step_with_parameters`].
 //!
 //! [`FluidWorld`] bundles the rapier world, the fluids and the pipeline for the simple case.
 //!

@@ -69,7 +69,7 @@ pub struct FluidParams {
     /// Spacing of the lattice particles are seeded on (m). Water preset: the value given.
     /// Paper preset: 0.2.
     pub particle_spacing: Real,
-    /// Contact radius (m): collider contact keeps particle centres this far from every
+    /// Contact radius (m): collider contact keeps particle centers this far from every
     /// collider surface. Default: half the spacing (paper preset: 0.2).
     pub particle_radius: Real,
     /// Mass of every particle of this fluid (kg). Default: `rest_density · spacing³`

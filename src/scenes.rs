@@ -250,7 +250,7 @@ impl HydrostaticTank {
         })
     }
 
-    /// Relative error of the pressure of the particles in the bottom layer (centres within one
+    /// Relative error of the pressure of the particles in the bottom layer (centers within one
     /// spacing of the floor) against `ρ0·g·depth`, depth measured from the free surface at
     /// [`Self::fluid_height`]: `(mean measured − mean expected)/mean expected`.
     pub fn bottom_pressure_error(&self) -> Real {

@@ -29,13 +29,13 @@ pub struct SurfaceOptions {
     pub iso_surface_threshold: Real,
     /// Let splashsurf use threads. Default true.
     pub multi_threading: bool,
-    /// Reconstruct around Laplacian-smoothed particle centres instead of the particles
+    /// Reconstruct around Laplacian-smoothed particle centers instead of the particles
     /// (Yu & Turk 2013's `x̃ = (1 − λ)x + λ·x̄ʷ`, see [`crate::visual::Anisotropy`]): `λ` in
-    /// `[0, 1]`, 0 off. splashsurf_lib 0.14 has no anisotropic kernels; the smoothed centres
+    /// `[0, 1]`, 0 off. splashsurf_lib 0.14 has no anisotropic kernels; the smoothed centers
     /// are the half of Yu & Turk's method that flattens a surface made of particle layers,
     /// but alone they pull the surface in: a settled block of 12 × 8 × 12 particles loses
     /// 33 % of its volume at λ = 0.9, 19 % at 0.5 (`tests/surface.rs`). Default 0 (off).
-    pub smoothed_centres: Real,
+    pub smoothed_centers: Real,
     /// splashsurf's marching-cubes cleanup (Moore & Warren's mesh displacement: vertices
     /// snapped to grid points, slivers collapsed). Default false.
     pub cleanup: bool,
@@ -57,7 +57,7 @@ impl Default for SurfaceOptions {
             cube_size_factor: 0.5,
             iso_surface_threshold: 0.6,
             multi_threading: true,
-            smoothed_centres: 0.0,
+            smoothed_centers: 0.0,
             cleanup: false,
             decimate_barnacles: false,
             mesh_smoothing_iterations: 0,
@@ -75,7 +75,7 @@ impl SurfaceOptions {
     /// 12 × 8 × 12 particles (`tests/surface.rs`) against the defaults: the lid's mean
     /// normal deviation 1.4° → 0.35°, 5,992 → 3,664 triangles, enclosed volume +1 % → +16 %
     /// of the particles' (the lower threshold puts the surface farther out). Smoothed
-    /// centres stay off: they shrink that block by a third. Cost in `docs/outputs.md`.
+    /// centers stay off: they shrink that block by a third. Cost in `docs/outputs.md`.
     pub fn smooth() -> Self {
         Self {
             support_factor: 3.0,
@@ -182,13 +182,13 @@ fn check_settings(
     rest_density: Real,
     options: &SurfaceOptions,
 ) -> Result<(), SurfaceError> {
-    if !(0.0..=1.0).contains(&options.smoothed_centres)
+    if !(0.0..=1.0).contains(&options.smoothed_centers)
         || !(0.0..=1.0).contains(&options.mesh_smoothing)
     {
         return Err(SurfaceError {
             message: format!(
-                "smoothed_centres and mesh_smoothing must be in [0, 1], got {} and {}",
-                options.smoothed_centres, options.mesh_smoothing
+                "smoothed_centers and mesh_smoothing must be in [0, 1], got {} and {}",
+                options.smoothed_centers, options.mesh_smoothing
             ),
         });
     }
@@ -208,22 +208,22 @@ fn check_settings(
     Ok(())
 }
 
-/// The centres the surface is built around: the particles' positions, or with
-/// [`SurfaceOptions::smoothed_centres`] above 0 the Laplacian-smoothed centres
+/// The centers the surface is built around: the particles' positions, or with
+/// [`SurfaceOptions::smoothed_centers`] above 0 the Laplacian-smoothed centers
 /// [`crate::visual::Anisotropy`] computes (borrowed when unchanged, to avoid a copy).
 fn centres<'a>(
     positions: &'a [Vector],
     spacing: Real,
     options: &SurfaceOptions,
 ) -> Result<Cow<'a, [Vector]>, SurfaceError> {
-    if options.smoothed_centres <= 0.0 {
+    if options.smoothed_centers <= 0.0 {
         return Ok(Cow::Borrowed(positions));
     }
     let mut a = crate::visual::Anisotropy::new(crate::visual::AnisotropySettings {
-        // The reconstruction kernel's support: the centres are smoothed over the
+        // The reconstruction kernel's support: the centers are smoothed over the
         // neighbourhood the surface is built from.
         radius: options.support_factor,
-        smoothing: options.smoothed_centres,
+        smoothing: options.smoothed_centers,
         ..Default::default()
     })
     .map_err(|e| SurfaceError {

@@ -195,11 +195,11 @@ fn the_worker_thread_returns_the_same_mesh_later() {
 
 /// Smoothed centres (Yu & Turk's λ) shrink the surface, as `SurfaceOptions` documents.
 #[test]
-fn smoothed_centres_pull_the_surface_in() {
+fn smoothed_centers_pull_the_surface_in() {
     let (points, s) = settled_block();
     let volume = |l: f32| {
         let o = SurfaceOptions {
-            smoothed_centres: l,
+            smoothed_centers: l,
             ..SurfaceOptions::default()
         };
         reconstruct_points(&points, s, 1000.0, &o)
@@ -210,7 +210,7 @@ fn smoothed_centres_pull_the_surface_in() {
     println!("volume at λ = 0, 0.5, 0.9: {v0:.5} {v5:.5} {v9:.5}");
     assert!(v9 < v5 && v5 < v0);
     let bad = SurfaceOptions {
-        smoothed_centres: 2.0,
+        smoothed_centers: 2.0,
         ..SurfaceOptions::default()
     };
     assert!(reconstruct_points(&points, s, 1000.0, &bad).is_err());

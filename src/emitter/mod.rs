@@ -108,6 +108,9 @@ pub enum Nozzle {
 /// collider at the frame's end (the emitter's position and direction are then in its frame),
 /// and every particle it emits adds the body's velocity at the nozzle, `v + ω × (x − c)`, to
 /// the jet's.
+///
+/// # Examples
+/// See [`crate::Fluid::attach_emitter`].
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub enum Attachment {
@@ -121,6 +124,20 @@ pub enum Attachment {
 /// A nozzle that adds particles to its fluid. Build it with [`Emitter::new`] and the setters,
 /// add it with [`crate::Fluid::add_emitter`](crate::Fluid::add_emitter) (which validates it),
 /// and attach it to a body or collider with [`crate::Fluid::attach_emitter`] to carry it.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::{Emitter, Nozzle, math::Vector};
+/// // A sprinkler: a 5 cm ball spraying radially at 1.5 m/s, 800 particles a second for 2 s.
+/// let sprinkler = Emitter::new(Nozzle::Sphere { radius: 0.05 }, Vector::new(0.0, 0.3, 0.0),
+///                              Vector::Y, 1.5, 800.0)
+///     .active_between(0.0, 2.0);
+/// assert!(sprinkler.validate().is_ok());
+/// // The rate above which its slots always block, at a 2 cm spacing.
+/// assert!(sprinkler.max_rate(0.02) > 800.0);
+/// let zero = Emitter::new(Nozzle::Disk { radius: 0.0 }, Vector::ZERO, Vector::X, 1.0, 10.0);
+/// assert!(zero.validate().is_err()); // names `radius`
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub struct Emitter {

@@ -10,7 +10,7 @@ use rapier3d::geometry::{ColliderHandle, ColliderSet};
 
 /// The lattice over `aabb` at `spacing`: the points per axis and the first point.
 ///
-/// An axis of length `L` holds `n = ⌊L/s + tol⌋` points (at least one), centred in the box:
+/// An axis of length `L` holds `n = ⌊L/s + tol⌋` points (at least one), centered in the box:
 /// the first at `min + (L − (n − 1)·s)/2`. A box of side `n·s` thus gets exactly `n` points
 /// per axis, the outer ones half a spacing inside its faces, as [`Fluid::add_block`] places
 /// them, even when `L/s` rounds to a hair under `n` in single precision: `tol` is 10⁻³ of a
@@ -28,7 +28,7 @@ fn lattice_over(aabb: &Aabb, s: Real) -> ([u64; 3], Vector) {
 
 /// The points of a cubic lattice of spacing `spacing` that lie inside `shape` at `pose`
 /// (parry's `contains_point`), x fastest. The lattice covers the shape's bounding box and is
-/// centred in it (see [`Fluid::fill_shape`]).
+/// centered in it (see [`Fluid::fill_shape`]).
 ///
 /// A triangle mesh is a volume to parry only when built with `TriMeshFlags::ORIENTED` (then the
 /// side its normals face away from is inside); a mesh without it contains no point.
@@ -47,8 +47,9 @@ fn lattice_over(aabb: &Aabb, s: Real) -> ([u64; 3], Vector) {
 /// let cube = Cuboid::new(Vector::splat(0.25));
 /// let at = Pose::from_translation(Vector::new(1.3, -0.7, 2.9));
 /// assert_eq!(shape_lattice(&cube, &at, 0.05)?.len(), 1000);
-/// // A ball of radius 5 spacings: the lattice points inside it, 4/3·π·5³ ≈ 524 give or take.
-/// assert_eq!(shape_lattice(&Ball::new(0.25), &at, 0.05)?.len(), 515);
+/// // A ball of radius 5 spacings: the 552 lattice points inside it (its volume holds
+/// // 4/3·π·5³ ≈ 524 lattice cells; the difference is the surface's share).
+/// assert_eq!(shape_lattice(&Ball::new(0.25), &at, 0.05)?.len(), 552);
 /// # Ok::<(), rapier_sph::SphError>(())
 /// ```
 pub fn shape_lattice(shape: &dyn Shape, pose: &Pose, spacing: Real) -> SphResult<Vec<Vector>> {
@@ -110,7 +111,7 @@ pub fn shape_lattice(shape: &dyn Shape, pose: &Pose, spacing: Real) -> SphResult
 
 impl Fluid {
     /// Fills `shape` at `pose` with particles at rest on a cubic lattice at the fluid's
-    /// spacing ([`shape_lattice`]): the lattice covers the shape's bounding box, centred in it,
+    /// spacing ([`shape_lattice`]): the lattice covers the shape's bounding box, centered in it,
     /// and keeps the points parry says are inside. A box of side `n·s` gets exactly `n`
     /// particles per axis (as [`Fluid::add_block`]); a ball, a capsule, a cylinder, a convex
     /// hull, a compound or an oriented triangle mesh gets the lattice points inside it. Returns
@@ -133,7 +134,7 @@ impl Fluid {
     /// let mut fluid = Fluid::new(FluidParamsBuilder::water(0.05))?;
     /// // A barrel of water: a cylinder 0.4 m tall, radius 0.15 m, standing at (1, 0.2, 0).
     /// let barrel = fluid.fill_shape(&Cylinder::new(0.2, 0.15), &Pose::from_translation(Vector::new(1.0, 0.2, 0.0)))?;
-    /// assert_eq!(barrel.len(), 8 * 21); // 8 layers of the 21 lattice points inside a 0.15 m disk
+    /// assert_eq!(barrel.len(), 8 * 32); // 8 layers of the 6 × 6 lattice points less 4 corners
     /// // A box of 0.5 m: 10 × 10 × 10, exactly.
     /// let block = fluid.fill_shape(&Cuboid::new(Vector::splat(0.25)), &Pose::IDENTITY)?;
     /// assert_eq!(block.len(), 1000);

@@ -18,6 +18,20 @@ enum Entry {
 ///
 /// Fluids in one set do not interact with each other yet (each has its own neighbour
 /// grid); each interacts with the rapier colliders.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::{Fluid, FluidParamsBuilder, FluidSet, SphError};
+/// let mut fluids = FluidSet::new();
+/// let water = fluids.insert(Fluid::new(FluidParamsBuilder::water(0.05))?);
+/// let oil = fluids.insert(Fluid::new(FluidParamsBuilder::water(0.05).rest_density(900.0))?);
+/// assert_eq!(fluids.len(), 2);
+/// assert_eq!(fluids[oil].params().rest_density, 900.0);
+/// fluids.remove(water)?;
+/// assert!(fluids.get(water).is_none()); // a stale handle names nothing
+/// assert_eq!(fluids.remove(water).unwrap_err(), SphError::UnknownFluid);
+/// # Ok::<(), SphError>(())
+/// ```
 #[derive(Clone, Debug, Default)]
 pub struct FluidSet {
     entries: Vec<Entry>,

@@ -98,6 +98,19 @@ pub(crate) struct ParticlesMut<'a> {
 /// Particles are re-sorted by grid cell at every step, so a particle's index changes from
 /// step to step; [`Fluid::ids`] gives each particle a stable identifier. All attribute
 /// slices share the same order.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::{Fluid, FluidParamsBuilder, math::Vector};
+/// let mut fluid = Fluid::new(FluidParamsBuilder::water(0.1))?;
+/// let ids = fluid.add_block(Vector::ZERO, Vector::new(0.3, 0.2, 0.1))?; // 3 × 2 × 1
+/// assert_eq!((fluid.len(), ids), (6, 0..6));
+/// fluid.velocities_mut()[0] = Vector::new(1.0, 0.0, 0.0); // game code may kick particles
+/// let first = fluid.ids().iter().position(|&id| id == 0).unwrap();
+/// assert_eq!(fluid.velocities()[first].x, 1.0);
+/// assert!(fluid.add_particles(&[Vector::splat(f32::NAN)]).is_err()); // refused, typed
+/// # Ok::<(), rapier_sph::SphError>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct Fluid {
     params: FluidParams,

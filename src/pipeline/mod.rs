@@ -39,6 +39,27 @@ use workspace::Runtimes;
 /// and per fluid the solver's state and the step's scratch; the particles live in the
 /// [`FluidSet`] and the bodies in the rapier sets, passed explicitly as rapier's own
 /// `PhysicsPipeline` does.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::prelude::*;
+/// use rapier_sph::rapier3d::prelude::PhysicsWorld;
+///
+/// let mut world = PhysicsWorld::default(); // no collider: the drop falls freely
+/// let mut fluids = FluidSet::new();
+/// let mut drop = Fluid::new(FluidParamsBuilder::water(0.05))?;
+/// drop.add_block(Vector::ZERO, Vector::splat(0.2))?;
+/// let drop = fluids.insert(drop);
+/// let mut pipeline = FluidPipeline::with_time_stepping(TimeStepping::Adaptive {
+///     courant: 0.3,
+///     max_substeps: 64,
+/// });
+/// world.step();
+/// let report = pipeline.step_world(&mut world, &mut fluids)?;
+/// assert_eq!(report.particles, 64);
+/// assert!(fluids[drop].velocities().iter().all(|v| v.y < 0.0));
+/// # Ok::<(), SphError>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct FluidPipeline {
     /// How frames are divided into substeps (default: adaptive, Courant 0.4).

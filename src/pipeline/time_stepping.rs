@@ -8,6 +8,17 @@ use crate::fluid::Fluid;
 use crate::math::{Real, Vector};
 
 /// How [`crate::FluidPipeline::step`] divides the caller's frame into substeps.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::{FluidPipeline, TimeStepping};
+/// // The default: substeps that meet every stability limit, at most 256 a frame.
+/// assert_eq!(FluidPipeline::new().time_stepping, TimeStepping::default());
+/// // A tighter Courant number and a lower cap (the report says when the cap binds).
+/// let careful = TimeStepping::Adaptive { courant: 0.2, max_substeps: 32 };
+/// assert!(careful.validate().is_ok());
+/// assert!(TimeStepping::Adaptive { courant: 0.0, max_substeps: 32 }.validate().is_err());
+/// ```
 #[derive(Copy, Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub enum TimeStepping {

@@ -116,7 +116,7 @@ impl Target {
         )
     }
 
-    /// Draws a sphere of view-space centre `c` and radius `r`; `shade(normal, d)` gives the
+    /// Draws a sphere of view-space center `c` and radius `r`; `shade(normal, d)` gives the
     /// colour of a visible point from its view-space normal and depth.
     pub fn sphere(&mut self, c: Vector, r: Real, mut shade: impl FnMut(Vector, Real) -> Rgb) {
         let d = -c.z;

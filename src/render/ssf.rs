@@ -11,7 +11,7 @@
 //!    filter for screen-space fluid rendering", Proc. ACM CGIT 1(1)), separable (a pass
 //!    along x, then along y), with a footprint of a fixed size in the world (so it shrinks
 //!    with distance) and a range `μ` of one particle spacing: a sample more than `μ` behind
-//!    the centre pixel is left out (it belongs to water farther back: silhouettes do not
+//!    the center pixel is left out (it belongs to water farther back: silhouettes do not
 //!    bleed into what is behind them), a sample more than `μ` in front is clamped to `μ` in
 //!    front (so the crevices between splats are pulled up to the surface rather than kept
 //!    as dark seams).
@@ -32,7 +32,7 @@ use crate::par::CHUNK;
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
-/// A splat in view space: centre and the inverse of the ellipsoid's map (rows `axes[k] /
+/// A splat in view space: center and the inverse of the ellipsoid's map (rows `axes[k] /
 /// radii[k]`), and its largest radius.
 #[derive(Copy, Clone, Debug)]
 pub(crate) struct Splat {
@@ -133,7 +133,7 @@ impl FluidBuffers {
             });
     }
 
-    /// Adds a soft foam dot of view-space centre `c` and radius `r`, `weight` in `[0, 1]`,
+    /// Adds a soft foam dot of view-space center `c` and radius `r`, `weight` in `[0, 1]`,
     /// visible in front of the scene; under the fluid's surface it fades over `fade` metres.
     pub fn foam_dot(&mut self, t: &Target, c: Vector, r: Real, weight: Real, fade: Real) {
         let d = -c.z;
@@ -197,7 +197,7 @@ impl FluidBuffers {
                     }
                 });
         }
-        // Along y: scratch → smooth (the same centre depth decides the footprint).
+        // Along y: scratch → smooth (the same center depth decides the footprint).
         {
             let (scratch, depth) = (&self.scratch, &self.depth);
             crate::par_chunks_mut!(self.smooth, rows * w)

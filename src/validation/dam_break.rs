@@ -19,7 +19,7 @@
 //!   neighbours within `h = 2s`) still counts. A percentile of x would not do: the share of
 //!   particles in the tongue shrinks with resolution, so the percentile's bias would change
 //!   with the spacing.
-//! - **Residual height** `h`: the largest `y + s/2` over particles with centres within one
+//! - **Residual height** `h`: the largest `y + s/2` over particles with centers within one
 //!   spacing of the back wall that pass the same neighbour test.
 //!
 //! Errors: RMS of the relative deviation from every measured point over the measured range

@@ -10,7 +10,7 @@
 //!   clamped to `σ̃k = max(σk, σ1 / k_r)` (eq. 15) so no ellipsoid degenerates, and a
 //!   sphere for particles with fewer than `N_ε` neighbours (eq. 15's second case: lone
 //!   droplets stay round),
-//! - the smoothed centre `x̃_i = (1 − λ) x_i + λ x̄ʷ_i` (eq. 6, one step of Laplacian
+//! - the smoothed center `x̃_i = (1 − λ) x_i + λ x̄ʷ_i` (eq. 6, one step of Laplacian
 //!   smoothing, which pulls the surface layer in by the bias of the particles' lattice).
 //!
 //! The ellipsoid's radii are proportional to the clamped `σ̃k`, as the paper's kernel
@@ -38,7 +38,7 @@ pub struct AnisotropySettings {
     /// crate's water preset, about 270 neighbours): smoother, and about 4 times the cost
     /// (see `examples/visual_cost.rs`).
     pub radius: Real,
-    /// Laplacian smoothing of the centres, `λ` in `[0, 1]` (0: the particle's own position).
+    /// Laplacian smoothing of the centers, `λ` in `[0, 1]` (0: the particle's own position).
     /// Default 0.9 (Yu & Turk's choice).
     pub smoothing: Real,
     /// Largest ratio `k_r` between the largest and the smallest `σ` (≥ 1). Default 4 (Yu & Turk).
@@ -95,7 +95,7 @@ impl AnisotropySettings {
 /// One particle's ellipsoid: `{ center + Σ_k u_k · radii[k] · axes[k] : |u| ≤ 1 }`.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct Ellipsoid {
-    /// The smoothed centre (m).
+    /// The smoothed center (m).
     pub center: Vector,
     /// Orthonormal principal axes, largest radius first.
     pub axes: [Vector; 3],
@@ -330,7 +330,7 @@ mod tests {
         for r in e.radii {
             assert!((r / r0 - 1.0).abs() < 0.1, "radius {r} against r0 {r0}");
         }
-        // A centred particle's neighbourhood mean is itself: smoothing leaves it in place.
+        // A centered particle's neighbourhood mean is itself: smoothing leaves it in place.
         assert!((e.center - points[i]).length() < 1e-5 * s);
     }
 

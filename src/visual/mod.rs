@@ -1,7 +1,7 @@
 //! Per-particle data for drawing the liquid, computed on request only: nothing here runs
 //! inside [`crate::FluidPipeline::step`], so a game that does not call it pays nothing.
 //!
-//! - [`Anisotropy`]: the ellipsoid of each particle's neighbourhood and its smoothed centre
+//! - [`Anisotropy`]: the ellipsoid of each particle's neighbourhood and its smoothed center
 //!   (Yu & Turk 2013, "Reconstructing surfaces of particle-based fluids using anisotropic
 //!   kernels", ACM TOG 32(1)), so a thin sheet is drawn as a sheet and a flat surface as a
 //!   flat surface instead of a layer of beads.
