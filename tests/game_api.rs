@@ -550,3 +550,57 @@ fn the_checks_name_the_offending_particles() {
     assert_eq!(field_of(check::all_inside(f, &cavity, &nan)), "pose");
     let _: &dyn Shape = &cavity;
 }
+
+/// A snapshot keeps an emitter's attachment and the removed count, and the restored world
+/// steps on bit for bit as the original.
+#[cfg(feature = "snapshot")]
+#[test]
+fn a_snapshot_keeps_attachments_and_removals() {
+    use rapier_sph::snapshot;
+    let mut world = FluidWorld::new();
+    let can = world.physics.insert_body(
+        RigidBodyBuilder::kinematic_velocity_based()
+            .translation(Vector::new(0.0, 1.0, 0.0))
+            .linvel(Vector::new(0.5, 0.0, 0.0)),
+    );
+    let mut water = Fluid::new(FluidParamsBuilder::water(0.04)).unwrap();
+    let spout = water
+        .add_emitter(Emitter::new(
+            Nozzle::Disk { radius: 0.04 },
+            Vector::new(0.2, 0.0, 0.0),
+            Vector::NEG_Y,
+            1.0,
+            300.0,
+        ))
+        .unwrap();
+    let p = &world.physics;
+    water
+        .attach_emitter(spout, Attachment::Body(can), &p.bodies, &p.colliders)
+        .unwrap();
+    let ids = water
+        .fill_shape(
+            &Ball::new(0.1),
+            &Pose::from_translation(Vector::new(0.0, 0.3, 0.0)),
+        )
+        .unwrap();
+    water.remove_particles(&[ids.start, ids.start + 1]).unwrap();
+    let h = world.fluids.insert(water);
+    for _ in 0..5 {
+        world.step().unwrap();
+    }
+    let mut restored = snapshot::from_bytes(&snapshot::to_bytes(&world).unwrap()).unwrap();
+    let f = &restored.fluids[h];
+    assert_eq!(f.removed(), 2);
+    assert_eq!(
+        f.emitter(spout).unwrap().attachment(),
+        Some(Attachment::Body(can))
+    );
+    for _ in 0..5 {
+        world.step().unwrap();
+        restored.step().unwrap();
+    }
+    assert_eq!(
+        world.fluids[h].state_hash(),
+        restored.fluids[h].state_hash()
+    );
+}
