@@ -194,8 +194,43 @@ proptest! {
         solver in solver(),
         calls in prop::collection::vec(game_call(), 1..8),
     ) {
-        use rapier_sph::math::{Pose, Rotation};
-        use rapier_sph::rapier3d::parry::shape::{Ball, Cuboid};
+        let mut game = Game::new(solver);
+        // Particles added since the last reset, by the game and by the emitter.
+        let mut added = 0usize;
+        for call in calls {
+            let f = &game.world.fluids[game.fluid];
+            let before = (f.len(), f.removed(), f.state_hash());
+            let result = game.apply(call, &mut added)?;
+            let f = &game.world.fluids[game.fluid];
+            if result.is_err() {
+                // Refused: nothing changed.
+                prop_assert_eq!((f.len(), f.removed(), f.state_hash()), before);
+            }
+            let r = game.world.step().unwrap();
+            added += r.emitted;
+            let f = &game.world.fluids[game.fluid];
+            for (x, v) in f.positions().iter().zip(f.velocities()) {
+                prop_assert!(x.is_finite() && v.is_finite(), "{:?} {:?}", x, v);
+            }
+            prop_assert_eq!(f.len() + f.removed() + f.drained() + f.quarantined(), added);
+        }
+    }
+}
+
+/// A floor, a kinematic body (moving and turning) with a collider, a removed body, a handle
+/// of another set, and a fluid with a hose that can be attached to them.
+struct Game {
+    world: FluidWorld,
+    fluid: FluidHandle,
+    hose: EmitterHandle,
+    body: RigidBodyHandle,
+    collider: ColliderHandle,
+    gone: RigidBodyHandle,
+    stranger: RigidBodyHandle,
+}
+
+impl Game {
+    fn new(solver: Solver) -> Self {
         let mut world = FluidWorld::new();
         let floor = world.physics.insert_body(RigidBodyBuilder::fixed());
         world.physics.insert_collider(
@@ -208,7 +243,9 @@ proptest! {
                 .linvel(Vector::new(0.5, 0.0, 0.0))
                 .angvel(Vector::new(0.0, 2.0, 0.0)),
         );
-        let co = world.physics.insert_collider(ColliderBuilder::ball(0.05), Some(body));
+        let collider = world
+            .physics
+            .insert_collider(ColliderBuilder::ball(0.05), Some(body));
         let gone = world.physics.insert_body(RigidBodyBuilder::fixed());
         world.physics.remove_body(gone);
         let mut elsewhere = RigidBodySet::new();
@@ -218,83 +255,95 @@ proptest! {
         let stranger = elsewhere.insert(RigidBodyBuilder::fixed());
         world.physics.step();
         let mut fluid = Fluid::new(FluidParamsBuilder::water(0.05).solver(solver)).unwrap();
+        let nozzle = Nozzle::Disk { radius: 0.05 };
         let hose = fluid
-            .add_emitter(Emitter::new(Nozzle::Disk { radius: 0.05 }, Vector::new(0.15, 0.0, 0.0),
-                                      Vector::X, 1.0, 200.0))
+            .add_emitter(Emitter::new(
+                nozzle,
+                Vector::new(0.15, 0.0, 0.0),
+                Vector::X,
+                1.0,
+                200.0,
+            ))
             .unwrap();
         fluid.set_capacity(Some(3_000)).unwrap();
-        let h = world.fluids.insert(fluid);
-        // Particles added since the last reset, by the game and by the emitter.
-        let mut added = 0usize;
-        for call in calls {
-            let p = &world.physics;
-            let f = &mut world.fluids[h];
-            let before = (f.len(), f.removed(), f.state_hash());
-            let result: Result<(), SphError> = match call {
-                GameCall::FillBall(r, (x, y, z)) => {
-                    let r = if r.is_finite() { r % 0.3 } else { r };
-                    let c = Vector::new(x % 1.0, (y % 1.0).abs() + 0.3, z % 1.0);
-                    let res = f.fill_shape(&Ball::new(r), &Pose::from_translation(c));
-                    let good = r.is_finite() && r > 0.0 && c.is_finite();
-                    check_fill(&res, good)?;
-                    res.map(|ids| added += ids.len())
-                }
-                GameCall::FillBox((a, b, c), angle) => {
-                    let half = Vector::new(a % 0.3, b % 0.3, c % 0.3);
-                    let pose = Pose::from_parts(Vector::new(0.0, 0.5, 0.0),
-                                                Rotation::from_rotation_z(angle));
-                    let res = f.fill_shape(&Cuboid::new(half), &pose);
-                    let good = half.is_finite() && half.min_element() > 0.0 && angle.is_finite();
-                    check_fill(&res, good)?;
-                    res.map(|ids| added += ids.len())
-                }
-                GameCall::Remove(ids) => {
-                    let unknown = ids.iter().any(|&id| id as usize >= added_ids(f));
-                    let res = f.remove_particles(&ids).map(|_| ());
-                    prop_assert_eq!(res.is_err(), unknown, "ids {:?}", ids);
-                    res
-                }
-                GameCall::Clear => {
-                    f.clear();
-                    Ok(())
-                }
-                GameCall::Reset => {
-                    f.reset();
-                    added = 0;
-                    Ok(())
-                }
-                GameCall::Attach(k) => {
-                    let res = match k {
-                        0 => f.attach_emitter(hose, Attachment::Body(body), &p.bodies, &p.colliders),
-                        1 => f.attach_emitter(hose, Attachment::Collider(co), &p.bodies, &p.colliders),
-                        2 => f.attach_emitter(hose, Attachment::Body(gone), &p.bodies, &p.colliders),
-                        3 => f.attach_emitter(hose, Attachment::Body(stranger), &p.bodies, &p.colliders),
-                        _ => f.detach_emitter(hose, &p.bodies, &p.colliders).map(|_| ()),
-                    };
-                    let bad = k == 2 || k == 3
-                        || (k == 0 && p.bodies.get(body).is_none())
-                        || (k == 1 && p.colliders.get(co).is_none());
-                    prop_assert_eq!(res.is_err(), bad, "attach {}", k);
-                    res
-                }
-                GameCall::RemoveBody => {
-                    world.physics.remove_body(body);
-                    Ok(())
-                }
-            };
-            let f = &world.fluids[h];
-            if result.is_err() {
-                // Refused: nothing changed.
-                prop_assert_eq!((f.len(), f.removed(), f.state_hash()), before);
-            }
-            let r = world.step().unwrap();
-            added += r.emitted;
-            let f = &world.fluids[h];
-            for (x, v) in f.positions().iter().zip(f.velocities()) {
-                prop_assert!(x.is_finite() && v.is_finite(), "{:?} {:?}", x, v);
-            }
-            prop_assert_eq!(f.len() + f.removed() + f.drained() + f.quarantined(), added);
+        let fluid = world.fluids.insert(fluid);
+        Self {
+            world,
+            fluid,
+            hose,
+            body,
+            collider,
+            gone,
+            stranger,
         }
+    }
+
+    /// Makes one call; checks that it fails exactly on bad input. `added` counts the particles
+    /// the call added (a reset zeroes it).
+    fn apply(&mut self, call: GameCall, added: &mut usize) -> Result<SphResult<()>, TestCaseError> {
+        use rapier_sph::math::{Pose, Rotation};
+        use rapier_sph::rapier3d::parry::shape::{Ball, Cuboid};
+        let f = &mut self.world.fluids[self.fluid];
+        Ok(match call {
+            GameCall::FillBall(r, (x, y, z)) => {
+                let r = if r.is_finite() { r % 0.3 } else { r };
+                let c = Vector::new(x % 1.0, (y % 1.0).abs() + 0.3, z % 1.0);
+                let res = f.fill_shape(&Ball::new(r), &Pose::from_translation(c));
+                check_fill(&res, r.is_finite() && r > 0.0 && c.is_finite())?;
+                res.map(|ids| *added += ids.len())
+            }
+            GameCall::FillBox((a, b, c), angle) => {
+                let half = Vector::new(a % 0.3, b % 0.3, c % 0.3);
+                let turn = Rotation::from_rotation_z(angle);
+                let res =
+                    f.fill_shape(&Cuboid::new(half), &Pose::from_parts(Vector::Y * 0.5, turn));
+                let good = half.is_finite() && half.min_element() > 0.0 && angle.is_finite();
+                check_fill(&res, good)?;
+                res.map(|ids| *added += ids.len())
+            }
+            GameCall::Remove(ids) => {
+                let unknown = ids.iter().any(|&id| id as usize >= added_ids(f));
+                let res = f.remove_particles(&ids).map(|_| ());
+                prop_assert_eq!(res.is_err(), unknown, "ids {:?}", ids);
+                res
+            }
+            GameCall::Clear => {
+                f.clear();
+                Ok(())
+            }
+            GameCall::Reset => {
+                f.reset();
+                *added = 0;
+                Ok(())
+            }
+            GameCall::Attach(k) => self.attach(k)?,
+            GameCall::RemoveBody => {
+                self.world.physics.remove_body(self.body);
+                Ok(())
+            }
+        })
+    }
+
+    /// Attaches the hose to the body (0), its collider (1), a removed body (2), a body of
+    /// another set (3), or detaches it (4); an error exactly for 2, 3 and a removed body.
+    fn attach(&mut self, k: u8) -> Result<SphResult<()>, TestCaseError> {
+        let p = &self.world.physics;
+        let (bodies, colliders) = (&p.bodies, &p.colliders);
+        let f = &mut self.world.fluids[self.fluid];
+        let to = match k {
+            0 => Attachment::Body(self.body),
+            1 => Attachment::Collider(self.collider),
+            2 => Attachment::Body(self.gone),
+            3 => Attachment::Body(self.stranger),
+            _ => return Ok(f.detach_emitter(self.hose, bodies, colliders).map(|_| ())),
+        };
+        let res = f.attach_emitter(self.hose, to, bodies, colliders);
+        let bad = k == 2
+            || k == 3
+            || (k == 0 && bodies.get(self.body).is_none())
+            || (k == 1 && colliders.get(self.collider).is_none());
+        prop_assert_eq!(res.is_err(), bad, "attach {}", k);
+        Ok(res)
     }
 }
 
