@@ -136,8 +136,8 @@ pub fn reconstruct_points(
             message: format!("particle {i} has a non-finite position"),
         });
     }
-    let centres = centres(positions, spacing, options)?;
-    let points: Vec<Vector3<f32>> = centres
+    let centers = centers(positions, spacing, options)?;
+    let points: Vec<Vector3<f32>> = centers
         .iter()
         .map(|p| Vector3::new(p.x, p.y, p.z))
         .collect();
@@ -211,7 +211,7 @@ fn check_settings(
 /// The centers the surface is built around: the particles' positions, or with
 /// [`SurfaceOptions::smoothed_centers`] above 0 the Laplacian-smoothed centers
 /// [`crate::visual::Anisotropy`] computes (borrowed when unchanged, to avoid a copy).
-fn centres<'a>(
+fn centers<'a>(
     positions: &'a [Vector],
     spacing: Real,
     options: &SurfaceOptions,
