@@ -175,10 +175,25 @@ pub struct StepReport {
     /// Overlap relaxation rounds run over all substeps and fluids (each: one neighbour search
     /// and one position projection).
     pub relax_rounds: u32,
-    /// An overlap relaxation was stopped by its round cap before every particle was within
-    /// 2 % of the rest lattice's density: the rest of the overlap met the solver (which turns
-    /// it into velocity) and the relaxation goes on in the next substep.
+    /// An overlap relaxation was stopped by its budget ([`crate::pipeline::RELAX_FRAME_ROUNDS`]
+    /// rounds per fluid and frame) before every particle was within 2 % of the rest lattice's
+    /// density: the rest of the overlap met the solver (which turns it into velocity) and the
+    /// relaxation goes on in the next frame.
     pub relax_unfinished: bool,
+    /// When a relaxation is unfinished at the frame's end: the largest compression it left,
+    /// as a fraction of the rest lattice's density beyond the 2 % it settles at (0 otherwise).
+    pub relax_compression: Real,
+    /// An unfinished relaxation removed less than [`crate::pipeline::RELAX_PROGRESS`] (10 %)
+    /// of its compression over the whole frame: the overlap cannot be relaxed where it is
+    /// (more fluid than its closed container holds at rest density, positions `f32` cannot
+    /// separate). The fluid stays compressed, the solver holds it as it can, and the next
+    /// frames spend fewer rounds on it (down to [`crate::pipeline::RELAX_STALLED_ROUNDS`]).
+    pub relax_stalled: bool,
+    /// Particles whose viscous exchange was limited, summed over substeps: the viscosity
+    /// asked for more than the explicit update can hold in the substep (see
+    /// `src/forces/viscosity.rs`; the substep cap bound, or a particle had almost no
+    /// neighbours), and brought them at most half way to their common velocity.
+    pub viscosity_limited: usize,
     /// Particles removed because their position or velocity was no longer finite (they are
     /// taken out before they can poison their neighbours; see [`crate::Fluid::quarantined`]).
     pub quarantined: usize,

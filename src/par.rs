@@ -264,7 +264,13 @@ mod tests {
                 &mut acc,
                 crate::domain::Open,
             );
-            crate::forces::viscosity::add_accelerations(&pairs, &velocities, &inv, 0.5, &mut acc);
+            crate::forces::viscosity::add_accelerations(
+                &pairs,
+                &velocities,
+                &inv,
+                (0.5, 1e-3),
+                &mut acc,
+            );
             CEILING.store(0, Ordering::Relaxed);
             let mut bits: Vec<u32> = rho.iter().map(|v| v.to_bits()).collect();
             bits.extend(

@@ -19,6 +19,7 @@ mod substep;
 mod time_stepping;
 mod workspace;
 
+pub use relax::{RELAX_FRAME_ROUNDS, RELAX_PROGRESS, RELAX_STALLED_ROUNDS};
 pub use time_stepping::{MAX_SUBSTEPS, TimeStepping};
 
 use crate::boundary::Coupling;
@@ -383,6 +384,7 @@ impl Frame<'_> {
                 break;
             }
         }
+        self.end_relaxations();
         self.emit();
         self.report.particles = self.fluids.num_particles();
         if counted > 0 {
@@ -403,6 +405,7 @@ impl Frame<'_> {
                 self.report.quarantined += fluid.quarantine_non_finite();
             }
             rt.ws.max_speed = vmax;
+            rt.relax.begin_frame(fluid);
             if let Some(capacity) = fluid.capacity() {
                 rt.ws.reserve(capacity);
             }
@@ -427,6 +430,17 @@ impl Frame<'_> {
                 self.report.quarantined += fluid.quarantine_non_finite();
             }
             self.report.drained += fluid.drain_sinks(self.colliders);
+        }
+    }
+
+    /// What the frame's overlap relaxations left unfinished (see `relax::RelaxBudget`).
+    fn end_relaxations(&mut self) {
+        for ((_, fluid), rt) in self.fluids.iter_mut().zip(self.runtimes.iter_mut()) {
+            if let Some(left) = rt.relax.end_frame(fluid.relax_pending) {
+                let r = &mut self.report;
+                r.relax_compression = r.relax_compression.max(left.compression);
+                r.relax_stalled |= left.stalled;
+            }
         }
     }
 

@@ -4,11 +4,24 @@
 //! fluid's own rest lattice). Every solver would turn that overlap into velocity within one
 //! step (an explosion). Instead, the overlap beyond [`RELAX_TOLERANCE`] is projected out of
 //! the *positions* only, with the PBF density constraint (unilateral, no artificial pressure,
-//! moves of at most [`RELAX_MAX_MOVE`] spacings per round, up to [`RELAX_ROUNDS`] rounds with
-//! a fresh neighbour search each), each round's move swept through collider contact.
-//! Velocities are left as they were. It runs only when particles were added or depenetrated
-//! (or an earlier relaxation was stopped by [`RELAX_ROUNDS`]); otherwise it costs one flag
-//! check. Its time is reported as [`Stage::Relaxation`].
+//! moves of at most [`RELAX_MAX_MOVE`] spacings per round, each round with a fresh neighbour
+//! search), each round's move swept through collider contact. Velocities are left as they
+//! were. It runs only when particles were added or depenetrated (or an earlier relaxation was
+//! stopped by its budget); otherwise it costs one flag check. Its time is reported as
+//! [`Stage::Relaxation`].
+//!
+//! **Budget.** A fluid's relaxation runs at most [`RELAX_FRAME_ROUNDS`] rounds per frame,
+//! over all the frame's substeps together ([`RelaxBudget`]); what is not finished goes on in
+//! the next frame, and the report says how much compression is left
+//! ([`StepReport::relax_unfinished`], [`StepReport::relax_compression`]). Some overlap
+//! cannot be relaxed at all: a closed tank holding more particles than it fits at rest
+//! density (the same block spawned twice into a tank it fills), positions the precision of
+//! `f32` cannot separate (a 5 mm fluid 100 km from the origin), a spacing raised tenfold in
+//! a container. A frame whose rounds removed less than [`RELAX_PROGRESS`] of the compression
+//! it started with has *stalled*: the next frame's budget is halved, down to
+//! [`RELAX_STALLED_ROUNDS`], and the report says so ([`StepReport::relax_stalled`]); the
+//! fluid stays compressed and the solver holds it as it can (its iteration cap bounds that
+//! work). A frame that progresses again, or new particles, restore the whole budget.
 
 use super::contact::{Scene, collider_contact};
 use super::workspace::Workspace;
@@ -20,11 +33,25 @@ use crate::math::{Real, Vector};
 use crate::params::FluidParams;
 use crate::solver::pbf::{Pbf, PbfContext};
 
-/// Most relaxation rounds per substep (each: neighbour search, one projection). A block
-/// of 20³ particles spawned at half spacing (8× ρ0) needs about 190 (stability case 6); a
-/// relaxation the cap stops carries on in the next substep and the report says so
-/// ([`StepReport::relax_unfinished`]).
-const RELAX_ROUNDS: u32 = 1000;
+/// Most relaxation rounds a fluid runs in one frame (each: a neighbour search, one Jacobi
+/// projection, one contact sweep: less work than one substep of any solver, which adds its
+/// solve to the same search and sweep). A block of 20³ particles spawned at half spacing
+/// (8× ρ0) needs about 190 (stability case 6). Why 256: the default cap on substeps per frame
+/// ([`crate::TimeStepping`]), so a frame that relaxes costs at most about twice the worst frame
+/// of the default time stepping; before this budget the cap was 1,000 rounds per *substep*,
+/// and a tank filled twice over ran them in each of 256 substeps (250–335 s for one 1/60 s
+/// frame of 1,024 particles).
+pub const RELAX_FRAME_ROUNDS: u32 = 256;
+/// The smallest frame budget, reached after five stalled frames in a row (256 halved five
+/// times): a stalled relaxation costs at most 8 rounds a frame, and still notices when
+/// room appears (a wall moved away, particles drained).
+pub const RELAX_STALLED_ROUNDS: u32 = 8;
+/// A frame's relaxation progressed when its rounds removed at least this fraction (10 %) of
+/// the largest compression it started with (over the rest lattice's density, beyond
+/// [`RELAX_SETTLED`]). Jacobi projection removes a spawn's overlap far faster than that per
+/// frame while it can (case 6's 8× block: from 700 % to 2 % in 190 rounds); an overfilled
+/// closed tank stays at its fill ratio.
+pub const RELAX_PROGRESS: Real = 0.1;
 /// Compression the relaxation leaves alone (1 %: the fluid's own rest lattice is within
 /// 0.003 % of ρ0, and WCSPH is designed for about 1 %).
 const RELAX_TOLERANCE: Real = 0.01;
@@ -37,12 +64,91 @@ const RELAX_SETTLED: Real = 2.0 * RELAX_TOLERANCE;
 /// safeguard: the projection's linearisation holds for small moves).
 const RELAX_MAX_MOVE: Real = 0.2;
 
-/// Relaxes the fluid's overlaps. Returns whether it finished: no particle compressed beyond
-/// [`RELAX_SETTLED`].
+/// One fluid's relaxation rounds: what is left of this frame's budget, and what the frame's
+/// rounds achieved (kept by the pipeline from one frame to the next; see the module docs).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct RelaxBudget {
+    /// Rounds left in this frame.
+    pub left: u32,
+    /// Stalled frames in a row (each halves the next frame's budget).
+    halvings: u32,
+    /// The largest compression beyond the settled bound at this frame's first and last
+    /// round, if a round ran.
+    first: Option<Real>,
+    last: Real,
+    /// The fluid's next id when the budget was last set: new particles restore it.
+    next_id: u32,
+    /// The compression an unfinished relaxation left, as a factor of the rest density
+    /// (`1 + RELAX_SETTLED +` the largest compression left; 1 when it finished): the solver
+    /// holds the fluid at it until the relaxation removes it (see [`RelaxBudget::held`]).
+    hold: Real,
+}
+
+/// Most halvings of the budget: 256 → 8 rounds.
+const MAX_BUDGET_HALVINGS: u32 = 5;
+
+/// What a frame's relaxation left: the compression beyond the settled bound, and whether
+/// the frame stalled.
+#[derive(Copy, Clone, Debug)]
+pub(crate) struct RelaxLeft {
+    pub compression: Real,
+    pub stalled: bool,
+}
+
+impl RelaxBudget {
+    /// The budget of a new frame of `fluid`.
+    pub fn begin_frame(&mut self, fluid: &Fluid) {
+        if fluid.next_id() != self.next_id {
+            self.halvings = 0;
+            self.next_id = fluid.next_id();
+        }
+        self.left = (RELAX_FRAME_ROUNDS >> self.halvings).max(RELAX_STALLED_ROUNDS);
+        self.first = None;
+    }
+
+    /// The frame's end, with the relaxation still `pending` or not: what it left, if it ran
+    /// and did not finish (and the next frame's budget).
+    pub fn end_frame(&mut self, pending: bool) -> Option<RelaxLeft> {
+        let first = self.first?;
+        if !pending {
+            self.halvings = 0;
+            return None;
+        }
+        let stalled = self.last > (1.0 - RELAX_PROGRESS) * first;
+        self.halvings = if stalled {
+            (self.halvings + 1).min(MAX_BUDGET_HALVINGS)
+        } else {
+            0
+        };
+        Some(RelaxLeft {
+            compression: self.last,
+            stalled,
+        })
+    }
+
+    /// The rest density factor the solver holds the fluid at while its relaxation is
+    /// `pending`: what the relaxation has not removed yet is held, not turned into velocity.
+    /// Without it every solver meets a compression the relaxation could not remove with the
+    /// pressure of that whole compression in one substep: DFSPH in a closed tank filled
+    /// twice over reached 2·10^10 m/s in the first frame, its particles clumped at 48 ρ0.
+    pub fn held(&self, pending: bool) -> Real {
+        if pending { self.hold.max(1.0) } else { 1.0 }
+    }
+
+    /// Records a round's largest compression beyond the settled bound.
+    fn record(&mut self, compression: Real) {
+        self.first.get_or_insert(compression);
+        self.last = compression;
+    }
+}
+
+/// Relaxes the fluid's overlaps, within what is left of the frame's `budget`. Returns whether
+/// it finished: no particle compressed beyond [`RELAX_SETTLED`].
 pub(super) fn relax_overlaps(
     fluid: &mut Fluid,
     ws: &mut Workspace,
     scene: Option<Scene<'_>>,
+    budget: &mut RelaxBudget,
     report: &mut StepReport,
 ) -> bool {
     let n = fluid.len();
@@ -51,7 +157,9 @@ pub(super) fn relax_overlaps(
     ws.previous_positions.copy_from_slice(fluid.positions());
     ws.inv_densities.resize(n, 0.0);
     let lattice_density = lattice_density(fluid.params());
-    for round in 0..RELAX_ROUNDS {
+    let mut round = 0;
+    while budget.left > 0 {
+        budget.left -= 1;
         report.relax_rounds += 1;
         search(fluid, ws, report);
         if round == 0 {
@@ -65,6 +173,7 @@ pub(super) fn relax_overlaps(
         }
         let moved = project(fluid, ws, scene, lattice_density, report);
         if moved == 0 {
+            budget.hold = 1.0;
             return true;
         }
         report.relaxed = report.relaxed.max(moved);
@@ -77,9 +186,13 @@ pub(super) fn relax_overlaps(
         // round's moves were the last small ones.
         let densest = fluid.densities().iter().copied().fold(0.0, Real::max);
         if densest <= lattice_density * (1.0 + RELAX_SETTLED) {
+            budget.hold = 1.0;
             return true;
         }
+        budget.record(densest / lattice_density - 1.0 - RELAX_SETTLED);
+        round += 1;
     }
+    budget.hold = 1.0 + RELAX_SETTLED + budget.last;
     false
 }
 

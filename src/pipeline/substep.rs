@@ -50,13 +50,22 @@ pub(crate) fn substep(
         return SubstepResult::default();
     }
     wrap_periodic(fluid, report);
-    if fluid.needs_depenetration || fluid.relax_pending {
-        fluid.relax_pending = !super::relax::relax_overlaps(fluid, &mut rt.ws, input.scene, report);
+    if (fluid.needs_depenetration || fluid.relax_pending) && rt.relax.left > 0 {
+        let (ws, budget) = (&mut rt.ws, &mut rt.relax);
+        fluid.relax_pending = !super::relax::relax_overlaps(fluid, ws, input.scene, budget, report);
         report.relax_unfinished |= fluid.relax_pending;
     }
     let mut coupling = begin_coupling(fluid, &rt.ws, input, coupling, report);
     let depenetrate = fluid.needs_depenetration;
+    let hold = rt.relax.held(fluid.relax_pending);
     let (params, mut particles) = fluid.split_mut();
+    let held;
+    let params = if hold > 1.0 {
+        held = held_params(params, hold);
+        &held
+    } else {
+        params
+    };
     let ws = &mut rt.ws;
     if rt.solver.predicts_positions() {
         predict(&mut particles, ws, input.gravity, input.dt, report);
@@ -102,6 +111,15 @@ pub(crate) fn substep(
     SubstepResult {
         mean_error,
         non_finite: outcome.non_finite,
+    }
+}
+
+/// The parameters the solver holds a fluid at while its overlap relaxation is unfinished:
+/// the rest density times `hold` (see `relax::RelaxBudget::held`).
+fn held_params(params: &FluidParams, hold: Real) -> FluidParams {
+    FluidParams {
+        rest_density: params.rest_density * hold,
+        ..params.clone()
     }
 }
 

@@ -84,6 +84,8 @@ pub(crate) struct FluidRuntime {
     pub solver: SolverState,
     /// Scratch.
     pub ws: Workspace,
+    /// The overlap relaxation's rounds left this frame (see `pipeline::relax`).
+    pub relax: super::relax::RelaxBudget,
 }
 
 /// One [`FluidRuntime`] per fluid of the set last stepped, in the set's order.
@@ -122,6 +124,7 @@ impl Runtimes {
                     epoch: fluid.epoch,
                     solver: SolverState::new(solver),
                     ws: Workspace::default(),
+                    relax: Default::default(),
                 },
             };
             self.entries.push(entry);

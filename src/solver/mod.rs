@@ -321,7 +321,7 @@ pub(crate) fn finish_position_step<S: Separation>(ctx: &mut StepContext<'_>, sep
         })
         .into();
     if p.viscosity > 0.0 {
-        ctx.report.timed(crate::Stage::ViscosityForce, || {
+        let limited = ctx.report.timed(crate::Stage::ViscosityForce, || {
             ctx.accelerations.fill(Vector::ZERO);
             let pairs = crate::neighbors::Pairs {
                 positions: ctx.positions,
@@ -330,15 +330,17 @@ pub(crate) fn finish_position_step<S: Separation>(ctx: &mut StepContext<'_>, sep
                 h: p.smoothing_length,
                 sep,
             };
-            crate::forces::viscosity::add_accelerations(
+            let limited = crate::forces::viscosity::add_accelerations(
                 &pairs,
                 ctx.velocities,
                 ctx.inv_densities,
-                p.viscosity,
+                (p.viscosity, dt),
                 ctx.accelerations,
             );
             crate::integrate::add_accelerations(dt, ctx.accelerations, ctx.velocities);
+            limited
         });
+        ctx.report.viscosity_limited += limited;
         outcome = crate::integrate::scan(ctx.positions, ctx.velocities).into();
     }
     outcome

@@ -60,15 +60,16 @@ impl PressureSolver for WcsphState {
                 p.smoothing_length, wall.map(|w| &w.gradient[..]), ctx.accelerations, sep));
         });
         if p.viscosity > 0.0 {
-            ctx.report.timed(Stage::ViscosityForce, || {
+            let limited = ctx.report.timed(Stage::ViscosityForce, || {
                 forces::viscosity::add_accelerations(
                     &pairs,
                     ctx.velocities,
                     ctx.inv_densities,
-                    p.viscosity,
+                    (p.viscosity, ctx.dt),
                     ctx.accelerations,
-                );
+                )
             });
+            ctx.report.viscosity_limited += limited;
         }
         if ctx.gravity != Vector::ZERO {
             ctx.report.timed(Stage::ExternalForces, || {

@@ -538,38 +538,78 @@ fn apply_pressure(ctx: &SolveContext<'_>, neighbour: bool, pi: &[Real], velociti
 /// [`crate::forces::viscosity::add_accelerations`]) to `accelerations`,
 /// `a_i += ε m/ρ_i Σ_j (v_j − v_i)/ρ_j ∇²W_v(|x_i − x_j|)` (`em` = `ε·m`), from the
 /// Laplacians stored by [`density_and_factors`] (with viscosity) in `pairs`: a gather of
-/// velocities and densities, with no distance or kernel evaluated. `wide` is scratch for a
-/// 16-byte copy of the velocities.
+/// velocities and densities, with no distance or kernel evaluated; limited where the explicit
+/// update over the substep `dt` would overshoot (`forces::viscosity`, "The explicit limit").
+/// `wide` is scratch for a 16-byte copy of the velocities. Returns how many particles were
+/// limited.
 pub(crate) fn viscosity(
     (neighbors, pairs): (&NeighborLists, &PairGradients),
     (velocities, inv_densities): (&[Vector], &[Real]),
-    em: Real,
+    (em, dt): (Real, Real),
     wide: &mut Vec<Vec3A>,
     accelerations: &mut [Vector],
-) {
+) -> usize {
+    use crate::forces::viscosity::{AtomicMax, MAX_EXCHANGE, limit};
     wide.clear();
     wide.extend(velocities.iter().map(|&v| Vec3A::from(v)));
-    let velocities: &[Vec3A] = wide;
+    let wv: &[Vec3A] = wide;
+    let largest = AtomicMax::default();
     crate::par_chunks_mut!(accelerations, CHUNK)
         .enumerate()
         .for_each(|(c, out)| {
-            crate::par::wide(
+            let most = crate::par::wide(
                 #[inline(always)]
                 || {
                     let (offsets, indices) = neighbors.chunk(c);
                     let lap = &pairs.chunk(c).laplacian;
+                    let mut most: Real = 0.0;
                     for (k, a) in out.iter_mut().enumerate() {
                         let i = c * CHUNK + k;
-                        let vi = velocities[i];
+                        let vi = wv[i];
                         let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
                         let f = pair_sum(&indices[s..e], &lap[s..e], |j, lap| {
-                            (velocities[j] - vi) * (lap * inv_densities[j])
+                            (wv[j] - vi) * (lap * inv_densities[j])
                         });
                         *a += Vector::from(f) * (em * inv_densities[i]);
+                        let w: Real = (indices[s..e].iter().zip(&lap[s..e]))
+                            .map(|(&j, &l)| l * inv_densities[j as usize])
+                            .sum();
+                        most = most.max(w * inv_densities[i]);
                     }
+                    most
                 },
             );
+            largest.raise(most * em * dt);
         });
+    if !largest.exceeds(MAX_EXCHANGE) {
+        return 0;
+    }
+    let weights = StoredWeights { neighbors, pairs };
+    limit(
+        &weights,
+        (velocities, inv_densities),
+        em * dt,
+        em,
+        accelerations,
+    )
+}
+
+/// The Laplacians [`density_and_factors`] stored, as the viscosity limit's weights.
+struct StoredWeights<'a> {
+    neighbors: &'a NeighborLists,
+    pairs: &'a PairGradients,
+}
+
+impl crate::forces::viscosity::PairWeights for StoredWeights<'_> {
+    fn each(&self, i: usize, mut f: impl FnMut(usize, Real)) {
+        let (c, k) = (i / CHUNK, i % CHUNK);
+        let (offsets, indices) = self.neighbors.chunk(c);
+        let lap = &self.pairs.chunk(c).laplacian;
+        let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
+        for (&j, &l) in indices[s..e].iter().zip(&lap[s..e]) {
+            f(j as usize, l);
+        }
+    }
 }
 
 /// Inputs shared by both solves.

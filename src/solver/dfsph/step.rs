@@ -255,17 +255,19 @@ impl DfsphState {
         if p.viscosity > 0.0 {
             forces = true;
             let (gradients, velocities) = (&self.gradients, &mut self.buffers.velocities);
-            ctx.report.timed(Stage::ViscosityForce, || {
+            let dt = ctx.dt;
+            let limited = ctx.report.timed(Stage::ViscosityForce, || {
                 ctx.accelerations.fill(Vector::ZERO);
                 // From the pair Laplacians stored by the density pass.
                 super::viscosity(
                     (ctx.neighbors, gradients),
                     (ctx.velocities, ctx.inv_densities),
-                    p.viscosity * p.particle_mass,
+                    (p.viscosity * p.particle_mass, dt),
                     velocities,
                     ctx.accelerations,
-                );
+                )
             });
+            ctx.report.viscosity_limited += limited;
         }
         if ctx.gravity != Vector::ZERO {
             let (gravity, wall) = (ctx.gravity, ctx.wall);
