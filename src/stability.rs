@@ -26,7 +26,9 @@
 //! kilometre, 10 the same column in tanks of several lengths, 11 dynamic bodies denser than
 //! water sinking onto the floor and resting there (the energy then counts the bodies' kinetic
 //! and potential energy too), and 12 a column at rest with a kernel support of 3 spacings
-//! instead of 2 (full suite only). docs/stability.md has the results.
+//! instead of 2 (full suite only), 13 a viscosity of 5,000 Pa·s (10^4 times the water
+//! preset's, beyond what the substep cap lets the explicit viscosity hold: it is limited), and
+//! 14 a block thrown apart at 20 to 50 m/s at 0.2 m spacing. docs/stability.md has the results.
 
 #![cfg_attr(docsrs, doc(cfg(feature = "validation")))]
 
@@ -135,8 +137,13 @@ struct Setup {
     internal_energy: bool,
 }
 
-/// Every case.
+/// Every case, in the suite's order (new cases are appended at the end).
 pub fn cases() -> Vec<Case> {
+    [paper_cases(), scene_cases(), tank_cases(), abuse_cases()].concat()
+}
+
+/// Cases 1–4: the paper's stiffness, rest density, particle counts and whole frames.
+fn paper_cases() -> Vec<Case> {
     vec![
         Case {
             name: "1 stiffness k=3",
@@ -192,6 +199,12 @@ pub fn cases() -> Vec<Case> {
             quick: true,
             build: stiffest_frames,
         },
+    ]
+}
+
+/// Cases 5–9: viscosity, overlapping spawns, an immersed body, jets, far and spread fluids.
+fn scene_cases() -> Vec<Case> {
+    vec![
         Case {
             name: "5 viscosity x1000",
             description: "viscosity 1000x the water preset's",
@@ -240,6 +253,12 @@ pub fn cases() -> Vec<Case> {
             quick: true,
             build: spread,
         },
+    ]
+}
+
+/// Cases 10–12: tank lengths, heavy bodies, a wider support.
+fn tank_cases() -> Vec<Case> {
+    vec![
         Case {
             name: "10 tank length 1.5",
             description: "the column in a tank 1.5 column widths long",
@@ -276,6 +295,25 @@ pub fn cases() -> Vec<Case> {
                           Clavet passes the verdict but its column is thrown up before it settles (docs/solvers.md)",
             quick: false,
             build: wide_support,
+        },
+    ]
+}
+
+/// Cases 13–14: settings and speeds that once blew a fluid up (docs/limits.md, "Work per
+/// frame").
+fn abuse_cases() -> Vec<Case> {
+    vec![
+        Case {
+            name: "13 viscosity x10^4",
+            description: "viscosity 10^4 x the water preset's (5,000 Pa·s): beyond the substep cap, limited",
+            quick: false,
+            build: |s, z| very_high_viscosity(s, z, 5_000.0),
+        },
+        Case {
+            name: "14 thrown at 20-50 m/s",
+            description: "a block thrown apart at 20 to 50 m/s at 0.2 m spacing (Clavet lost particles to NaN)",
+            quick: false,
+            build: thrown,
         },
     ]
 }
@@ -926,5 +964,40 @@ fn tank_length(solver: &Solver, size: SuiteSize, ratio: Real) -> Option<SphResul
             seconds(size, 1.0, 3.0),
             ratio,
         )
+    })())
+}
+
+/// Case 13: the dam break at viscosity `mu` (Pa·s).
+fn very_high_viscosity(solver: &Solver, size: SuiteSize, mu: Real) -> Option<SphResult<Setup>> {
+    Some((|| {
+        let params = water(solver, 0.05).viscosity(mu).build()?;
+        let n = if size == SuiteSize::Quick {
+            1_000
+        } else {
+            4_000
+        };
+        water_dam_break(params, n, seconds(size, 0.5, 2.0), 4.0)
+    })())
+}
+
+/// Case 14: a block of 8³ particles at 0.2 m spacing in a closed 8 m box, each thrown at 20 to
+/// 50 m/s in a fixed spread of directions (Weyl sequences).
+fn thrown(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>> {
+    Some((|| {
+        let s = 0.2;
+        let params = water(solver, s).build()?;
+        let pos = crate::fluid::lattice(Vector::splat(16.0 * s), 8, 8, 8, s);
+        let vel: Vec<Vector> = (0..pos.len())
+            .map(|i| {
+                let u = (i as f64 * 0.618_033_988_75).fract() as Real;
+                let v = (i as f64 * 0.754_877_666_25).fract() as Real;
+                let (a, b) = (u * std::f32::consts::TAU, v * std::f32::consts::PI);
+                let speed = 20.0 + 30.0 * ((i as f64 * 0.569_840_290_99).fract() as Real);
+                Vector::new(a.cos() * b.sin(), b.cos(), a.sin() * b.sin()) * speed
+            })
+            .collect();
+        let frames = (seconds(size, 0.5, 2.0) * 60.0) as usize;
+        let max = Vector::splat(40.0 * s);
+        boxed(params, Vector::ZERO, max, &pos, Some(&vel), frames)
     })())
 }

@@ -46,8 +46,9 @@ pub const RELAX_FRAME_ROUNDS: u32 = 256;
 /// times): a stalled relaxation costs at most 8 rounds a frame, and still notices when
 /// room appears (a wall moved away, particles drained).
 pub const RELAX_STALLED_ROUNDS: u32 = 8;
-/// A frame's relaxation progressed when its rounds removed at least this fraction (10 %) of
-/// the largest compression it started with (over the rest lattice's density, beyond
+/// A frame's relaxation progressed when its rounds left at most 90 % (this fraction, 10 %,
+/// removed) of the largest compression it started with, or of the lowest an earlier frame
+/// left since new particles came (over the rest lattice's density, beyond
 /// [`RELAX_SETTLED`]). Jacobi projection removes a spawn's overlap far faster than that per
 /// frame while it can (case 6's 8× block: from 700 % to 2 % in 190 rounds); an overfilled
 /// closed tank stays at its fill ratio.
@@ -76,6 +77,9 @@ pub(crate) struct RelaxBudget {
     /// round, if a round ran.
     first: Option<Real>,
     last: Real,
+    /// The smallest compression an unfinished frame has left since the budget was restored
+    /// (a frame progresses when it goes [`RELAX_PROGRESS`] below it).
+    best: Option<Real>,
     /// The fluid's next id when the budget was last set: new particles restore it.
     next_id: u32,
     /// The compression an unfinished relaxation left, as a factor of the rest density
@@ -100,6 +104,7 @@ impl RelaxBudget {
     pub fn begin_frame(&mut self, fluid: &Fluid) {
         if fluid.next_id() != self.next_id {
             self.halvings = 0;
+            self.best = None;
             self.next_id = fluid.next_id();
         }
         self.left = (RELAX_FRAME_ROUNDS >> self.halvings).max(RELAX_STALLED_ROUNDS);
@@ -112,9 +117,14 @@ impl RelaxBudget {
         let first = self.first?;
         if !pending {
             self.halvings = 0;
+            self.best = None;
             return None;
         }
-        let stalled = self.last > (1.0 - RELAX_PROGRESS) * first;
+        // Progress is measured against the lowest compression left so far: a fluid that
+        // sloshes in an overfilled tank goes up and down without getting anywhere.
+        let best = self.best.map_or(first, |b| b.min(first));
+        let stalled = self.last > (1.0 - RELAX_PROGRESS) * best;
+        self.best = Some(best.min(self.last));
         self.halvings = if stalled {
             (self.halvings + 1).min(MAX_BUDGET_HALVINGS)
         } else {
