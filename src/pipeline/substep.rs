@@ -86,7 +86,7 @@ pub(crate) fn substep(
     let query = wall_query(params, &rt.solver, input, coupling.as_deref());
     walls(query, particles.positions, ws, report);
     let (outcome, mean_error) = solve(
-        params,
+        (params, hold),
         particles,
         rt,
         input,
@@ -233,11 +233,12 @@ fn walls(
     report.particles_near_walls += near;
 }
 
-/// The solver's substep on the step context, then the walls' viscosity and their reaction
+/// The solver's substep on the step context (`params` with the rest density the solver
+/// holds the fluid at, `hold` times the fluid's), then the walls' viscosity and their reaction
 /// on dynamic bodies, then the report's density error. Returns the solver's outcome and the
 /// mean density error.
 fn solve(
-    params: &FluidParams,
+    (params, hold): (&FluidParams, Real),
     particles: ParticlesMut<'_>,
     rt: &mut FluidRuntime,
     input: &SubstepInput<'_>,
@@ -265,6 +266,7 @@ fn solve(
         previous_positions: &mut ws.previous_positions,
         neighbors: &ws.search.lists,
         wall: wall_ws.any().then_some(&wall_ws),
+        hold,
         report,
     };
     let outcome = rt.solver.step(&mut ctx);
@@ -337,7 +339,8 @@ fn measure_density_error(
     ctx: &mut StepContext<'_>,
     partials: &mut Vec<(f64, Real)>,
 ) -> (Real, Real) {
-    let rest = ctx.params.rest_density;
+    // Against the fluid's own rest density, also while the solver holds it compressed.
+    let rest = ctx.params.rest_density / ctx.hold;
     let densities = &*ctx.densities;
     let (max_err, mean_err) = ctx.report.timed(Stage::Density, || {
         density::density_error(densities, rest, partials)

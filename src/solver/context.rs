@@ -41,6 +41,11 @@ pub(crate) struct StepContext<'a> {
     pub neighbors: &'a NeighborLists,
     /// The walls' contributions, when a wall is near and walls count in the density.
     pub wall: Option<&'a WallWorkspace>,
+    /// The factor of the fluid's rest density the solver holds it at while its overlap
+    /// relaxation is unfinished (1 otherwise; see `pipeline::relax::RelaxBudget::held`):
+    /// `params.rest_density` already includes it; Clavet, whose rest density is its lattice's
+    /// own, multiplies that by it.
+    pub hold: Real,
     /// The step report the stages add to.
     pub report: &'a mut StepReport,
 }

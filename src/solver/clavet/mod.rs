@@ -226,6 +226,8 @@ pub(crate) struct ClavetContext<'a> {
     /// Walls that count in the densities ([`WallWorkspace::clavet`], filled by
     /// [`WallWorkspace::update_clavet`]), or `None`: walls by contact only.
     pub wall: Option<&'a WallWorkspace>,
+    /// The factor of the rest density the fluid is held at (see `StepContext::hold`).
+    pub hold: Real,
 }
 
 /// [`relax`] with the separations formed by `sep` (see [`crate::domain`]).
@@ -279,7 +281,7 @@ struct Stiffness {
 impl Stiffness {
     fn new(ctx: &ClavetContext<'_>, settings: &Clavet) -> Self {
         let h = ctx.h;
-        let rho0 = lattice_rest_density(h, ctx.spacing);
+        let rho0 = lattice_rest_density(h, ctx.spacing) * ctx.hold;
         let unit = ctx.speed_of_sound * ctx.speed_of_sound / (h * rho0);
         let near = settings
             .near_stiffness
@@ -423,6 +425,7 @@ pub fn stiffest_rest_mode(settings: &Clavet, h: Real, spacing: Real, speed_of_so
         speed_of_sound,
         dt: 1.0,
         wall: None,
+        hold: 1.0,
     };
     // The springs are not part of the relaxation (their stiffness bounds the substep
     // separately, through the acoustic limit).

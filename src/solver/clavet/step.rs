@@ -65,6 +65,7 @@ impl PressureSolver for ClavetState {
             speed_of_sound: c,
             dt,
             wall: ctx.wall,
+            hold: ctx.hold,
         };
         // Springs (if any) first, on the predicted positions (the paper's Alg. 1 order); timed
         // with the relaxation.
@@ -125,7 +126,9 @@ impl PressureSolver for ClavetState {
             } else {
                 settings.stiffness
             };
-            *pr = k * p.rest_density * c * c * (rel - 1.0);
+            // Clamped to the largest finite `f32`: at the fastest accepted speed of sound
+            // `c²·ρ0` overflows (c = 10¹⁸ m/s gave −∞).
+            *pr = (k * p.rest_density * c * c * (rel - 1.0)).clamp(-Real::MAX, Real::MAX);
         }
         crate::solver::finish_position_step(ctx, sep)
     }

@@ -73,14 +73,22 @@ impl PressureSolver for PbfState {
         report.solver_density_error = report.solver_density_error.max(stats.error);
         // The pressure the corrections stand for: Δx = dt²·a with a = −Σ m (π_i + π_j) ∇W
         // gives π = −Σλ/(ρ0·dt²).
+        // In `f32` while `1/dt²` is finite, else in `f64` (a frame of 10⁻³⁰ s made it infinite
+        // and the pressures NaN); clamped to the largest finite `f32`.
         let scale = -1.0 / (p.rest_density * dt * dt);
+        let wide_scale = -1.0 / (p.rest_density as f64 * (dt as f64).powi(2));
         for ((pr, &l), &rho) in ctx
             .pressures
             .iter_mut()
             .zip(self.buffers.lambda_sum.iter())
             .zip(ctx.densities.iter())
         {
-            *pr = l * scale * rho * rho;
+            let value = if scale.is_finite() {
+                l * scale * rho * rho
+            } else {
+                (l as f64 * wide_scale * (rho as f64).powi(2)) as Real
+            };
+            *pr = value.clamp(-Real::MAX, Real::MAX);
         }
         crate::solver::finish_position_step(ctx, sep)
     }
