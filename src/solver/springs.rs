@@ -111,13 +111,74 @@ impl SpringSet {
 
 const NONE: u32 = u32::MAX;
 
+/// A value per particle id: a table indexed by id while the ids are dense (the largest at
+/// most [`DENSE_IDS`] times the entries, plus 1,024), else the entries sorted by id and found
+/// by binary search. Ids are handed out over a fluid's life: a fluid fed by an emitter and
+/// drained by a sink holds a few thousand particles with ids in the billions, and a table
+/// sized by the largest id (as this was) would take gigabytes (a snapshot may also name any
+/// id below its next id).
+#[derive(Clone, Debug, Default)]
+struct IdTable {
+    direct: Vec<u32>,
+    sorted: Vec<(u32, u32)>,
+    dense: bool,
+}
+
+/// See [`IdTable`].
+const DENSE_IDS: usize = 4;
+
+impl IdTable {
+    /// Fills the table with `entries` (`(id, value)`), `max_id` the largest id plus one.
+    fn fill(&mut self, entries: impl Iterator<Item = (u32, u32)>, max_id: usize, count: usize) {
+        self.dense = max_id <= DENSE_IDS * count + 1024;
+        if self.dense {
+            if self.direct.len() < max_id {
+                self.direct.resize(max_id, NONE);
+            }
+            for (id, v) in entries {
+                self.direct[id as usize] = v;
+            }
+        } else {
+            self.sorted.clear();
+            self.sorted.extend(entries);
+            self.sorted.sort_unstable_by_key(|e| e.0);
+        }
+    }
+
+    /// Resets the entries of `ids` (a dense table's; a sorted one is refilled).
+    fn clear(&mut self, ids: impl Iterator<Item = u32>) {
+        if self.dense {
+            for id in ids {
+                self.direct[id as usize] = NONE;
+            }
+        }
+    }
+
+    /// The value of `id` (`NONE` if it has none).
+    #[inline(always)]
+    fn get(&self, id: u32) -> u32 {
+        if self.dense {
+            self.direct.get(id as usize).copied().unwrap_or(NONE)
+        } else {
+            self.sorted
+                .binary_search_by_key(&id, |e| e.0)
+                .map_or(NONE, |k| self.sorted[k].1)
+        }
+    }
+
+    /// Heap bytes held.
+    fn heap_bytes(&self) -> usize {
+        self.direct.capacity() * 4 + self.sorted.capacity() * 8
+    }
+}
+
 /// Scratch of the spring stage (reused from step to step).
 #[derive(Clone, Debug, Default)]
 pub(crate) struct SpringBuffers {
     /// Row of the previous spring set by particle id (`NONE` elsewhere).
-    row_of_id: Vec<u32>,
+    row_of_id: IdTable,
     /// Current particle index by id (`NONE` elsewhere).
-    index_of_id: Vec<u32>,
+    index_of_id: IdTable,
     chunks: Vec<SpringChunk>,
     displacement: Vec<Vector>,
 }
@@ -135,7 +196,8 @@ struct SpringChunk {
 impl SpringBuffers {
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
-        (self.row_of_id.capacity() + self.index_of_id.capacity()) * 4
+        self.row_of_id.heap_bytes()
+            + self.index_of_id.heap_bytes()
             + self.displacement.capacity() * 12
             + self
                 .chunks
@@ -233,26 +295,19 @@ impl SpringBuffers {
             .copied()
             .max()
             .map_or(0, |m| m as usize + 1);
-        if self.row_of_id.len() < max_id {
-            self.row_of_id.resize(max_id, NONE);
-            self.index_of_id.resize(max_id, NONE);
-        }
-        for (r, &o) in springs.owners.iter().enumerate() {
-            self.row_of_id[o as usize] = r as u32;
-        }
-        for (i, &id) in ids.iter().enumerate() {
-            self.index_of_id[id as usize] = i as u32;
-        }
+        let count = ids.len() + springs.owners.len();
+        let rows = springs.owners.iter().enumerate();
+        self.row_of_id
+            .fill(rows.map(|(r, &o)| (o, r as u32)), max_id, count);
+        let indices = ids.iter().enumerate();
+        self.index_of_id
+            .fill(indices.map(|(i, &id)| (id, i as u32)), max_id, count);
     }
 
     /// Resets the id tables for the next step (only the entries [`Self::index`] set).
     fn unindex(&mut self, springs: &SpringSet, ids: &[u32]) {
-        for &o in &springs.owners {
-            self.row_of_id[o as usize] = NONE;
-        }
-        for &id in ids {
-            self.index_of_id[id as usize] = NONE;
-        }
+        self.row_of_id.clear(springs.owners.iter().copied());
+        self.index_of_id.clear(ids.iter().copied());
     }
 }
 
@@ -283,8 +338,8 @@ struct Rows<'a, S> {
     sep: S,
     positions: &'a [Vector],
     old: &'a SpringSet,
-    row_of_id: &'a [u32],
-    index_of_id: &'a [u32],
+    row_of_id: &'a IdTable,
+    index_of_id: &'a IdTable,
     gamma: Real,
     alpha: Real,
     dt2k_half: Real,
@@ -303,7 +358,7 @@ impl<S: Separation> Rows<'_, S> {
         let (h, dt) = (self.ctx.h, self.ctx.dt);
         let (positions, sep, ids) = (self.positions, &self.sep, self.ctx.ids);
         let xi = positions[i];
-        let old_row = match self.row_of_id[ids[i] as usize] {
+        let old_row = match self.row_of_id.get(ids[i]) {
             NONE => 0..0,
             r => self.old.offsets[r as usize] as usize..self.old.offsets[r as usize + 1] as usize,
         };
@@ -341,9 +396,9 @@ impl<S: Separation> Rows<'_, S> {
                 (partner, l, j)
             } else {
                 b += 1;
-                match self.index_of_id.get(next_old as usize).copied() {
-                    Some(j) if j != NONE => (next_old, old_rest[b - 1], j),
-                    _ => continue,
+                match self.index_of_id.get(next_old) {
+                    NONE => continue,
+                    j => (next_old, old_rest[b - 1], j),
                 }
             };
             if l > h {
@@ -359,5 +414,36 @@ impl<S: Separation> Rows<'_, S> {
             chunk.rest.push(l);
         }
         acc
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Ids handed out over a long life (an emitter and a sink): a few particles with ids near
+    /// `u32::MAX` are kept sorted (a few bytes each), not in a table of 2^32 entries, and
+    /// both kinds of table answer the same.
+    #[test]
+    fn id_tables_stay_sized_by_the_entries() {
+        let ids: Vec<u32> = (0..100).map(|k| u32::MAX - 1 - 7 * k).collect();
+        let mut sparse = IdTable::default();
+        let entries = ids.iter().enumerate().map(|(i, &id)| (id, i as u32));
+        sparse.fill(entries, u32::MAX as usize, ids.len());
+        assert!(!sparse.dense);
+        assert!(sparse.heap_bytes() < 4096, "{} bytes", sparse.heap_bytes());
+        let small: Vec<u32> = (0..100).map(|k| 7 * k).collect();
+        let mut dense = IdTable::default();
+        let entries = small.iter().enumerate().map(|(i, &id)| (id, i as u32));
+        dense.fill(entries, 694, small.len());
+        assert!(dense.dense);
+        for k in 0..100u32 {
+            assert_eq!(sparse.get(u32::MAX - 1 - 7 * k), k);
+            assert_eq!(dense.get(7 * k), k);
+            assert_eq!(sparse.get(u32::MAX - 2 - 7 * k), NONE);
+            assert_eq!(dense.get(7 * k + 1), NONE);
+        }
+        dense.clear(small.iter().copied());
+        assert!((0..700).all(|id| dense.get(id) == NONE));
     }
 }
