@@ -395,17 +395,7 @@ fn execute(case: &'static str, solver: &Solver, mut s: Setup) -> SphResult<CaseR
     let t0 = Instant::now();
     let g = s.world.physics.gravity.length();
     let n0 = s.world.fluids[s.fluid].len();
-    let f0 = &s.world.fluids[s.fluid];
-    let (body_ke0, body_pe0) = bodies_energy(&s.world, s.floor, g);
-    let internal = |f: &Fluid| {
-        if s.internal_energy {
-            eos_internal_energy(f)
-        } else {
-            0.0
-        }
-    };
-    let e0 =
-        potential_energy(f0, s.floor, g) + f0.kinetic_energy() + body_ke0 + body_pe0 + internal(f0);
+    let e0 = energy(&s, g, true);
     let mut r = CaseResult {
         case,
         solver: solver.name(),
@@ -426,28 +416,16 @@ fn execute(case: &'static str, solver: &Solver, mut s: Setup) -> SphResult<CaseR
         failure: None,
     };
     for frame in 0..s.frames {
-        if let Some((at, event)) = &s.event {
-            if *at == frame {
-                event(&mut s.world.fluids[s.fluid])?;
-            }
+        if let Some((at, event)) = &s.event
+            && *at == frame
+        {
+            event(&mut s.world.fluids[s.fluid])?;
         }
         let rep = s.world.step()?.clone();
-        r.steps += rep.substeps as u64;
-        r.max_speed = r.max_speed.max(rep.max_speed);
-        r.max_density_error = r.max_density_error.max(rep.max_density_error);
-        r.mean_density_error = r.mean_density_error.max(rep.solver_density_error);
-        r.non_finite += rep.quarantined.max(rep.non_finite);
-        r.capped += rep.solver_capped;
-        r.substep_cap_hits += rep.substep_cap_hit as u32;
-        let f = &s.world.fluids[s.fluid];
-        r.escaped = r.escaped.max((s.escaped)(f));
-        let (body_ke, body_pe) = bodies_energy(&s.world, s.floor, g);
+        record_frame(&mut r, &rep);
+        r.escaped = r.escaped.max((s.escaped)(&s.world.fluids[s.fluid]));
         // Kinetic energy, or with the internal energy counted, the total.
-        let e = if s.internal_energy {
-            f.kinetic_energy() + body_ke + potential_energy(f, s.floor, g) + body_pe + internal(f)
-        } else {
-            f.kinetic_energy() + body_ke
-        };
+        let e = energy(&s, g, s.internal_energy);
         let ratio = if e.is_finite() && e0 > 0.0 {
             e / e0
         } else {
@@ -458,6 +436,40 @@ fn execute(case: &'static str, solver: &Solver, mut s: Setup) -> SphResult<CaseR
     let f = &s.world.fluids[s.fluid];
     r.lost = n0.saturating_sub(f.len() + f.quarantined());
     r.wall_time = t0.elapsed().as_secs_f64();
+    r.failure = verdict(&r);
+    Ok(r)
+}
+
+/// The fluid's and the bodies' kinetic energy; with `total`, also their potential energy
+/// over the floor and (when the case counts it) the equation of state's internal energy.
+fn energy(s: &Setup, g: Real, total: bool) -> f64 {
+    let f = &s.world.fluids[s.fluid];
+    let (body_ke, body_pe) = bodies_energy(&s.world, s.floor, g);
+    let kinetic = f.kinetic_energy() + body_ke;
+    if !total {
+        return kinetic;
+    }
+    let internal = if s.internal_energy {
+        eos_internal_energy(f)
+    } else {
+        0.0
+    };
+    kinetic + potential_energy(f, s.floor, g) + body_pe + internal
+}
+
+/// Adds one frame's report to the run's measurements.
+fn record_frame(r: &mut CaseResult, rep: &crate::StepReport) {
+    r.steps += rep.substeps as u64;
+    r.max_speed = r.max_speed.max(rep.max_speed);
+    r.max_density_error = r.max_density_error.max(rep.max_density_error);
+    r.mean_density_error = r.mean_density_error.max(rep.solver_density_error);
+    r.non_finite += rep.quarantined.max(rep.non_finite);
+    r.capped += rep.solver_capped;
+    r.substep_cap_hits += rep.substep_cap_hit as u32;
+}
+
+/// Why the run failed (see the module docs' verdict), or `None`.
+fn verdict(r: &CaseResult) -> Option<String> {
     let mut why = Vec::new();
     if r.non_finite > 0 {
         why.push(format!("{} NaN/inf", r.non_finite));
@@ -481,10 +493,7 @@ fn execute(case: &'static str, solver: &Solver, mut s: Setup) -> SphResult<CaseR
     if r.capped > 0 {
         why.push(format!("{} solves capped", r.capped));
     }
-    if !why.is_empty() {
-        r.failure = Some(why.join(", "));
-    }
-    Ok(r)
+    (!why.is_empty()).then(|| why.join(", "))
 }
 
 /// Particles outside the dam break's tank.
