@@ -296,17 +296,27 @@ pub fn from_bytes(bytes: &[u8]) -> Result<FluidWorld, SnapshotError> {
 /// gravity and time step, body poses and velocities, collider poses and bounding boxes finite,
 /// and every collider's parent a body of the set.
 fn check_physics(p: &PhysicsWorld) -> Result<(), SphError> {
-    let bad = |field, value: f64, reason| {
-        Err(SphError::InvalidParameter {
-            field,
-            value,
-            reason,
-        })
-    };
     if !crate::math::is_finite(p.gravity) {
         return bad("gravity", p.gravity.length() as f64, "must be finite");
     }
-    let ip = &p.integration_parameters;
+    check_integration(&p.integration_parameters)?;
+    check_bodies(p)?;
+    check_colliders(p)?;
+    check_references(p)
+}
+
+/// The error of a field of rapier's world.
+fn bad(field: &'static str, value: f64, reason: &'static str) -> Result<(), SphError> {
+    Err(SphError::InvalidParameter {
+        field,
+        value,
+        reason,
+    })
+}
+
+/// Rapier's integration parameters: a positive finite time step, iteration counts within
+/// [`crate::params::MAX_SOLVER_ITERATIONS`], and its settings ([`check_settings`]).
+fn check_integration(ip: &rapier3d::dynamics::IntegrationParameters) -> Result<(), SphError> {
     if !(ip.dt.is_finite() && ip.dt > 0.0) {
         return bad(
             "dt",
@@ -341,6 +351,11 @@ fn check_physics(p: &PhysicsWorld) -> Result<(), SphError> {
             );
         }
     }
+    check_settings(ip)
+}
+
+/// Rapier's settings finite, and where rapier needs it, non-negative or positive.
+fn check_settings(ip: &rapier3d::dynamics::IntegrationParameters) -> Result<(), SphError> {
     for (field, v) in [
         ("min_ccd_dt", ip.min_ccd_dt),
         ("warmstart_coefficient", ip.warmstart_coefficient),
@@ -396,6 +411,11 @@ fn check_physics(p: &PhysicsWorld) -> Result<(), SphError> {
             "rapier's length unit must be positive",
         );
     }
+    Ok(())
+}
+
+/// Body poses, velocities and masses finite.
+fn check_bodies(p: &PhysicsWorld) -> Result<(), SphError> {
     for (k, (_, b)) in p.bodies.iter().enumerate() {
         let pose = b.position();
         let finite = crate::math::is_finite(pose.translation)
@@ -411,6 +431,11 @@ fn check_physics(p: &PhysicsWorld) -> Result<(), SphError> {
             );
         }
     }
+    Ok(())
+}
+
+/// Collider poses, bounding boxes and contact skins finite, parents bodies of the set.
+fn check_colliders(p: &PhysicsWorld) -> Result<(), SphError> {
     for (k, (_, c)) in p.colliders.iter().enumerate() {
         let pose = c.position();
         let aabb = c.compute_aabb();
@@ -437,7 +462,11 @@ fn check_physics(p: &PhysicsWorld) -> Result<(), SphError> {
             );
         }
     }
-    // The narrow phase's pairs and the joints name colliders and bodies of the sets.
+    Ok(())
+}
+
+/// The narrow phase's pairs and the joints name colliders and bodies of the sets.
+fn check_references(p: &PhysicsWorld) -> Result<(), SphError> {
     let collider = |h| p.colliders.get(h).is_some();
     if let Some(k) = p
         .narrow_phase
