@@ -49,7 +49,7 @@ pub const RELAX_STALLED_ROUNDS: u32 = 8;
 /// A frame's relaxation progressed when its rounds left at most 90 % (this fraction, 10 %,
 /// removed) of the largest compression it started with, or of the lowest an earlier frame
 /// left since new particles came (over the rest lattice's density, beyond
-/// [`RELAX_SETTLED`]). Jacobi projection removes a spawn's overlap far faster than that per
+/// the 2 % it settles at). Jacobi projection removes a spawn's overlap far faster than that per
 /// frame while it can (case 6's 8× block: from 700 % to 2 % in 190 rounds); an overfilled
 /// closed tank stays at its fill ratio.
 pub const RELAX_PROGRESS: Real = 0.1;
