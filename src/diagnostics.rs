@@ -134,6 +134,9 @@ pub struct StepReport {
     pub non_finite: usize,
     /// Largest particle speed after the update (m/s).
     pub max_speed: Real,
+    /// Particle speeds limited to what the moving bodies near them can give (a wall moving
+    /// at `V` gives at most `2V`; see [`crate::FluidPipeline::step`]), counted per substep.
+    pub speed_limited: usize,
     /// Largest relative compression `max(ρ − ρ0, 0)/ρ0` over all particles and substeps
     /// (under-density at a free surface is not an error; see `density::density_error`).
     pub max_density_error: Real,

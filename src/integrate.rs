@@ -154,6 +154,25 @@ pub fn scan(positions: &[Vector], velocities: &[Vector]) -> (usize, Real) {
     (bad, vmax2.sqrt())
 }
 
+/// Limits every particle's speed to `cap` (direction kept); returns how many were limited.
+/// See `pipeline::substep` for the bound it enforces near moving bodies.
+pub fn limit_speeds(velocities: &mut [Vector], cap: Real) -> usize {
+    let cap2 = cap * cap;
+    crate::par_chunks_mut!(velocities, CHUNK)
+        .map(|vs| {
+            let mut n = 0usize;
+            for v in vs.iter_mut() {
+                let s2 = v.length_squared();
+                if s2 > cap2 {
+                    *v *= cap / s2.sqrt();
+                    n += 1;
+                }
+            }
+            n
+        })
+        .sum::<usize>()
+}
+
 /// Reduces `(count, max)` pairs; both operations are exact, so the result does not depend on
 /// the order of reduction.
 trait ReduceCountMax {

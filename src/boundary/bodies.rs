@@ -92,6 +92,9 @@ pub struct MovingCollider {
     pub com_stop: Vector,
     /// Box swept by the collider over the substep.
     pub aabb: Aabb,
+    /// Distance from the body's centre of mass to the farthest corner of the collider's box
+    /// (m): a point of the collider moves at most `|v| + |ω|·reach`.
+    pub reach: Real,
 }
 
 impl MovingCollider {
@@ -99,6 +102,13 @@ impl MovingCollider {
     #[inline]
     pub fn velocity_at_stop(&self, point: Vector) -> Vector {
         self.vel - self.accel * self.backs.1 + self.angvel.cross(point - self.com_stop)
+    }
+
+    /// The fastest any point of the collider moves (m/s) at the current velocities:
+    /// `|v| + |a|·back + |ω|·reach` (0 when not finite: such a body is not followed).
+    pub fn surface_speed(&self, back: Real) -> Real {
+        let s = self.vel.length() + self.accel.length() * back + self.angvel.length() * self.reach;
+        if s.is_finite() { s } else { 0.0 }
     }
 
     /// The surface velocity of the body at `point` (at the substep's start).
@@ -267,6 +277,12 @@ impl Coupling {
                     _ => Vector::ZERO,
                 };
                 let accel = rapier_dv * spread;
+                let aabb = co.compute_aabb();
+                let com = body.center_of_mass();
+                let reach = (aabb.mins - com)
+                    .abs()
+                    .max((aabb.maxs - com).abs())
+                    .length();
                 self.candidates.push(MovingCollider {
                     handle: ch,
                     body: bh,
@@ -298,12 +314,40 @@ impl Coupling {
                     stop: end,
                     com_start: body.center_of_mass(),
                     com_stop: body.center_of_mass(),
-                    aabb: co.compute_aabb(),
+                    aabb,
+                    reach,
                 });
             }
         }
         self.candidates.sort_by_key(|c| c.handle.0);
         self.nonfixed.sort_by_key(|h| h.0);
+    }
+
+    /// The fastest surface speed (m/s) of a non-fixed collider that comes within `margin` of
+    /// `fluid_box` over the frame (its box at the frame's end swept back by its speed over
+    /// `dt`): the fluid's substeps must follow it as they follow their fastest particle (a
+    /// wall moving at `V` moves `V·dt` per substep into the particles ahead of it), see
+    /// `pipeline::time_stepping`. `None` without such a collider.
+    pub fn surface_speed_near(&self, fluid_box: &Aabb, margin: Real, dt: Real) -> Option<Real> {
+        let mut fastest: Option<Real> = None;
+        for c in &self.candidates {
+            let s = c.surface_speed(dt);
+            if fastest.is_some_and(|f| s <= f) {
+                continue;
+            }
+            if c.aabb.loosened(margin + s * dt).intersects(fluid_box) {
+                fastest = Some(s);
+            }
+        }
+        fastest
+    }
+
+    /// The fastest surface speed (m/s) of the colliders of the current substep's table.
+    pub fn table_surface_speed(&self) -> Real {
+        self.table
+            .iter()
+            .map(|c| c.surface_speed(c.backs.0))
+            .fold(0.0, Real::max)
     }
 
     /// `true` when the scene has no non-fixed collider at all (coupling is off).

@@ -164,7 +164,11 @@ impl FluidPipeline {
     /// Advances every fluid of `fluids` by `dt` seconds under `gravity`, with contact against
     /// the colliders of `colliders` found through `broad_phase` (rapier's BVH, filled by
     /// rapier's own step: call this right after it). The frame is divided into substeps by
-    /// [`FluidPipeline::time_stepping`].
+    /// [`FluidPipeline::time_stepping`], whose substeps follow the fastest moving body near a
+    /// fluid as they follow its fastest particle. Near moving bodies no particle leaves
+    /// faster than the fluid's fastest at the frame's start, plus gravity's share, plus twice
+    /// the fastest body surface near it (a reflection off a moving wall); faster particles
+    /// are slowed to it and counted in [`StepReport::speed_limited`].
     ///
     /// # Errors
     /// Bad input (a non-finite or non-positive `dt`, non-finite gravity, an invalid
@@ -406,6 +410,21 @@ impl Frame<'_> {
             }
             rt.ws.max_speed = vmax;
             rt.relax.begin_frame(fluid);
+            rt.ws.body_speed = 0.0;
+            rt.ws.body_near = false;
+            rt.ws.frame_speed = vmax + self.gravity.length() * self.dt;
+            if self.scene.is_some() && !self.coupling.is_off() && !fluid.is_empty() {
+                // Bodies that can reach the fluid during the frame.
+                let (lo, hi) = crate::integrate::bounds(fluid.positions());
+                let p = fluid.params();
+                let reach = p.smoothing_length
+                    + p.particle_radius
+                    + (vmax + self.gravity.length() * self.dt) * self.dt;
+                let fluid_box = parry3d::bounding_volume::Aabb::new(lo, hi);
+                let near = self.coupling.surface_speed_near(&fluid_box, reach, self.dt);
+                rt.ws.body_near = near.is_some();
+                rt.ws.body_speed = near.unwrap_or(0.0);
+            }
             if let Some(capacity) = fluid.capacity() {
                 rt.ws.reserve(capacity);
             }

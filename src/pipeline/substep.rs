@@ -56,6 +56,12 @@ pub(crate) fn substep(
         report.relax_unfinished |= fluid.relax_pending;
     }
     let mut coupling = begin_coupling(fluid, &rt.ws, input, coupling, report);
+    if let Some(c) = coupling.as_deref()
+        && !c.table().is_empty()
+    {
+        rt.ws.body_speed = rt.ws.body_speed.max(c.table_surface_speed());
+        rt.ws.body_near = true;
+    }
     let depenetrate = fluid.needs_depenetration;
     let hold = rt.relax.held(fluid.relax_pending);
     let (params, mut particles) = fluid.split_mut();
@@ -101,13 +107,19 @@ pub(crate) fn substep(
         coupling.as_deref_mut(),
         report,
     );
+    let mut max_speed = outcome.max_speed;
+    if rt.ws.body_near {
+        let cap = rt.ws.frame_speed + 2.0 * rt.ws.body_speed;
+        report.speed_limited += limit_near_bodies(fluid.velocities_mut(), cap, report);
+        max_speed = max_speed.min(cap);
+    }
     // Particles pushed out of a solid land on its surface, on top of each other: the next
     // substep relaxes them (and checks for more) before giving them dynamics.
     fluid.needs_depenetration = depenetrated > 0;
     wrap_periodic(fluid, report);
-    rt.ws.max_speed = outcome.max_speed;
+    rt.ws.max_speed = max_speed;
     report.non_finite += outcome.non_finite;
-    report.max_speed = report.max_speed.max(outcome.max_speed);
+    report.max_speed = report.max_speed.max(max_speed);
     SubstepResult {
         mean_error,
         non_finite: outcome.non_finite,
@@ -121,6 +133,21 @@ fn held_params(params: &FluidParams, hold: Real) -> FluidParams {
         rest_density: params.rest_density * hold,
         ..params.clone()
     }
+}
+
+/// The speed a moving body can give the water: a wall moving at `V` reflects a particle
+/// that meets it at `v` to at most `v + 2V` (elastic reflection in the wall's frame), and
+/// gravity adds `|g|·dt` over the frame; so no particle leaves faster than the fluid's
+/// fastest at the frame's start (`frame_speed`, gravity's share included) plus twice the
+/// fastest surface speed of a body near it (`body_speed`). The pressure the pushed water
+/// builds can exceed it on the discrete fluid: an impulsively moved wall drives SPH
+/// particles next to it at the free surface up to 3 times `V` (the bucket of
+/// `tests/kinematic_jumps.rs`), which this limit takes off. Returns how many particles it
+/// limited (`cap`: `frame_speed + 2·body_speed` of the fluid's workspace).
+fn limit_near_bodies(velocities: &mut [Vector], cap: Real, report: &mut StepReport) -> usize {
+    report.timed(Stage::ParticleUpdate, || {
+        integrate::limit_speeds(velocities, cap)
+    })
 }
 
 /// Periodic box: particles outside it (added there, or moved there by the caller or the

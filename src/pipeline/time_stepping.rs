@@ -153,7 +153,9 @@ fn stable_time_step(
         return remaining;
     }
     let p = fluid.params();
-    let v = rt.ws.max_speed;
+    // A moving body's surface sweeps into the particles ahead of it as a particle would:
+    // it must move at most `courant` spacings per substep too.
+    let v = rt.ws.max_speed.max(rt.ws.body_speed);
     let g = gravity.length();
     // courant·s = v·dt + g·dt², solved for dt.
     let cs = courant * p.particle_spacing;
