@@ -17,6 +17,7 @@ fn main() {
         _ => Solver::dfsph(),
     };
     let teleport = args.get(3).is_some_and(|s| s == "teleport");
+    let mark = args.get(3).is_some_and(|s| s == "mark");
     let spacing = 0.03;
     let mut world = FluidWorld::new();
     let body = world
@@ -89,6 +90,9 @@ fn main() {
             } else {
                 world.physics.bodies[body]
                     .set_next_kinematic_translation(Vector::new(jump, 0.0, 0.0));
+                if mark {
+                    world.pipeline.mark_teleport(body);
+                }
             }
         }
         let rep = world.step().unwrap().clone();

@@ -186,7 +186,7 @@ impl Drift {
 
 /// The pose of a body's collider `back` seconds before the end pose `end`, for a body whose
 /// velocity `back` seconds before the end was `v − a·back`.
-fn pose_back(
+pub fn pose_back(
     end: &Pose,
     com: Vector,
     v: Vector,
@@ -230,6 +230,8 @@ pub struct Coupling {
     /// The linear velocity each dynamic body was left with at the end of the last frame
     /// (sorted by handle): rapier's change of it over the next frame is known from it.
     left: Vec<(RigidBodyHandle, Vector)>,
+    /// Bodies that jump (`set_position`, marked kinematic moves), see [`super::teleport`].
+    pub teleports: super::teleport::Teleports,
 }
 
 impl Coupling {
@@ -276,7 +278,12 @@ impl Coupling {
                     Ok(k) if body.is_dynamic() && !body.is_sleeping() => linvel - self.left[k].1,
                     _ => Vector::ZERO,
                 };
-                let accel = rapier_dv * spread;
+                let mut accel = rapier_dv * spread;
+                let (mut linvel, mut angvel) = (linvel, angvel);
+                if self.teleports.holds_still(bh) {
+                    // A marked move: the body jumped, it did not sweep through the water.
+                    (linvel, angvel, accel) = (Vector::ZERO, Vector::ZERO, Vector::ZERO);
+                }
                 let aabb = co.compute_aabb();
                 let com = body.center_of_mass();
                 let reach = (aabb.mins - com)
@@ -348,6 +355,35 @@ impl Coupling {
             .iter()
             .map(|c| c.surface_speed(c.backs.0))
             .fold(0.0, Real::max)
+    }
+
+    /// Finds the frame's teleports (see [`super::teleport`]) before [`Coupling::begin_frame`]:
+    /// `dt` the frame, `rapier_substeps` as there, `tolerance` the pose mismatch (m) that
+    /// counts as a jump.
+    pub fn detect_teleports(
+        &mut self,
+        dt: Real,
+        rapier_substeps: usize,
+        tolerance: Real,
+        bodies: &RigidBodySet,
+        colliders: &ColliderSet,
+    ) {
+        let n = rapier_substeps.max(1) as Real;
+        let spread = (n - 1.0) / (n * dt);
+        let left = &self.left;
+        let accel = |bh: RigidBodyHandle| {
+            let Some(body) = bodies.get(bh) else {
+                return Vector::ZERO;
+            };
+            match left.binary_search_by_key(&bh.0, |l| l.0.0) {
+                Ok(k) if body.is_dynamic() && !body.is_sleeping() => {
+                    (body.linvel() - left[k].1) * spread
+                }
+                _ => Vector::ZERO,
+            }
+        };
+        self.teleports
+            .detect(dt, tolerance, bodies, colliders, accel);
     }
 
     /// `true` when the scene has no non-fixed collider at all (coupling is off).
@@ -550,6 +586,7 @@ impl Coupling {
         }
         self.left.sort_by_key(|l| l.0.0);
         self.left.dedup_by_key(|l| l.0);
+        self.teleports.record(bodies);
         for (h, j, t) in self.impulses.drain(..) {
             if let Some(body) = bodies.get_mut(h) {
                 let j = Vector::new(j[0] as Real, j[1] as Real, j[2] as Real);

@@ -114,6 +114,32 @@ impl FluidPipeline {
         self.coupling.set_left_velocities(memory);
     }
 
+    /// Marks `body`'s move of the next step as a teleport: the body is seen at rest during
+    /// that frame and the water in and on it goes along with it (or stays behind, see
+    /// [`FluidPipeline::set_teleport_carry`]). A `set_position` is found without a mark.
+    ///
+    /// # Examples
+    /// ```
+    /// use rapier_sph::prelude::*;
+    /// use rapier_sph::rapier3d::prelude::*;
+    /// let mut world = FluidWorld::new();
+    /// let bucket = world.physics.insert_body(RigidBodyBuilder::kinematic_position_based());
+    /// world.physics.bodies[bucket].set_next_kinematic_translation(Vector::new(5.0, 0.0, 0.0));
+    /// world.pipeline.mark_teleport(bucket);
+    /// world.step()?;
+    /// # Ok::<(), rapier_sph::SphError>(())
+    /// ```
+    pub fn mark_teleport(&mut self, body: RigidBodyHandle) {
+        self.coupling.teleports.mark(body);
+    }
+
+    /// Whether `body` carries the water in and on it when it jumps (a `set_position`, or a
+    /// move marked with [`FluidPipeline::mark_teleport`]); by default it does. Water left
+    /// behind that the body lands on is pushed out of it.
+    pub fn set_teleport_carry(&mut self, body: RigidBodyHandle, carry: bool) {
+        self.coupling.teleports.set_carry(body, carry);
+    }
+
     /// The report of the last step.
     pub fn report(&self) -> &StepReport {
         &self.report
@@ -200,6 +226,21 @@ impl FluidPipeline {
         }
         let has_colliders = !bvh.is_empty();
         self.runtimes.sync(fluids);
+        let radius = fluids
+            .iter()
+            .map(|(_, f)| f.params().particle_radius)
+            .fold(Real::MAX, Real::min);
+        self.coupling.detect_teleports(
+            dt,
+            self.rapier_substeps,
+            0.5 * radius,
+            if has_colliders {
+                bodies
+            } else {
+                &self.no_bodies
+            },
+            colliders,
+        );
         self.coupling.begin_frame(
             dt,
             self.rapier_substeps,
@@ -364,6 +405,7 @@ struct Frame<'a> {
 impl Frame<'_> {
     /// Quarantine, the substeps, the emitters.
     fn run(&mut self) {
+        self.carry();
         self.quarantine();
         let (mut elapsed, mut weighted_error, mut counted) = (0.0, 0.0f64, 0usize);
         self.report.min_substep = Real::MAX;
@@ -393,6 +435,22 @@ impl Frame<'_> {
         self.report.particles = self.fluids.num_particles();
         if counted > 0 {
             self.report.mean_density_error = (weighted_error / counted as f64) as Real;
+        }
+    }
+
+    /// Bodies that jumped carry the water in and on them (`boundary::teleport`); the
+    /// particles they land on or carry into others are pushed out and relaxed by the first
+    /// substep.
+    fn carry(&mut self) {
+        let teleports = &self.coupling.teleports;
+        if teleports.frame().is_empty() {
+            return;
+        }
+        for (_, fluid) in self.fluids.iter_mut() {
+            let margin = fluid.params().smoothing_length;
+            let (_, particles) = fluid.split_mut();
+            teleports.carry(particles.positions, particles.velocities, margin);
+            fluid.needs_depenetration = true;
         }
     }
 
