@@ -208,6 +208,35 @@ pub fn pose_back(
     )
 }
 
+/// The fastest surface speeds of the non-fixed bodies near a fluid.
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub struct NearBodies {
+    /// Of every non-fixed body near (m/s; 0 without one).
+    pub fastest: Real,
+    /// Of the kinematic ones (`None`: no kinematic body near).
+    pub kinematic: Option<Real>,
+}
+
+impl NearBodies {
+    fn add(&mut self, c: &MovingCollider, speed: Real) {
+        self.fastest = self.fastest.max(speed);
+        if !c.dynamic {
+            self.kinematic = Some(self.kinematic.map_or(speed, |k| k.max(speed)));
+        }
+    }
+
+    /// Both maxima of `self` and `other`.
+    pub fn merge(self, other: NearBodies) -> NearBodies {
+        NearBodies {
+            fastest: self.fastest.max(other.fastest),
+            kinematic: match (self.kinematic, other.kinematic) {
+                (Some(a), Some(b)) => Some(a.max(b)),
+                (a, b) => a.or(b),
+            },
+        }
+    }
+}
+
 /// Accumulated impulse on one body: `(body, linear impulse, angular impulse about the
 /// centre of mass)`, summed in f64.
 type BodyImpulse = (RigidBodyHandle, [f64; 3], [f64; 3]);
@@ -330,31 +359,30 @@ impl Coupling {
         self.nonfixed.sort_by_key(|h| h.0);
     }
 
-    /// The fastest surface speed (m/s) of a non-fixed collider that comes within `margin` of
-    /// `fluid_box` over the frame (its box at the frame's end swept back by its speed over
-    /// `dt`): the fluid's substeps must follow it as they follow their fastest particle (a
-    /// wall moving at `V` moves `V·dt` per substep into the particles ahead of it), see
-    /// `pipeline::time_stepping`. `None` without such a collider.
-    pub fn surface_speed_near(&self, fluid_box: &Aabb, margin: Real, dt: Real) -> Option<Real> {
-        let mut fastest: Option<Real> = None;
+    /// The fastest surface speeds (m/s) of the non-fixed colliders that come within `margin`
+    /// of `fluid_box` over the frame (each one's box at the frame's end swept back by its
+    /// speed over `dt`): the fluid's substeps must follow them as they follow their fastest
+    /// particle (a wall moving at `V` moves `V·dt` per substep into the particles ahead of
+    /// it), see `pipeline::time_stepping`; the kinematic ones bound the speeds they can give
+    /// the water (see `pipeline::substep`).
+    pub fn surface_speeds_near(&self, fluid_box: &Aabb, margin: Real, dt: Real) -> NearBodies {
+        let mut near = NearBodies::default();
         for c in &self.candidates {
             let s = c.surface_speed(dt);
-            if fastest.is_some_and(|f| s <= f) {
-                continue;
-            }
             if c.aabb.loosened(margin + s * dt).intersects(fluid_box) {
-                fastest = Some(s);
+                near.add(c, s);
             }
         }
-        fastest
+        near
     }
 
-    /// The fastest surface speed (m/s) of the colliders of the current substep's table.
-    pub fn table_surface_speed(&self) -> Real {
-        self.table
-            .iter()
-            .map(|c| c.surface_speed(c.backs.0))
-            .fold(0.0, Real::max)
+    /// The fastest surface speeds (m/s) of the colliders of the current substep's table.
+    pub fn table_surface_speeds(&self) -> NearBodies {
+        let mut near = NearBodies::default();
+        for c in &self.table {
+            near.add(c, c.surface_speed(c.backs.0));
+        }
+        near
     }
 
     /// Finds the frame's teleports (see [`super::teleport`]) before [`Coupling::begin_frame`]:

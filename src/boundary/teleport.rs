@@ -15,12 +15,19 @@
 //! A `set_position` is found by comparing each body's pose at the frame's start, as its
 //! velocities place it (`bodies::pose_back`), with its pose at the end of the fluid's last
 //! frame: a mismatch of more than half a particle radius at the collider's farthest corner is
-//! a teleport from the pose it had to the pose its velocities start from.
+//! a teleport from the pose it had to the pose its velocities start from (for a dynamic
+//! body, more than rapier's position correction can move it in a frame: 5 cm at 60 Hz).
 
 use crate::math::{Pose, Real, Vector};
 use parry3d::bounding_volume::{Aabb, BoundingVolume};
 use rapier3d::dynamics::{RigidBodyHandle, RigidBodySet};
 use rapier3d::geometry::ColliderSet;
+
+/// How fast rapier may move a dynamic body to resolve a penetration without the velocity it
+/// keeps showing it (m/s): its `max_corrective_velocity`, 3 m/s by default. A dynamic body's
+/// pose may then differ from where its velocities place it by this times the frame without
+/// a jump (a box pushed out of another), so a smaller mismatch is not taken for one.
+const RAPIER_CORRECTION_SPEED: Real = 3.0;
 
 /// One body's jump during the current frame.
 #[derive(Clone, Debug)]
@@ -108,6 +115,11 @@ impl Teleports {
             } else {
                 let Some(last) = last else { continue };
                 let start = start_pose(body, dt, rapier_accel(bh));
+                let tolerance = if body.is_dynamic() {
+                    tolerance.max(RAPIER_CORRECTION_SPEED * dt)
+                } else {
+                    tolerance
+                };
                 if mismatch(&last, &start, &boxes) <= tolerance {
                     continue;
                 }

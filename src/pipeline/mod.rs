@@ -193,7 +193,8 @@ impl FluidPipeline {
     /// [`FluidPipeline::time_stepping`], whose substeps follow the fastest moving body near a
     /// fluid as they follow its fastest particle. Near moving bodies no particle leaves
     /// faster than the fluid's fastest at the frame's start, plus gravity's share, plus twice
-    /// the fastest body surface near it (a reflection off a moving wall); faster particles
+    /// the fastest kinematic body surface near it (a reflection off a moving wall; dynamic
+    /// bodies exchange momentum with the water and are left to it); faster particles
     /// are slowed to it and counted in [`StepReport::speed_limited`].
     ///
     /// # Errors
@@ -219,7 +220,11 @@ impl FluidPipeline {
             QueryFilter::default(),
         );
         let bvh = query.bvh;
-        if !colliders.is_empty() && bvh.is_empty() {
+        // Colliders with a non-finite pose (a body set to NaN) are not in the BVH, and not
+        // in contact either.
+        let finite =
+            |c: &rapier3d::geometry::Collider| crate::math::is_finite(c.position().translation);
+        if bvh.is_empty() && colliders.iter().any(|(_, c)| finite(c)) {
             return Err(SphError::BroadPhaseNotUpdated {
                 colliders: colliders.len(),
             });
@@ -468,8 +473,7 @@ impl Frame<'_> {
             }
             rt.ws.max_speed = vmax;
             rt.relax.begin_frame(fluid);
-            rt.ws.body_speed = 0.0;
-            rt.ws.body_near = false;
+            rt.ws.bodies_near = Default::default();
             rt.ws.frame_speed = vmax + self.gravity.length() * self.dt;
             if self.scene.is_some() && !self.coupling.is_off() && !fluid.is_empty() {
                 // Bodies that can reach the fluid during the frame.
@@ -479,9 +483,9 @@ impl Frame<'_> {
                     + p.particle_radius
                     + (vmax + self.gravity.length() * self.dt) * self.dt;
                 let fluid_box = parry3d::bounding_volume::Aabb::new(lo, hi);
-                let near = self.coupling.surface_speed_near(&fluid_box, reach, self.dt);
-                rt.ws.body_near = near.is_some();
-                rt.ws.body_speed = near.unwrap_or(0.0);
+                rt.ws.bodies_near = self
+                    .coupling
+                    .surface_speeds_near(&fluid_box, reach, self.dt);
             }
             if let Some(capacity) = fluid.capacity() {
                 rt.ws.reserve(capacity);

@@ -56,11 +56,8 @@ pub(crate) fn substep(
         report.relax_unfinished |= fluid.relax_pending;
     }
     let mut coupling = begin_coupling(fluid, &rt.ws, input, coupling, report);
-    if let Some(c) = coupling.as_deref()
-        && !c.table().is_empty()
-    {
-        rt.ws.body_speed = rt.ws.body_speed.max(c.table_surface_speed());
-        rt.ws.body_near = true;
+    if let Some(c) = coupling.as_deref() {
+        rt.ws.bodies_near = rt.ws.bodies_near.merge(c.table_surface_speeds());
     }
     let depenetrate = fluid.needs_depenetration;
     let hold = rt.relax.held(fluid.relax_pending);
@@ -108,8 +105,8 @@ pub(crate) fn substep(
         report,
     );
     let mut max_speed = outcome.max_speed;
-    if rt.ws.body_near {
-        let cap = rt.ws.frame_speed + 2.0 * rt.ws.body_speed;
+    if let Some(kinematic) = rt.ws.bodies_near.kinematic {
+        let cap = rt.ws.frame_speed + 2.0 * kinematic;
         report.speed_limited += limit_near_bodies(fluid.velocities_mut(), cap, report);
         max_speed = max_speed.min(cap);
     }
@@ -135,15 +132,16 @@ fn held_params(params: &FluidParams, hold: Real) -> FluidParams {
     }
 }
 
-/// The speed a moving body can give the water: a wall moving at `V` reflects a particle
+/// The speed a kinematic body can give the water: a wall moving at `V` reflects a particle
 /// that meets it at `v` to at most `v + 2V` (elastic reflection in the wall's frame), and
 /// gravity adds `|g|·dt` over the frame; so no particle leaves faster than the fluid's
 /// fastest at the frame's start (`frame_speed`, gravity's share included) plus twice the
-/// fastest surface speed of a body near it (`body_speed`). The pressure the pushed water
+/// fastest surface speed of a kinematic body near it. Dynamic bodies are left alone: they
+/// exchange momentum with the water, which a limit would break. The pressure the pushed water
 /// builds can exceed it on the discrete fluid: an impulsively moved wall drives SPH
 /// particles next to it at the free surface up to 3 times `V` (the bucket of
 /// `tests/kinematic_jumps.rs`), which this limit takes off. Returns how many particles it
-/// limited (`cap`: `frame_speed + 2·body_speed` of the fluid's workspace).
+/// limited (`cap`: the fluid workspace's `frame_speed` plus twice its fastest kinematic body).
 fn limit_near_bodies(velocities: &mut [Vector], cap: Real, report: &mut StepReport) -> usize {
     report.timed(Stage::ParticleUpdate, || {
         integrate::limit_speeds(velocities, cap)

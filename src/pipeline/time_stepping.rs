@@ -155,7 +155,7 @@ fn stable_time_step(
     let p = fluid.params();
     // A moving body's surface sweeps into the particles ahead of it as a particle would:
     // it must move at most `courant` spacings per substep too.
-    let v = rt.ws.max_speed.max(rt.ws.body_speed);
+    let v = rt.ws.max_speed.max(rt.ws.bodies_near.fastest);
     let g = gravity.length();
     // courant·s = v·dt + g·dt², solved for dt.
     let cs = courant * p.particle_spacing;

@@ -36,13 +36,12 @@ pub(crate) struct Workspace {
     pub partials: Vec<(f64, Real)>,
     /// Largest speed after the last substep (the adaptive time step's input).
     pub max_speed: Real,
-    /// Fastest surface speed of a moving body near the fluid (the adaptive time step's
-    /// input beside `max_speed`; 0 without one).
-    pub body_speed: Real,
-    /// `true` when a non-fixed body comes near the fluid during the frame.
-    pub body_near: bool,
+    /// Fastest surface speeds of the non-fixed bodies near the fluid during the frame (the
+    /// adaptive time step's input beside `max_speed`; the kinematic ones bound the speeds
+    /// they can give, see `pipeline::substep`).
+    pub bodies_near: crate::boundary::bodies::NearBodies,
     /// The fluid's largest speed at the frame's start plus what gravity adds over the frame
-    /// (m/s): with `body_speed`, the bound on particle speeds near moving bodies.
+    /// (m/s): with `bodies_near`, the bound on particle speeds near kinematic bodies.
     pub frame_speed: Real,
 }
 
