@@ -68,7 +68,8 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
 
     /// Random particles (some placed with non-finite coordinates: refused), random and
-    /// extreme velocities, random time steps and gravity, with and without a floor: every
+    /// extreme velocities, random time steps and gravity, with and without a floor, a light
+    /// dynamic box or a moving, spinning closed container: every
     /// step returns (an error for a bad `dt` or gravity, changing nothing), and afterwards
     /// every particle is finite and `live + quarantined` equals what was inserted. The viscosity
     /// ranges up to 10⁷ Pa·s and half the runs spawn every point twice; densities and pressures
@@ -85,6 +86,8 @@ proptest! {
         poison in prop::collection::vec((0usize..120, any_real()), 0..4),
         viscosity in prop_oneof![Just(0.5 as Real), Just(1e4), Just(1e6), 0.0..1e7 as Real],
         overfill in any::<bool>(),
+        body in 0u8..3,
+        body_motion in (any_real(), any_real()),
     ) {
         let params = FluidParamsBuilder::water(0.05)
             .solver(solver)
@@ -99,6 +102,37 @@ proptest! {
                 ColliderBuilder::cuboid(5.0, 0.1, 5.0).translation(Vector::new(0.0, -0.1, 0.0)),
                 Some(body),
             );
+            world.physics.step();
+        }
+        // A light dynamic box (1–10 kg/m³: a beach ball) among the particles, or a closed
+        // kinematic container moving and spinning through them at random (finite) rates.
+        let finite = |x: Real| if x.is_finite() { x % 100.0 } else { 0.0 };
+        let (a, b) = (finite(body_motion.0), finite(body_motion.1));
+        if body == 1 {
+            let h = world.physics.insert_body(RigidBodyBuilder::dynamic().linvel(Vector::new(a, b, 0.0)));
+            world.physics.insert_collider(
+                ColliderBuilder::cuboid(0.08, 0.08, 0.08).density(1.0 + b.abs() % 9.0),
+                Some(h),
+            );
+            world.physics.step();
+        } else if body == 2 {
+            let h = world.physics.insert_body(
+                RigidBodyBuilder::kinematic_velocity_based()
+                    .linvel(Vector::new(a, 0.0, 0.0))
+                    .angvel(Vector::new(0.0, 0.0, b)),
+            );
+            for axis in 0..3 {
+                for side in [-1.0, 1.0] {
+                    let mut half = Vector::splat(0.54);
+                    half[axis] = 0.02;
+                    let mut c = Vector::ZERO;
+                    c[axis] = side * 0.52;
+                    world.physics.insert_collider(
+                        ColliderBuilder::cuboid(half.x, half.y, half.z).translation(c),
+                        Some(h),
+                    );
+                }
+            }
             world.physics.step();
         }
         let mut fluid = Fluid::new(params).unwrap();
