@@ -1,0 +1,166 @@
+//! Bodies much lighter than water (foam, a beach ball: 10–50 kg/m³; 1 kg/m³, a balloon, in
+//! an ignored test: still thrown) dropped on water in a closed tank, with every solver: the
+//! fluid's push on such a body is limited by the water it must move out of the way (its added
+//! mass), so it pops up and floats; it is never thrown.
+//!
+//! The bound on the body's speed, from physics (not from a run): a body lighter than water
+//! rises with at most `g·(ρw − ρb)/(ρb + C_a·ρw) ≤ g/C_a` against its added mass `C_a·ρw·V`
+//! (`C_a` ≥ 0.5 for a compact body: a sphere's is 0.5, a cube's about 0.7), so over the water's
+//! depth `D` it gains at most `√(2·(g/C_a)·D) = 2·√(g·D)`; falling from `h` it gains `√(2·g·h)`;
+//! and the water it rides moves at most at `√(2·g·(D + h))` (all of the column's and the
+//! drop's potential energy as speed). Their sum bounds its speed. The water's particles are
+//! bounded by the same energy, plus twice the body's bound (a reflection off a body moving at
+//! that speed).
+//!
+//! `cargo test --release --test light_bodies -- --nocapture` prints the figures.
+
+use rapier_sph::math::{Real, Vector};
+use rapier_sph::scenes::{FloatingBox, FloatingBoxConfig};
+use rapier_sph::{Pbf, Solver};
+
+const G: Real = 9.81;
+
+struct Outcome {
+    body_speed: Real,
+    water_speed: Real,
+    /// Height of the box's centre at the end, over the water's depth.
+    final_centre: Real,
+    escaped: usize,
+    quarantined: usize,
+    cap_hit: bool,
+}
+
+fn drop_box(solver: Solver, density: Real, drop: Real, seconds: Real) -> Outcome {
+    let config = FloatingBoxConfig {
+        spacing: 0.04,
+        tank: 0.6,
+        depth: 0.24,
+        half_width: 0.08,
+        half_height: 0.08,
+        density,
+        solver,
+    };
+    let mut scene = FloatingBox::new(config).unwrap();
+    let top = scene.tank_height();
+    let body = scene.body;
+    // Lift the box by `drop` above where it would float.
+    {
+        let b = &mut scene.world.physics.bodies[body];
+        let mut pose = *b.position();
+        pose.translation.y += drop;
+        b.set_position(pose, true);
+    }
+    scene.world.physics.step();
+    let fluid = scene.fluid;
+    let n0 = scene.world.fluids[fluid].len();
+    let (mut body_speed, mut water_speed, mut escaped) = (0.0 as Real, 0.0 as Real, 0usize);
+    let (mut quarantined, mut cap_hit) = (0usize, false);
+    let corner = Vector::new(0.08, 0.08, 0.08).length();
+    let frames = (seconds * 60.0) as usize;
+    for _ in 0..frames {
+        let r = scene.world.step().unwrap();
+        quarantined += r.quarantined;
+        cap_hit |= r.substep_cap_hit;
+        let f = &scene.world.fluids[fluid];
+        assert_eq!(f.len() + quarantined, n0, "particles unaccounted for");
+        water_speed = f
+            .velocities()
+            .iter()
+            .map(|v| v.length())
+            .fold(water_speed, Real::max);
+        escaped = escaped.max(
+            f.positions()
+                .iter()
+                .filter(|p| {
+                    p.x < 0.0 || p.z < 0.0 || p.y < 0.0 || p.x > 0.6 || p.z > 0.6 || p.y > top
+                })
+                .count(),
+        );
+        let b = &scene.world.physics.bodies[body];
+        body_speed = body_speed.max(b.linvel().length() + b.angvel().length() * corner);
+    }
+    let b = &scene.world.physics.bodies[body];
+    Outcome {
+        body_speed,
+        water_speed,
+        final_centre: b.translation().y - 0.24,
+        escaped,
+        quarantined,
+        cap_hit,
+    }
+}
+
+/// Drops 16 cm boxes of each `density` with each solver and checks the bounds of the module
+/// docs; panics naming the cases that broke them.
+fn check(cases: &[(Solver, Real)]) {
+    let (depth, drop) = (0.24, 0.05);
+    let body_bound =
+        (2.0 * G * drop).sqrt() + 2.0 * (G * depth).sqrt() + (2.0 * G * (depth + drop)).sqrt();
+    let water_bound = (2.0 * G * (depth + drop)).sqrt() + 2.0 * body_bound;
+    let mut failures = Vec::new();
+    for &(solver, density) in cases {
+        let o = drop_box(solver, density, drop, 1.5);
+        println!(
+            "{:6} {:4} kg/m³: body ≤ {:.2} m/s (bound {:.2}), water ≤ {:.2} m/s (bound {:.2}), \
+             centre {:+.3} m over the surface, escaped {}, quarantined {}, cap {}",
+            solver.name(),
+            density,
+            o.body_speed,
+            body_bound,
+            o.water_speed,
+            water_bound,
+            o.final_centre,
+            o.escaped,
+            o.quarantined,
+            o.cap_hit
+        );
+        let ok = o.body_speed <= body_bound
+            && o.water_speed <= water_bound
+            && o.escaped == 0
+            && o.quarantined == 0
+            && !o.cap_hit
+            // Floating: the centre at most one spacing under the still surface and not
+            // above the drop height.
+            && o.final_centre > -0.04
+            && o.final_centre < 0.08 + drop + 0.04;
+        if !ok {
+            failures.push(format!("{} at {density} kg/m³", solver.name()));
+        }
+    }
+    assert!(failures.is_empty(), "failed: {failures:?}");
+}
+
+#[test]
+fn light_bodies_pop_up_and_float() {
+    let mut cases = Vec::new();
+    for solver in [
+        Solver::Wcsph,
+        Solver::dfsph(),
+        Solver::clavet(),
+        Solver::Pbf(Pbf::default()),
+    ] {
+        for density in [10.0, 50.0] {
+            cases.push((solver, density));
+        }
+    }
+    check(&cases);
+}
+
+/// At 1 kg/m³ the box is thrown on every solver (measured with these bounds, body 6.44 m/s
+/// and water 15.27 m/s: WCSPH body 4.5e13 m/s, water 2.7e12 m/s, 57 particles out of the
+/// tank; DFSPH water 1.7e19 m/s, 41 out; Clavet body 13.6 m/s; PBF body 9.0 m/s; the
+/// substep cap hit with WCSPH and DFSPH, which makes this test take minutes). Likely, not
+/// shown: the added-mass solve of `Coupling::exchange` is linear only (the angular impulse
+/// of a box this light goes through `I⁻¹·L` alone; a 6-DOF solve tried on an older main
+/// floated WCSPH, DFSPH and Clavet's box but moved an angular-momentum test by 2 %), and
+/// PBF's wall reaction on bodies is explicit.
+#[test]
+#[ignore = "1 kg/m³ bodies are still thrown (see the doc comment)"]
+fn very_light_bodies_float() {
+    check(&[
+        (Solver::Wcsph, 1.0),
+        (Solver::dfsph(), 1.0),
+        (Solver::clavet(), 1.0),
+        (Solver::Pbf(Pbf::default()), 1.0),
+    ]);
+}
