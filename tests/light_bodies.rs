@@ -53,7 +53,7 @@ fn drop_box(solver: Solver, density: Real, drop: Real, seconds: Real) -> Outcome
     scene.world.physics.step();
     let fluid = scene.fluid;
     let n0 = scene.world.fluids[fluid].len();
-    let (mut body_speed, mut water_speed, mut escaped) = (0.0 as Real, 0.0 as Real, 0usize);
+    let (mut body_speed, mut water_speed, mut escaped): (Real, Real, usize) = (0.0, 0.0, 0);
     let (mut quarantined, mut cap_hit) = (0usize, false);
     let corner = Vector::new(0.08, 0.08, 0.08).length();
     let frames = (seconds * 60.0) as usize;
