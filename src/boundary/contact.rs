@@ -137,12 +137,26 @@ fn segment_is_free(
     })
 }
 
-/// `true` when `p` is inside any solid candidate.
-fn inside_any(colliders: &ColliderSet, candidates: &[ColliderHandle], p: Vector) -> bool {
+/// Where contact stands a candidate collider: its own pose for those at rest, the pose of the
+/// substep's start for moving ones (the particles' start positions are there too).
+type PoseOf<'a> = &'a dyn Fn(ColliderHandle, &Collider) -> Pose;
+
+/// A collider's own pose.
+fn own_pose(_: ColliderHandle, co: &Collider) -> Pose {
+    *co.position()
+}
+
+/// `true` when `p` is inside any solid candidate (each at `pose_of`).
+fn inside_any(
+    colliders: &ColliderSet,
+    candidates: &[ColliderHandle],
+    pose_of: PoseOf<'_>,
+    p: Vector,
+) -> bool {
     candidates.iter().any(|&h| {
         colliders
             .get(h)
-            .is_some_and(|co| co.shape().contains_point(co.position(), p))
+            .is_some_and(|co| co.shape().contains_point(&pose_of(h, co), p))
     })
 }
 
@@ -167,23 +181,25 @@ fn directions() -> impl Iterator<Item = Vector> {
 fn depenetrate(
     colliders: &ColliderSet,
     candidates: &[ColliderHandle],
+    pose_of: PoseOf<'_>,
     start: Vector,
     radius: Real,
 ) -> Option<(Vector, Vector)> {
-    if !inside_any(colliders, candidates, start) {
+    if !inside_any(colliders, candidates, pose_of, start) {
         return None;
     }
     for &h in candidates {
         let Some(co) = colliders.get(h) else { continue };
-        if !co.shape().contains_point(co.position(), start) {
+        let pose = pose_of(h, co);
+        if !co.shape().contains_point(&pose, start) {
             continue;
         }
-        let proj = co.shape().project_point(co.position(), start, false);
+        let proj = co.shape().project_point(&pose, start, false);
         let out = proj.point - start;
         if crate::math::is_finite(proj.point) && out.length() > Real::EPSILON * radius {
             let n = out.normalize();
             let p = proj.point + n * radius;
-            if crate::math::is_finite(p) && !inside_any(colliders, candidates, p) {
+            if crate::math::is_finite(p) && !inside_any(colliders, candidates, pose_of, p) {
                 return Some((p, n));
             }
         }
@@ -199,15 +215,16 @@ fn depenetrate(
             let mut exit: Real = 0.0;
             for &h in candidates {
                 let Some(co) = colliders.get(h) else { continue };
-                if co.shape().contains_point(co.position(), p)
-                    && let Some(t) = co.shape().cast_ray(co.position(), &ray, Real::MAX, false)
+                let pose = pose_of(h, co);
+                if co.shape().contains_point(&pose, p)
+                    && let Some(t) = co.shape().cast_ray(&pose, &ray, Real::MAX, false)
                 {
                     exit = exit.max(t);
                 }
             }
             p += dir * (exit + radius);
             travelled += exit + radius;
-            if !inside_any(colliders, candidates, p) {
+            if !inside_any(colliders, candidates, pose_of, p) {
                 escaped = true;
                 break;
             }
@@ -300,7 +317,7 @@ impl Particle {
     #[inline(always)]
     fn begin(
         input: &ContactInput<'_>,
-        cands: &[ColliderHandle],
+        (cands, pose_of): (&[ColliderHandle], PoseOf<'_>),
         start: Vector,
         end: Vector,
         v: Vector,
@@ -315,7 +332,13 @@ impl Particle {
             depenetrated: false,
         };
         if input.depenetrate_first
-            && let Some((x, n)) = depenetrate(input.colliders, cands, start, input.response.radius)
+            && let Some((x, n)) = depenetrate(
+                input.colliders,
+                cands,
+                pose_of,
+                start,
+                input.response.radius,
+            )
         {
             p.start = x;
             p.v = reflect(v, n, 0.0, 0.0);
@@ -455,7 +478,7 @@ fn static_particle(
     if !boxes.iter().any(|b| b.intersects(&reach)) {
         return;
     }
-    let mut p = Particle::begin(input, cands, start, *x, *v);
+    let mut p = Particle::begin(input, (cands, &own_pose), start, *x, *v);
 
     // 1. Sweep the motion: the centre never crosses a surface. Ray casts are skipped for
     // candidates whose box the segment's box does not reach within round-off (`tight`: 1 %
@@ -768,7 +791,14 @@ fn moving_particle(
         records,
         particle: i as u32,
     };
-    let mut p = Particle::begin(input, cands, input.previous[i], *x, v_orig);
+    // A moving collider is pushed out of at its pose of the substep's start: rapier has
+    // already moved it to the frame's end, where particles just added to a spinning tank
+    // would be inside its walls, and pushed out through them.
+    let pose_of = |h: ColliderHandle, co: &Collider| match entry_of(table, h) {
+        Some((_, mc)) if mc.moving => mc.start,
+        _ => *co.position(),
+    };
+    let mut p = Particle::begin(input, (cands, &pose_of), input.previous[i], *x, v_orig);
 
     // 1. Sweep the motion, each collider in its own moving frame.
     if let Some((_, normal, point, rel, e)) =
