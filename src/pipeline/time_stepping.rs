@@ -29,8 +29,9 @@ pub enum TimeStepping {
     /// current maximum speed:
     ///
     /// - every solver: `dt ≤ courant · spacing / (v_max + |g|·dt)` (a particle moves at
-    ///   most `courant` spacings per substep), and the explicit viscosity limit
-    ///   `dt ≤ ρ0·h²/(30·ε)`;
+    ///   most `courant` spacings per substep; `v_max` is at least the fastest surface of a
+    ///   moving body near the fluid, whose walls sweep into it), and the explicit viscosity
+    ///   limit `dt ≤ ρ0·h²/(30·ε)`;
     /// - WCSPH also the acoustic limit `dt ≤ courant · h / (c + v_max)`, Clavet the same with
     ///   `c·√k` (its stiffness `k` is in units of `c²/(h·ρ0)`, its springs' in `c²/(h²·N)`);
     /// - DFSPH under gravity also `g·dt² ≤ 5·max_density_error·spacing`: gravity's
