@@ -69,6 +69,14 @@ pub enum SphError {
         /// Their ids, sorted.
         ids: Vec<u32>,
     },
+    /// A collider or body handle names nothing the call can answer for: no such collider or
+    /// body, one removed since, or one that did not ask for what is read (see `reason`).
+    UnknownHandle {
+        /// The argument, e.g. `"collider"`.
+        argument: &'static str,
+        /// Why it was refused.
+        reason: &'static str,
+    },
     /// Reference data of a validation scene could not be read (the `validation` feature).
     ReferenceData {
         /// The file or folder.
@@ -122,6 +130,9 @@ impl fmt::Display for SphError {
                     "{} particles outside the container (first ids: {first:?})",
                     ids.len()
                 )
+            }
+            SphError::UnknownHandle { argument, reason } => {
+                write!(f, "unknown `{argument}`: {reason}")
             }
             SphError::ReferenceData { path, reason } => {
                 write!(f, "reference data {path}: {reason}")

@@ -152,6 +152,8 @@ pub mod validation;
 pub mod visual;
 pub mod world;
 
+pub use boundary::forces as boundary_forces;
+pub use boundary::forces::{ColliderForce, FluidContactEvent, FluidContactKind};
 pub use diagnostics::{Stage, StageTimings, StepReport};
 pub use domain::Domain;
 pub use emitter::{Attachment, Emitter, EmitterHandle, Nozzle, Sink, SinkHandle, SinkRegion};
@@ -171,10 +173,10 @@ pub use rapier3d;
 pub mod prelude {
     pub use crate::math::{Pose, Real, Vector};
     pub use crate::{
-        Clavet, Dfsph, Domain, Emitter, EquationOfState, Fluid, FluidHandle, FluidParams,
-        FluidParamsBuilder, FluidPipeline, FluidSampler, FluidSet, FluidWorld, KernelKind, Nozzle,
-        Pbf, Region, RegionTracker, Sink, SinkRegion, Solver, SphError, SphResult, Springs, Stage,
-        StepReport, TimeStepping,
+        Clavet, ColliderForce, Dfsph, Domain, Emitter, EquationOfState, Fluid, FluidContactEvent,
+        FluidContactKind, FluidHandle, FluidParams, FluidParamsBuilder, FluidPipeline,
+        FluidSampler, FluidSet, FluidWorld, KernelKind, Nozzle, Pbf, Region, RegionTracker, Sink,
+        SinkRegion, Solver, SphError, SphResult, Springs, Stage, StepReport, TimeStepping,
     };
     // Emitters carried by bodies, handles, and the one-call `Fluid::new(builder)`.
     pub use crate::{Attachment, EmitterHandle, IntoFluidParams, SinkHandle};

@@ -18,6 +18,7 @@
 pub mod bodies;
 pub mod candidates;
 pub mod contact;
+pub mod forces;
 pub mod teleport;
 pub mod wall;
 

@@ -41,6 +41,7 @@
 use super::ContactWorkspace;
 use super::bodies::{MovingCollider, entry_of};
 use super::candidates::ColliderQuery;
+use super::forces::{ParticleShares, Share, WallSink, Watch};
 use crate::kernel::{HalfSpaceTable, KernelKind};
 use crate::math::{Real, Vector};
 use crate::neighbors::{NeighborGrid, NeighborLists};
@@ -222,6 +223,14 @@ impl WallWorkspace {
         self.pinch_fraction
     }
 
+    /// `ρ0` times the force kernel's full integral: what turns a wall term's gradient in units
+    /// of the whole kernel into kg/m⁴ (as [`Self::gradient`]); 0 before the first update.
+    pub(crate) fn gradient_unit(&self, rest_density: Real) -> Real {
+        self.tables
+            .as_ref()
+            .map_or(0.0, |(_, _, _, _, _, tf)| rest_density * tf.full())
+    }
+
     /// Forgets every contribution (no collider near the fluid).
     pub fn clear(&mut self) {
         self.candidates.clear();
@@ -338,13 +347,63 @@ impl WallWorkspace {
                         viscous_velocity,
                     };
                     (0..rows.density.len())
-                        .map(|k| rows.set(k, &terms, &terms.particle(c * CHUNK + k)))
+                        .map(|k| rows.set(k, &terms, &terms.particle(c * CHUNK + k, &mut ())))
                         .sum::<usize>()
                 },
             )
             .sum();
         self.near = near;
         near
+    }
+
+    /// The watched colliders' shares of each particle's wall terms (`out`, in particle order),
+    /// at the positions and with the query of the last [`Self::update`]: the same terms,
+    /// computed again for the particles of cells with a watched collider among their
+    /// candidates (see `boundary::forces`). Nothing when no collider near is watched.
+    pub(crate) fn shares(
+        &self,
+        search: &crate::neighbors::NeighbourSearch,
+        positions: &[Vector],
+        query: &WallQuery<'_>,
+        watch: &Watch,
+        out: &mut Vec<Share>,
+    ) {
+        out.clear();
+        if !watch.any_forces || !self.candidates.any() {
+            return;
+        }
+        let Some((_, _, _, _, td, tf)) = &self.tables else {
+            return;
+        };
+        let terms = Terms {
+            query,
+            grid: &search.grid,
+            neighbors: &search.lists,
+            positions,
+            candidates: &self.candidates,
+            table: query.coupling.map_or(&[][..], |c| c.table()),
+            td,
+            tf,
+            full: (td.full(), tf.full()),
+            lap: crate::kernel::ViscosityLaplacian::new(query.params.smoothing_length),
+            gravity: query.hydrostatic.unwrap_or(Vector::ZERO),
+            hydro: self.hydrostatic_on,
+            any_dynamic: false,
+        };
+        for i in 0..positions.len() {
+            let cands = self.candidates.of_cell(search.grid.cell_of(i));
+            if !cands.iter().any(|&h| watch.slot(h).is_some()) {
+                continue;
+            }
+            let mut sink = ParticleShares {
+                watch,
+                particle: i as u32,
+                first: out.len(),
+                out: &mut *out,
+                current: None,
+            };
+            terms.particle(i, &mut sink);
+        }
     }
 
     /// Sizes every per-particle array for `n` particles and sets the flags of this update
@@ -535,9 +594,10 @@ struct Sum {
 }
 
 impl Terms<'_> {
-    /// The wall terms of sorted particle `i`.
+    /// The wall terms of sorted particle `i`; each wall's own terms go to `sink` as they are
+    /// united (`()`: nowhere; see `boundary::forces`).
     #[inline(always)]
-    fn particle(&self, i: usize) -> Sum {
+    fn particle<W: WallSink>(&self, i: usize, sink: &mut W) -> Sum {
         let x = self.positions[i];
         let mut s = Sum {
             u: 0.0,
@@ -555,7 +615,8 @@ impl Terms<'_> {
         let (_, colliders, _) = self.query.scene;
         for &handle in self.candidates.of_cell(self.grid.cell_of(i)) {
             if let Some(co) = colliders.get(handle) {
-                self.add_wall(&mut s, co, entry_of(self.table, handle), x);
+                sink.begin(handle);
+                self.add_wall(&mut s, co, entry_of(self.table, handle), x, sink);
             }
         }
         if self.hydro && s.g != Vector::ZERO {
@@ -565,6 +626,7 @@ impl Terms<'_> {
             let off = self.neighbour_centre(i, -s.g.normalize());
             let c = self.full.1 * self.gravity.dot(off);
             s.hs += s.g * c;
+            sink.centre(c);
             if self.any_dynamic {
                 s.hc += s.gc * c;
             }
@@ -575,12 +637,13 @@ impl Terms<'_> {
     /// Adds collider `co` (coupling-table entry `found`, if any) to the terms `s` of the
     /// particle at `x`.
     #[inline(always)]
-    fn add_wall(
+    fn add_wall<W: WallSink>(
         &self,
         s: &mut Sum,
         co: &rapier3d::geometry::Collider,
         found: Option<(u32, &MovingCollider)>,
         x: Vector,
+        sink: &mut W,
     ) {
         let (h, predicted) = (self.query.params.smoothing_length, self.query.predicted);
         let (full_d, full_f) = self.full;
@@ -618,6 +681,8 @@ impl Terms<'_> {
             hk = -(gn * mom + (gravity - gn) * phi_f) * (1.0 - s.u);
             s.hs = s.hs * (1.0 - a) + hk;
         }
+        let lv = wall_velocity.map_or(Vector::ZERO, |v| v * lk);
+        sink.wall(a, gk, hk, lk, lv, point);
         s.g = s.g * (1.0 - a) + gk;
         s.u = 1.0 - (1.0 - s.u) * (1.0 - a);
         s.ls += lk;

@@ -6,6 +6,7 @@ use super::workspace::Workspace;
 use crate::boundary::Coupling;
 use crate::boundary::candidates::ColliderQuery;
 use crate::boundary::contact::{self, ContactInput, ContactResponse, Movers};
+use crate::boundary::forces::{ContactView, Watch};
 use crate::diagnostics::{Stage, StepReport};
 use crate::fluid::Fluid;
 use parry3d::partitioning::Bvh;
@@ -18,6 +19,8 @@ pub(crate) struct Scene<'a> {
     pub bvh: &'a Bvh,
     pub colliders: &'a ColliderSet,
     pub bodies: &'a RigidBodySet,
+    /// The colliders whose forces or touch events the game asked for.
+    pub watch: &'a Watch,
 }
 
 /// Collider contact of every particle, swept from the positions at the substep's start to
@@ -28,7 +31,7 @@ pub(super) fn collider_contact(
     ws: &mut Workspace,
     scene: Option<Scene<'_>>,
     depenetrate: bool,
-    coupling: Option<&mut Coupling>,
+    mut coupling: Option<&mut Coupling>,
     report: &mut StepReport,
 ) -> usize {
     let Some(scene) = scene else {
@@ -41,9 +44,11 @@ pub(super) fn collider_contact(
         contact,
         impulses,
         previous_positions,
+        forces,
         ..
     } = ws;
     let (positions, velocities) = (particles.positions, particles.velocities);
+    forces.snapshot(scene.watch, velocities);
     let counts = report.timed(Stage::Contact, || {
         let query = ColliderQuery {
             bvh: scene.bvh,
@@ -81,15 +86,48 @@ pub(super) fn collider_contact(
         });
         contact::resolve(&input, positions, velocities, movers)
     });
-    if let Some(c) = coupling
+    let ids = &particles.ids[..];
+    let table = coupling.as_deref().map_or(&[][..], |c| c.table());
+    let records = if table.is_empty() {
+        &[][..]
+    } else {
+        &impulses[..]
+    };
+    let view = contact_view(scene, search, contact, table, p);
+    forces.after_resolve(&view, records, positions, velocities);
+    if let Some(c) = coupling.as_deref_mut()
         && !c.table().is_empty()
     {
         report.timed(Stage::Contact, || {
             c.exchange(impulses, velocities, p.particle_mass)
         });
+        let m = (p.particle_mass, true);
+        forces.after_exchange(scene.watch, c.table(), impulses, velocities, m);
     }
+    let table = coupling.as_deref().map_or(&[][..], |c| c.table());
+    let view = contact_view(scene, search, contact, table, p);
+    forces.touch(&view, positions, ids);
     report.contacts += counts.contacts;
     report.contact_fallbacks += counts.fallbacks;
     report.depenetrated += counts.depenetrated;
     counts.depenetrated
+}
+
+/// What the watched colliders' records read of the contact stage.
+fn contact_view<'a>(
+    scene: Scene<'a>,
+    search: &'a crate::neighbors::NeighbourSearch,
+    contact: &'a crate::boundary::ContactWorkspace,
+    table: &'a [crate::boundary::bodies::MovingCollider],
+    p: &crate::params::FluidParams,
+) -> ContactView<'a> {
+    ContactView {
+        watch: scene.watch,
+        grid: &search.grid,
+        candidates: contact,
+        colliders: scene.colliders,
+        table,
+        radius: p.particle_radius,
+        mass: p.particle_mass,
+    }
 }

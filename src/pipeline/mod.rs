@@ -14,6 +14,7 @@
 //! owns which data and how to add a stage or a solver.
 
 mod contact;
+mod records;
 mod relax;
 mod substep;
 mod time_stepping;
@@ -23,6 +24,7 @@ pub use relax::{RELAX_FRAME_ROUNDS, RELAX_PROGRESS, RELAX_STALLED_ROUNDS};
 pub use time_stepping::{MAX_SUBSTEPS, TimeStepping};
 
 use crate::boundary::Coupling;
+use crate::boundary::forces::Records;
 use crate::diagnostics::{Stage, StepReport};
 use crate::error::{SphError, SphResult};
 use crate::fluid::{FluidHandle, FluidSet};
@@ -74,6 +76,8 @@ pub struct FluidPipeline {
     report: StepReport,
     coupling: Coupling,
     runtimes: Runtimes,
+    /// The watched colliders' forces and touches of the last frame (`boundary::forces`).
+    records: Records,
     /// Always empty: lets the broad-phase's BVH be borrowed without `bodies` (kept here so
     /// the step does not allocate one).
     no_bodies: RigidBodySet,
@@ -99,6 +103,7 @@ impl FluidPipeline {
             report: StepReport::default(),
             coupling: Coupling::default(),
             runtimes: Runtimes::default(),
+            records: Records::default(),
             no_bodies: RigidBodySet::new(),
         }
     }
@@ -246,6 +251,8 @@ impl FluidPipeline {
             },
             colliders,
         );
+        let scene_colliders = has_colliders.then_some((&*bodies, colliders));
+        begin_records(&mut self.records, &mut self.runtimes, scene_colliders);
         self.coupling.begin_frame(
             dt,
             self.rapier_substeps,
@@ -264,6 +271,7 @@ impl FluidPipeline {
                 bvh,
                 colliders,
                 bodies,
+                watch: &self.records.watch,
             }),
             colliders,
             bodies: &*bodies,
@@ -284,6 +292,11 @@ impl FluidPipeline {
         #[cfg(not(feature = "parallel"))]
         frame.run();
         let mut report = frame.report;
+        let forces = self
+            .runtimes
+            .iter_mut()
+            .map(|r| (r.handle, &mut r.ws.forces));
+        self.records.finish(dt, forces);
         report.coupled_bodies = self.coupling.apply(bodies);
         self.report = report;
         Ok(&self.report)
@@ -389,6 +402,22 @@ impl FluidPipeline {
             });
         }
         Ok(())
+    }
+}
+
+/// Finds the watched colliders of the frame (none without colliders) and readies each
+/// fluid's records.
+fn begin_records(
+    records: &mut Records,
+    runtimes: &mut Runtimes,
+    scene: Option<(&RigidBodySet, &ColliderSet)>,
+) {
+    match scene {
+        Some((bodies, colliders)) => records.watch.collect(colliders, bodies),
+        None => records.watch = Default::default(),
+    }
+    for rt in runtimes.iter_mut() {
+        rt.ws.forces.begin_frame(&records.watch);
     }
 }
 

@@ -6,6 +6,7 @@ use super::contact::{Scene, collider_contact};
 use super::workspace::{FluidRuntime, Workspace};
 use crate::boundary::Coupling;
 use crate::boundary::bodies::ImpulseRecord;
+use crate::boundary::forces::{FluidForces, WallTerms, Watch};
 use crate::boundary::wall::WallQuery;
 use crate::diagnostics::{Stage, StepReport};
 use crate::fluid::{Fluid, ParticlesMut};
@@ -87,7 +88,8 @@ pub(crate) fn substep(
     });
     report.neighbour_pairs += ws.search.lists.total_pairs();
     let query = wall_query(params, &rt.solver, input, coupling.as_deref());
-    walls(query, particles.positions, ws, report);
+    walls(query.as_ref(), particles.positions, ws, report);
+    wall_shares(query.as_ref(), input, particles.positions, ws);
     let (outcome, mean_error) = solve(
         (params, hold),
         particles,
@@ -238,7 +240,7 @@ fn wall_query<'a>(
 /// The walls' density and pressure-gradient tables (and Clavet's densities when
 /// `double_density`) for the sorted `positions`; none without a query.
 fn walls(
-    query: Option<(WallQuery<'_>, bool)>,
+    query: Option<&(WallQuery<'_>, bool)>,
     positions: &[Vector],
     ws: &mut Workspace,
     report: &mut StepReport,
@@ -248,14 +250,30 @@ fn walls(
         return;
     };
     let near = report.timed(Stage::WallDensity, || {
-        ws.wall.update(&ws.search, positions, &query)
+        ws.wall.update(&ws.search, positions, query)
     });
-    if double_density {
+    if *double_density {
         report.timed(Stage::WallDensity, || {
-            ws.wall.update_clavet(&ws.search.grid, positions, &query)
+            ws.wall.update_clavet(&ws.search.grid, positions, query)
         });
     }
     report.particles_near_walls += near;
+}
+
+/// The watched colliders' shares of the wall terms just computed (`boundary::forces`; none
+/// when nothing near is watched).
+fn wall_shares(
+    query: Option<&(WallQuery<'_>, bool)>,
+    input: &SubstepInput<'_>,
+    positions: &[Vector],
+    ws: &mut Workspace,
+) {
+    ws.forces.shares.clear();
+    if let (Some((query, _)), Some(scene)) = (query, input.scene) {
+        let out = &mut ws.forces.shares;
+        ws.wall
+            .shares(&ws.search, positions, query, scene.watch, out);
+    }
 }
 
 /// The solver's substep on the step context (`params` with the rest density the solver
@@ -295,16 +313,60 @@ fn solve(
         report,
     };
     let outcome = rt.solver.step(&mut ctx);
+    let watch = input.scene.map(|s| s.watch);
+    if let Some(watch) = watch.filter(|_| !ws.forces.shares.is_empty()) {
+        wall_impulses(&ctx, &rt.solver, &wall_ws, watch, &mut ws.forces);
+    }
     let mut viscous = std::mem::take(&mut ws.wall_viscous_impulses);
     viscous.clear();
     wall_viscosity(&mut ctx, &mut viscous);
     if let Some(c) = coupling {
-        wall_reaction(&mut ctx, &rt.solver, &mut ws.wall_impulses, &mut viscous, c);
+        let watch = watch.filter(|w| w.any_dynamic_forces);
+        if let Some(w) = watch {
+            ws.forces.snapshot(w, ctx.velocities);
+        }
+        let records = &mut ws.wall_impulses;
+        let exchanged = wall_reaction(&mut ctx, &rt.solver, records, &mut viscous, c);
+        if let Some(w) = watch.filter(|_| exchanged) {
+            let m = (params.particle_mass, false);
+            ws.forces
+                .after_exchange(w, c.table(), records, ctx.velocities, m);
+        }
     }
     let (_, mean_error) = measure_density_error(&mut ctx, &mut ws.partials);
     ws.wall_viscous_impulses = viscous;
     ws.wall = wall_ws;
     (outcome, mean_error)
+}
+
+/// The watched colliders' wall impulses of the substep, after the solver and before the
+/// walls' viscosity (see `boundary::forces`).
+fn wall_impulses(
+    ctx: &StepContext<'_>,
+    solver: &SolverState,
+    wall: &crate::boundary::WallWorkspace,
+    watch: &Watch,
+    forces: &mut FluidForces,
+) {
+    let p = ctx.params;
+    let terms = WallTerms {
+        unit: wall.gradient_unit(p.rest_density),
+        mass: p.particle_mass,
+        dt: ctx.dt,
+        epsilon: if wall.viscous.len() == ctx.velocities.len() {
+            p.wall_viscosity
+        } else {
+            0.0
+        },
+        velocities: ctx.velocities,
+        inv_densities: ctx.inv_densities,
+        viscous_total: &wall.viscous,
+    };
+    let scale = |i| match solver.wall_reaction() {
+        WallReaction::None => 0.0,
+        WallReaction::Impulse { .. } => solver.wall_impulse_scale(ctx, i),
+    };
+    forces.wall_impulses(watch, terms, scale);
 }
 
 /// The walls' viscosity (`wall_viscosity` > 0), after the solver, on the velocities it left.
@@ -335,18 +397,19 @@ fn wall_viscosity(ctx: &mut StepContext<'_>, records: &mut Vec<ImpulseRecord>) {
 /// Fluid → body through the walls: each particle's wall term from dynamic bodies pushes those
 /// bodies back (Newton's third law; see `boundary::bodies`), with the solver's share of the
 /// impulse its wall term gave the particle; the walls' viscous impulses go with them.
+/// Returns whether it exchanged them.
 fn wall_reaction(
     ctx: &mut StepContext<'_>,
     solver: &SolverState,
     records: &mut Vec<Vec<ImpulseRecord>>,
     viscous: &mut Vec<ImpulseRecord>,
     coupling: &mut Coupling,
-) {
+) -> bool {
     let WallReaction::Impulse { added_mass } = solver.wall_reaction() else {
-        return;
+        return false;
     };
     let Some(w) = ctx.wall.filter(|w| w.coupled_any) else {
-        return;
+        return false;
     };
     let t0 = std::time::Instant::now();
     let (m, dt) = (ctx.params.particle_mass, ctx.dt);
@@ -357,6 +420,7 @@ fn wall_reaction(
     records[0].append(viscous);
     coupling.exchange(records, ctx.velocities, m);
     ctx.report.timings.add(Stage::Contact, t0.elapsed());
+    true
 }
 
 /// The report's density error (counted with the density stage, whose output it reads).

@@ -3,6 +3,7 @@
 //! steps, matched by handle.
 
 use crate::boundary::bodies::ImpulseRecord;
+use crate::boundary::forces::FluidForces;
 use crate::boundary::{ContactWorkspace, WallWorkspace};
 use crate::fluid::{FluidHandle, FluidSet};
 use crate::math::{Real, Vector};
@@ -43,6 +44,8 @@ pub(crate) struct Workspace {
     /// The fluid's largest speed at the frame's start plus what gravity adds over the frame
     /// (m/s): with `bodies_near`, the bound on particle speeds near kinematic bodies.
     pub frame_speed: Real,
+    /// What the fluid did to the watched colliders this frame (`boundary::forces`).
+    pub forces: FluidForces,
 }
 
 impl Workspace {
@@ -76,6 +79,7 @@ impl Workspace {
             + self.previous_positions.capacity() * v
             + self.inv_densities.capacity() * 4
             + self.partials.capacity() * std::mem::size_of::<(f64, Real)>()
+            + self.forces.heap_bytes()
     }
 }
 
