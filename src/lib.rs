@@ -134,6 +134,7 @@ pub mod params;
 pub mod pipeline;
 pub(crate) mod pressure;
 pub mod query;
+pub(crate) mod region;
 #[cfg(feature = "render")]
 pub mod render;
 #[cfg(feature = "scene")]
@@ -156,13 +157,15 @@ pub use boundary::forces as boundary_forces;
 pub use boundary::forces::{ColliderForce, FluidContactEvent, FluidContactKind};
 pub use diagnostics::{Stage, StageTimings, StepReport};
 pub use domain::Domain;
-pub use emitter::{Attachment, Emitter, EmitterHandle, Nozzle, Sink, SinkHandle, SinkRegion};
+#[allow(deprecated)]
+pub use emitter::SinkRegion;
+pub use emitter::{Attachment, Emitter, EmitterHandle, Nozzle, Sink, SinkHandle};
 pub use error::{SphError, SphResult};
 pub use fluid::{Fluid, FluidHandle, FluidSet, IntoFluidParams};
 pub use kernel::KernelKind;
 pub use params::{EquationOfState, FluidParams, FluidParamsBuilder};
 pub use pipeline::{FluidPipeline, TimeStepping};
-pub use query::{FluidAmount, FluidSampler, Region, RegionTracker};
+pub use query::{FluidAmount, FluidSampler, Region, RegionTracker, WaterColumn, WaterSurface};
 pub use solver::{Clavet, Dfsph, Pbf, Solver, Springs};
 pub use world::FluidWorld;
 
@@ -176,7 +179,8 @@ pub mod prelude {
         Clavet, ColliderForce, Dfsph, Domain, Emitter, EquationOfState, Fluid, FluidContactEvent,
         FluidContactKind, FluidHandle, FluidParams, FluidParamsBuilder, FluidPipeline,
         FluidSampler, FluidSet, FluidWorld, KernelKind, Nozzle, Pbf, Region, RegionTracker, Sink,
-        SinkRegion, Solver, SphError, SphResult, Springs, Stage, StepReport, TimeStepping,
+        Solver, SphError, SphResult, Springs, Stage, StepReport, TimeStepping, WaterColumn,
+        WaterSurface,
     };
     // Emitters carried by bodies, handles, and the one-call `Fluid::new(builder)`.
     pub use crate::{Attachment, EmitterHandle, IntoFluidParams, SinkHandle};

@@ -15,62 +15,15 @@
 //! - [`check_container`]: whether a collider meant to hold fluid is a solid to parry (a
 //!   triangle mesh built with `TriMeshFlags::ORIENTED` with the fluid inside it).
 
+mod surface;
+
+pub use crate::region::Region;
+
+pub use surface::{WaterColumn, WaterSurface};
+
 use crate::fluid::Fluid;
 use crate::math::{Real, Vector, is_finite};
-use parry3d::bounding_volume::Aabb;
-use rapier3d::geometry::{ColliderHandle, ColliderSet};
-
-/// A region of space for the queries.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub enum Region {
-    /// The box `[min, max]`.
-    Aabb {
-        /// Lower corner (m).
-        min: Vector,
-        /// Upper corner (m).
-        max: Vector,
-    },
-    /// A ball.
-    Ball {
-        /// Centre (m).
-        centre: Vector,
-        /// Radius (m).
-        radius: Real,
-    },
-    /// Inside a rapier collider, solid or sensor (parry's `contains_point`: a triangle mesh
-    /// counts as a volume only if built with `TriMeshFlags::ORIENTED`).
-    Collider(ColliderHandle),
-}
-
-impl Region {
-    /// A bounding box and a containment test, or `None` for a collider that does not exist.
-    fn resolve<'a>(
-        &self,
-        colliders: &'a ColliderSet,
-    ) -> Option<(Aabb, Box<dyn Fn(Vector) -> bool + 'a>)> {
-        Some(match *self {
-            Region::Aabb { min, max } => (
-                Aabb::new(min, max),
-                Box::new(move |x: Vector| x.cmpge(min).all() && x.cmple(max).all()),
-            ),
-            Region::Ball { centre, radius } => (
-                Aabb::new(
-                    centre - Vector::splat(radius),
-                    centre + Vector::splat(radius),
-                ),
-                Box::new(move |x: Vector| (x - centre).length_squared() <= radius * radius),
-            ),
-            Region::Collider(h) => {
-                let co = colliders.get(h)?;
-                let (shape, pose) = (co.shape(), co.position());
-                (
-                    co.compute_aabb(),
-                    Box::new(move |x: Vector| shape.contains_point(pose, x)),
-                )
-            }
-        })
-    }
-}
+use rapier3d::geometry::ColliderSet;
 
 /// How much fluid a region holds.
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
@@ -109,7 +62,8 @@ impl Fluid {
     /// # Ok::<(), rapier_sph::SphError>(())
     /// ```
     pub fn amount_in(&self, region: &Region, colliders: &ColliderSet) -> FluidAmount {
-        let Some((aabb, inside)) = region.resolve(colliders) else {
+        let spacing = self.params().particle_spacing;
+        let Some((aabb, inside)) = region.resolve(colliders, spacing) else {
             return FluidAmount::default();
         };
         let particles = self
@@ -187,6 +141,37 @@ impl<'a> FluidSampler<'a> {
             .collect();
         cells.sort_unstable();
         Self { fluid, h, cells }
+    }
+
+    /// The fluid's velocity at `point` (Shepard-normalised, as [`FluidSampler::sample`]), or
+    /// `None` when no particle is within the kernel support: what a swimmer or a floating
+    /// prop is carried by. 27 cell look-ups and the particles in them.
+    ///
+    /// # Errors
+    /// [`crate::SphError::InvalidParameter`] naming `point` when it is not finite.
+    ///
+    /// # Examples
+    /// ```
+    /// use rapier_sph::prelude::*;
+    ///
+    /// let mut fluid = Fluid::new(FluidParamsBuilder::water(0.1).build()?)?;
+    /// fluid.add_block(Vector::ZERO, Vector::ONE)?;
+    /// fluid.velocities_mut().fill(Vector::new(0.0, 0.0, 2.0)); // a current along z
+    /// let sampler = FluidSampler::new(&fluid);
+    /// let v = sampler.velocity_at(Vector::splat(0.5))?.unwrap();
+    /// assert!((v.z - 2.0).abs() < 1e-5);
+    /// assert!(sampler.velocity_at(Vector::splat(Real::NAN)).is_err());
+    /// # Ok::<(), rapier_sph::SphError>(())
+    /// ```
+    pub fn velocity_at(&self, point: Vector) -> crate::SphResult<Option<Vector>> {
+        if !is_finite(point) {
+            return Err(crate::SphError::InvalidParameter {
+                field: "point",
+                value: point.length() as f64,
+                reason: "must be finite",
+            });
+        }
+        Ok(self.sample(point).map(|s| s.velocity))
     }
 
     /// Density and velocity at `x`, or `None` when no particle is within the kernel support.
@@ -291,7 +276,8 @@ impl RegionTracker {
     /// Compares the particles of `fluid` inside the region now with the last update.
     pub fn update(&mut self, fluid: &Fluid, colliders: &ColliderSet) -> RegionEvents {
         self.scratch.clear();
-        if let Some((aabb, inside)) = self.region.resolve(colliders) {
+        let spacing = fluid.params().particle_spacing;
+        if let Some((aabb, inside)) = self.region.resolve(colliders, spacing) {
             for (x, id) in fluid.positions().iter().zip(fluid.ids()) {
                 if aabb.contains_local_point(*x) && inside(*x) {
                     self.scratch.push(*id);

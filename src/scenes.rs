@@ -478,7 +478,7 @@ impl ObstacleCourseConfig {
 
     /// The fluid, empty, with the jet at the top of the ramp and a sink far below the course.
     fn jet(&self) -> SphResult<Fluid> {
-        use crate::emitter::{Emitter, Nozzle, Sink, SinkRegion};
+        use crate::emitter::{Emitter, Nozzle, Region, Sink};
         let params = self.params.clone();
         let s = params.particle_spacing;
         let mut fluid = Fluid::new(params)?;
@@ -494,7 +494,7 @@ impl ObstacleCourseConfig {
         let rate = emitter.max_rate(s) * self.rate_fraction;
         emitter.set_rate(rate)?;
         fluid.add_emitter(emitter)?;
-        fluid.add_sink(Sink::new(SinkRegion::Aabb {
+        fluid.add_sink(Sink::new(Region::Aabb {
             min: Vector::splat(-100.0),
             max: Vector::new(100.0, -0.6, 100.0),
         }))?;

@@ -5,7 +5,7 @@ mod common;
 
 use common::*;
 use rapier_sph::rapier3d::prelude::*;
-use rapier_sph::{Emitter, FluidWorld, Nozzle, Sink, SinkRegion, SphError, StepReport};
+use rapier_sph::{Emitter, FluidWorld, Nozzle, Region, Sink, SphError, StepReport};
 
 const SPACING: Real = 0.05;
 
@@ -73,7 +73,7 @@ fn accounting_is_exact_at_every_step_with_a_sink() {
     f.add_emitter(nozzle()).unwrap();
     // A box sink over part of the floor, and the floor itself as a collider sink over a
     // second region is left for the next test: here the sink is a box by the nozzle.
-    f.add_sink(Sink::new(SinkRegion::Aabb {
+    f.add_sink(Sink::new(Region::Aabb {
         min: Vector::new(-0.3, 0.0, -0.3),
         max: Vector::new(0.0, 0.3, 0.3),
     }))
@@ -100,7 +100,7 @@ fn a_collider_sink_drains_what_rests_on_it() {
     let (mut world, fluid, floor) = floor_world();
     let f = &mut world.fluids[fluid];
     f.add_emitter(nozzle().active_between(0.0, 0.25)).unwrap();
-    f.add_sink(Sink::new(SinkRegion::Collider {
+    f.add_sink(Sink::new(Region::NearCollider {
         handle: floor,
         reach: None,
     }))
@@ -295,14 +295,14 @@ fn bad_emitters_and_sinks_are_refused_with_the_field() {
         "stop"
     );
     assert_eq!(
-        field(f.add_sink(Sink::new(SinkRegion::Ball {
+        field(f.add_sink(Sink::new(Region::Ball {
             centre: o,
             radius: 0.0
         }))),
         "radius"
     );
     assert_eq!(
-        field(f.add_sink(Sink::new(SinkRegion::Aabb {
+        field(f.add_sink(Sink::new(Region::Aabb {
             min: Vector::ONE,
             max: Vector::ZERO
         }))),

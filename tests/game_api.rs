@@ -236,7 +236,7 @@ fn a_reset_level_replays_bit_for_bit() {
 fn removal_by_id_keeps_the_books() {
     let (mut world, h) = tank_world(Solver::dfsph());
     fill(&mut world, h);
-    let sink = Sink::new(SinkRegion::Aabb {
+    let sink = Sink::new(Region::Aabb {
         min: Vector::new(0.0, 0.0, 0.0),
         max: Vector::new(0.6, 0.06, 0.1),
     });

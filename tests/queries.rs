@@ -129,3 +129,129 @@ fn enter_and_leave_counts() {
     assert_eq!(left, n);
     assert!(peak > 0);
 }
+
+/// The water's surface and depth over a pool at rest on its lattice: the fill height
+/// everywhere over it (exact: the top layer's centres plus half a spacing), nothing beside it,
+/// and a typed error for a non-finite coordinate.
+#[test]
+fn surface_height_and_depth_over_a_pool() {
+    let f = block(Vector::ZERO); // 0.5 m cube of water from the origin
+    let surface = rapier_sph::WaterSurface::new(&f);
+    for (x, z) in [(0.25, 0.25), (0.01, 0.49), (0.37, 0.12), (0.5, 0.5)] {
+        let c = surface.column(x, z).unwrap().unwrap();
+        assert!(
+            (c.surface - 0.5).abs() < 1e-5,
+            "surface {} at ({x}, {z})",
+            c.surface
+        );
+        assert!(c.bottom.abs() < 1e-5 && (c.depth() - 0.5).abs() < 1e-5);
+    }
+    let d = surface
+        .depth_below_surface(Vector::new(0.2, 0.35, 0.2))
+        .unwrap()
+        .unwrap();
+    assert!((d - 0.15).abs() < 1e-5);
+    let above = surface
+        .depth_below_surface(Vector::new(0.2, 0.8, 0.2))
+        .unwrap()
+        .unwrap();
+    assert!((above + 0.3).abs() < 1e-5);
+    // Beyond one kernel support of the water: no column.
+    assert!(surface.column(0.8, 0.25).unwrap().is_none());
+    assert!(surface.height(-0.5, 0.25).unwrap().is_none());
+    for bad in [Real::NAN, Real::INFINITY] {
+        assert!(matches!(
+            surface.column(bad, 0.0),
+            Err(rapier_sph::SphError::InvalidParameter { field: "x", .. })
+        ));
+        assert!(matches!(
+            surface.height(0.0, bad),
+            Err(rapier_sph::SphError::InvalidParameter { field: "z", .. })
+        ));
+        assert!(matches!(
+            surface.depth_below_surface(Vector::new(0.0, bad, 0.0)),
+            Err(rapier_sph::SphError::InvalidParameter { field: "point", .. })
+        ));
+    }
+}
+
+/// A box's submerged volume under a flat surface is its footprint times its chord under the
+/// water: exact for an axis-aligned box, whatever its height; a removed collider is a typed
+/// error.
+#[test]
+fn submerged_volume_of_a_box_is_exact_under_a_flat_surface() {
+    let f = block(Vector::ZERO);
+    let surface = rapier_sph::WaterSurface::new(&f);
+    let mut colliders = ColliderSet::new();
+    let (hx, hy, hz) = (0.1, 0.05, 0.08);
+    for (y, under) in [
+        (0.8, 0.0),
+        (0.5, hy),
+        (0.47, hy + 0.03),
+        (0.3, 2.0 * hy),
+        (0.0, hy),
+    ] {
+        let h = colliders
+            .insert(ColliderBuilder::cuboid(hx, hy, hz).translation(Vector::new(0.25, y, 0.25)));
+        let v = surface.submerged_volume(h, &colliders).unwrap();
+        let expected = 4.0 * hx * hz * under;
+        assert!(
+            (v - expected).abs() < 1e-6,
+            "at y = {y}: {v} m³, expected {expected}"
+        );
+    }
+    let gone = colliders.insert(ColliderBuilder::ball(0.1));
+    colliders.remove(
+        gone,
+        &mut IslandManager::new(),
+        &mut RigidBodySet::new(),
+        &mut SoftBodySet::new(),
+        true,
+    );
+    assert!(matches!(
+        surface.submerged_volume(gone, &colliders),
+        Err(rapier_sph::SphError::UnknownHandle {
+            argument: "collider",
+            ..
+        })
+    ));
+}
+
+/// The surface of water settled in a tank by the solver reads its fill height at rest density
+/// within half a spacing (the top layer's jitter), and the fluid's velocity there is still.
+#[test]
+fn surface_of_settled_water_reads_its_fill_height() {
+    let s = 0.05;
+    let floor = ColliderBuilder::cuboid(1.0, 0.1, 1.0).translation(Vector::new(0.0, -0.1, 0.0));
+    let wall = |x: Real, z: Real, hx: Real, hz: Real| {
+        ColliderBuilder::cuboid(hx, 0.5, hz).translation(Vector::new(x, 0.5, z))
+    };
+    let (mut world, fluid, _) = world_with(
+        water(s),
+        vec![
+            floor,
+            wall(-0.35, 0.0, 0.05, 0.4),
+            wall(0.35, 0.0, 0.05, 0.4),
+            wall(0.0, -0.35, 0.4, 0.05),
+            wall(0.0, 0.35, 0.4, 0.05),
+        ],
+    );
+    world.fluids[fluid]
+        .add_block(Vector::new(-0.3, 0.0, -0.3), Vector::new(0.6, 0.3, 0.6))
+        .unwrap();
+    for _ in 0..60 {
+        world.step().unwrap();
+    }
+    let f = &world.fluids[fluid];
+    let surface = rapier_sph::WaterSurface::new(f);
+    let sampler = FluidSampler::new(f);
+    for (x, z) in [(0.0, 0.0), (0.1, -0.2), (-0.2, 0.15)] {
+        let h = surface.height(x, z).unwrap().unwrap();
+        assert!((h - 0.3).abs() < 0.5 * s, "surface {h} at ({x}, {z})");
+        let v = sampler
+            .velocity_at(Vector::new(x, 0.15, z))
+            .unwrap()
+            .unwrap();
+        assert!(v.length() < 0.05, "velocity {v:?} in water at rest");
+    }
+}

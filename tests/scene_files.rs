@@ -7,7 +7,7 @@ use rapier_sph::FluidParamsBuilder;
 use rapier_sph::math::Vector;
 use rapier_sph::scene_file::{Positive, Preset, SceneError, SceneFile};
 use rapier_sph::scenes::{DamBreakConfig, ObstacleCourseConfig, dam_break, obstacle_course};
-use rapier_sph::{FluidWorld, SinkRegion};
+use rapier_sph::{FluidWorld, Region};
 use std::path::Path;
 
 fn scenes_dir() -> &'static Path {
@@ -319,7 +319,7 @@ fn the_obstacle_course_file_is_the_rust_scene() {
     assert_eq!(fa.capacity(), fb.capacity());
     let sink = |f: &rapier_sph::Fluid| {
         let r = code_sink_region(f);
-        assert!(matches!(r, SinkRegion::Aabb { .. }));
+        assert!(matches!(r, Region::Aabb { .. }));
         r
     };
     assert_eq!(sink(fa), sink(fb));
@@ -409,7 +409,7 @@ fn the_obstacle_course_file_is_the_rust_scene() {
     );
 }
 
-fn code_sink_region(f: &rapier_sph::Fluid) -> SinkRegion {
+fn code_sink_region(f: &rapier_sph::Fluid) -> Region {
     let mut regions = f.sinks().map(|(_, s)| s.region());
     let r = regions.next().expect("a sink");
     assert!(regions.next().is_none(), "one sink");
@@ -476,11 +476,11 @@ fn emitters_sinks_and_capacity_build() {
     assert_eq!(
         regions,
         vec![
-            SinkRegion::Collider {
+            Region::NearCollider {
                 handle: drain.1,
                 reach: Some(0.05)
             },
-            SinkRegion::Aabb {
+            Region::Aabb {
                 min: Vector::splat(-9.0),
                 max: Vector::new(9.0, -1.0, 9.0)
             },

@@ -121,7 +121,7 @@ fn restore_and_continue_with_a_body_on_the_water() {
 /// Emitters (their clocks and slots) and sinks (their counters) are part of the state.
 #[test]
 fn restore_and_continue_with_an_emitter_and_a_sink() {
-    use rapier_sph::{Emitter, Nozzle, Sink, SinkRegion};
+    use rapier_sph::{Emitter, Nozzle, Region, Sink};
     let mut w = scene();
     let (_, f) = w.fluids.iter_mut().next().unwrap();
     f.add_emitter(
@@ -135,7 +135,7 @@ fn restore_and_continue_with_an_emitter_and_a_sink() {
         .budget(150),
     )
     .unwrap();
-    f.add_sink(Sink::new(SinkRegion::Ball {
+    f.add_sink(Sink::new(Region::Ball {
         centre: Vector::new(0.0, 0.0, 0.0),
         radius: 0.15,
     }))

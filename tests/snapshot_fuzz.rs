@@ -16,7 +16,7 @@ use rapier_sph::rapier3d::prelude::{ColliderBuilder, RigidBodyBuilder};
 use rapier_sph::scenes::{DamBreakConfig, dam_break};
 use rapier_sph::snapshot::{self, SnapshotError};
 use rapier_sph::solver::{Clavet, Solver, Springs};
-use rapier_sph::{Emitter, Fluid, FluidParamsBuilder, FluidWorld, Nozzle, Sink, SinkRegion};
+use rapier_sph::{Emitter, Fluid, FluidParamsBuilder, FluidWorld, Nozzle, Region, Sink};
 use std::sync::OnceLock;
 
 const HEADER: usize = 32;
@@ -46,7 +46,7 @@ fn snapshot_bytes() -> &'static [u8] {
             .budget(40),
         )
         .unwrap();
-        f.add_sink(Sink::new(SinkRegion::Ball {
+        f.add_sink(Sink::new(Region::Ball {
             centre: Vector::new(0.9, 0.0, 0.1),
             radius: 0.1,
         }))

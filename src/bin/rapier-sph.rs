@@ -9,12 +9,12 @@
 
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
+use rapier_sph::Region;
 use rapier_sph::io::{self, ParticleData};
 use rapier_sph::mesh::{TessellationOptions, TriangleMesh};
 use rapier_sph::rapier3d::prelude::ColliderHandle;
 use rapier_sph::render::{FluidStyle, GifWriter, RenderOptions, Renderer, WorldDiffuse};
 use rapier_sph::scene_file::SceneFile;
-use rapier_sph::{Region, SinkRegion};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -131,17 +131,24 @@ fn main() -> ExitCode {
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
 /// A sink's region in words, naming its collider if it has a name.
-fn describe_sink(r: &SinkRegion, named: &[(String, ColliderHandle)]) -> String {
+fn describe_sink(r: &Region, named: &[(String, ColliderHandle)]) -> String {
     match r {
-        SinkRegion::Aabb { min, max } => format!(
+        Region::Aabb { min, max } => format!(
             "box ({}, {}, {}) to ({}, {}, {})",
             min.x, min.y, min.z, max.x, max.y, max.z
         ),
-        SinkRegion::Ball { centre, radius } => format!(
+        Region::Ball { centre, radius } => format!(
             "ball of radius {radius} m at ({}, {}, {})",
             centre.x, centre.y, centre.z
         ),
-        SinkRegion::Collider { handle, reach } => {
+        Region::Collider(handle) => {
+            let name = named
+                .iter()
+                .find(|(_, h)| h == handle)
+                .map_or("(unnamed)", |(n, _)| n.as_str());
+            format!("inside collider {name:?}")
+        }
+        Region::NearCollider { handle, reach } => {
             let name = named
                 .iter()
                 .find(|(_, h)| h == handle)

@@ -37,8 +37,10 @@
 //! fluids' sums are added in the set's order: the results do not depend on the thread count.
 //!
 //! **Touch.** A particle touches a collider when, at the end of a substep, its centre is
-//! within [`TOUCH`] contact radii of the collider's surface (contact keeps resting particles
-//! one radius off). The ids of the frame's touching particles are kept per (fluid, collider),
+//! within [`touch_distance`] of the collider's surface (contact radius plus half a spacing:
+//! the first layer of resting fluid and no other). Each watched
+//! collider costs one box test per particle per substep, and a point projection for the
+//! particles in its box. The ids of the frame's touching particles are kept per (fluid, collider),
 //! sorted: a particle that touched and was drained by a sink later in the frame counts.
 
 use super::bodies::{ImpulseRecord, MovingCollider, entry_of};
@@ -46,13 +48,23 @@ use super::candidates::ContactWorkspace;
 use crate::fluid::FluidHandle;
 use crate::math::{Real, Vector};
 use crate::neighbors::NeighborGrid;
+use parry3d::bounding_volume::BoundingVolume;
 use rapier3d::dynamics::{RigidBodyHandle, RigidBodySet};
 use rapier3d::geometry::{ColliderHandle, ColliderSet};
 use rapier3d::pipeline::ActiveEvents;
 
-/// A particle touches a surface within this many contact radii of it (contact keeps resting
-/// particles one radius off, between `1 − 10⁻³` and 1).
-pub const TOUCH: Real = 1.1;
+/// Contact's velocity change on a particle goes to the colliders within this many contact
+/// radii of its end position (contact leaves a particle it pushed one radius off, between
+/// `1 − 10⁻³` and 1).
+const TOUCH: Real = 1.1;
+
+/// How close a particle's centre comes to a collider's surface to touch it: its contact
+/// radius `r` plus half a spacing `s`, midway between the first layer of resting fluid
+/// (`r` off, or a little farther where the walls' pressure holds it) and the second
+/// (`r + s`).
+pub fn touch_distance(params: &crate::FluidParams) -> Real {
+    params.particle_radius + 0.5 * params.particle_spacing
+}
 
 /// One watched collider, as the frame's start found it.
 #[derive(Copy, Clone, Debug)]
@@ -249,9 +261,10 @@ pub(crate) struct ContactView<'a> {
     pub colliders: &'a ColliderSet,
     /// The coupling table of the substep (empty without moving bodies).
     pub table: &'a [MovingCollider],
-    /// The contact radius and the particle mass.
+    /// The contact radius, the particle mass and the touch distance.
     pub radius: Real,
     pub mass: Real,
+    pub touch: Real,
 }
 
 impl FluidForces {
@@ -368,7 +381,7 @@ impl FluidForces {
     }
 
     /// The velocity change `dv` of a particle that ended at `x`, split over the non-dynamic
-    /// colliders among `cands` within [`TOUCH`] contact radii (see the module docs).
+    /// colliders among `cands` within `TOUCH` contact radii (see the module docs).
     fn split_contact(
         &mut self,
         view: &ContactView<'_>,
@@ -474,36 +487,33 @@ impl FluidForces {
         }
     }
 
-    /// At the end of a substep: the ids of the particles within [`TOUCH`] contact radii of a
-    /// collider whose touch events are watched.
+    /// At the end of a substep: the ids of the particles within [`touch_distance`] of a
+    /// collider whose touch events are watched. Per such collider, one box test per particle
+    /// (the collider's box grown by the touch distance), then a point projection for those
+    /// inside it.
     pub fn touch(&mut self, view: &ContactView<'_>, positions: &[Vector], ids: &[u32]) {
         let watch = view.watch;
-        if !watch.any_events || !view.candidates.any() {
+        if !watch.any_events {
             return;
         }
-        let reach = TOUCH * view.radius;
-        for c in 0..view.grid.num_cells() as u32 {
-            let cands = view.candidates.of_cell(c);
-            for &h in cands {
-                let Some(k) = watch.slot(h).filter(|&k| watch.list[k].events) else {
-                    continue;
-                };
-                let Some(co) = view.colliders.get(h) else {
-                    continue;
-                };
-                let pose = match entry_of(view.table, h) {
-                    Some((_, m)) if m.moving => &m.stop,
-                    _ => co.position(),
-                };
-                let (start, end) = view.grid.cell_range(c);
-                for i in start as usize..end as usize {
-                    if co
+        let reach = view.touch;
+        for (k, w) in watch.list.iter().enumerate().filter(|(_, w)| w.events) {
+            let Some(co) = view.colliders.get(w.handle) else {
+                continue;
+            };
+            let pose = match entry_of(view.table, w.handle) {
+                Some((_, m)) if m.moving => &m.stop,
+                _ => co.position(),
+            };
+            let aabb = co.shape().compute_aabb(pose).loosened(reach);
+            for (x, id) in positions.iter().zip(ids) {
+                if aabb.contains_local_point(*x)
+                    && co
                         .shape()
-                        .project_point_with_max_dist(pose, positions[i], true, reach)
+                        .project_point_with_max_dist(pose, *x, true, reach)
                         .is_some()
-                    {
-                        self.touched[k].push(ids[i]);
-                    }
+                {
+                    self.touched[k].push(*id);
                 }
             }
         }

@@ -48,11 +48,12 @@
 //!
 //! ## Sinks
 //!
-//! A sink ([`SinkRegion`]: a box, a ball, or a rapier collider) removes every particle of its
-//! fluid inside it after every substep. A collider sink also takes particles within `reach`
-//! of its surface (default: one particle spacing), so a solid drain plate, which contact keeps
-//! particles half a spacing off, drains what rests on it; a sensor collider drains what
-//! enters it.
+//! A sink (over a [`Region`]: a box, a ball, or a rapier collider, the same regions the
+//! queries take) removes every particle of its fluid inside it after every substep. A
+//! [`Region::NearCollider`] sink also takes particles within `reach` of the collider's surface
+//! (default: one particle spacing), so a solid drain plate, which contact keeps particles half
+//! a spacing off, drains what rests on it; a sensor collider ([`Region::Collider`]) drains
+//! what enters it.
 
 mod emit;
 mod run;
@@ -61,6 +62,7 @@ pub(crate) use emit::EmitWorld;
 
 use crate::error::{SphError, SphResult};
 use crate::math::{Real, Vector, is_finite};
+pub use crate::region::Region;
 use rapier3d::dynamics::RigidBodyHandle;
 use rapier3d::geometry::ColliderHandle;
 
@@ -478,46 +480,23 @@ impl Emitter {
     }
 }
 
-/// Where a sink removes particles.
-#[derive(Copy, Clone, Debug, PartialEq)]
-#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
-pub enum SinkRegion {
-    /// The box `[min, max]`.
-    Aabb {
-        /// Lower corner (m).
-        min: Vector,
-        /// Upper corner (m).
-        max: Vector,
-    },
-    /// A ball.
-    Ball {
-        /// Centre (m).
-        centre: Vector,
-        /// Radius (m).
-        radius: Real,
-    },
-    /// Inside a rapier collider (a sensor or a solid), or within `reach` of its surface
-    /// (`None`: one particle spacing).
-    Collider {
-        /// The collider.
-        handle: ColliderHandle,
-        /// Distance from the surface that still drains (m).
-        reach: Option<Real>,
-    },
-}
+/// The region of a sink: now the one [`Region`] of queries and sinks alike (its variant
+/// `Collider { handle, reach }` is [`Region::NearCollider`]).
+#[deprecated(note = "use `Region`: sinks and queries share it")]
+pub type SinkRegion = Region;
 
 /// A region that removes the particles of its fluid that enter it.
 #[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub struct Sink {
-    region: SinkRegion,
+    region: Region,
     enabled: bool,
     drained: u64,
 }
 
 impl Sink {
     /// A sink over `region`.
-    pub fn new(region: SinkRegion) -> Self {
+    pub fn new(region: Region) -> Self {
         Self {
             region,
             enabled: true,
@@ -526,7 +505,7 @@ impl Sink {
     }
 
     /// The region.
-    pub fn region(&self) -> SinkRegion {
+    pub fn region(&self) -> Region {
         self.region
     }
 
@@ -544,48 +523,9 @@ impl Sink {
     ///
     /// # Errors
     ///
-    /// [`SphError::InvalidParameter`] for a box with non-finite corners or `max` below `min`,
-    /// a ball with a non-finite centre or a radius that is not positive, a negative reach.
+    /// As [`Region::validate`].
     pub fn validate(&self) -> SphResult<()> {
-        match self.region {
-            SinkRegion::Aabb { min, max } => {
-                if !is_finite(min) || !is_finite(max) || max.cmplt(min).any() {
-                    return Err(SphError::InvalidParameter {
-                        field: "max",
-                        value: (max - min).min_element() as f64,
-                        reason: "a sink box needs finite corners with min <= max",
-                    });
-                }
-            }
-            SinkRegion::Ball { centre, radius } => {
-                if !is_finite(centre) {
-                    return Err(SphError::InvalidParameter {
-                        field: "centre",
-                        value: centre.length() as f64,
-                        reason: "must be finite",
-                    });
-                }
-                if !radius.is_finite() || radius <= 0.0 {
-                    return Err(SphError::InvalidParameter {
-                        field: "radius",
-                        value: radius as f64,
-                        reason: "must be positive and finite",
-                    });
-                }
-            }
-            SinkRegion::Collider { reach, .. } => {
-                if let Some(r) = reach
-                    && (!r.is_finite() || r < 0.0)
-                {
-                    return Err(SphError::InvalidParameter {
-                        field: "reach",
-                        value: r as f64,
-                        reason: "must be finite and non-negative",
-                    });
-                }
-            }
-        }
-        Ok(())
+        self.region.validate()
     }
 }
 

@@ -3,7 +3,7 @@
 //! (after every substep). See the module docs of [`crate::emitter`].
 
 use super::emit::{EmitWorld, NozzlePose, Placer, Plan, Window, jet_velocity};
-use super::{Attachment, Emitter, EmitterHandle, Sink, SinkHandle, SinkRegion};
+use super::{Attachment, Emitter, EmitterHandle, Region, Sink, SinkHandle};
 use crate::error::{SphError, SphResult};
 use crate::fluid::Fluid;
 use crate::math::{Real, Vector};
@@ -204,12 +204,12 @@ impl Fluid {
     /// # Examples
     ///
     /// ```
-    /// use rapier_sph::{Fluid, FluidParamsBuilder, Sink, SinkRegion};
+    /// use rapier_sph::{Fluid, FluidParamsBuilder, Region, Sink};
     /// use rapier_sph::math::Vector;
     ///
     /// let mut fluid = Fluid::new(FluidParamsBuilder::water(0.04).build()?)?;
     /// // Whatever falls below y = −1 m is drained.
-    /// fluid.add_sink(Sink::new(SinkRegion::Aabb {
+    /// fluid.add_sink(Sink::new(Region::Aabb {
     ///     min: Vector::splat(-100.0),
     ///     max: Vector::new(100.0, -1.0, 100.0),
     /// }))?;
@@ -257,14 +257,24 @@ impl Fluid {
                 continue;
             }
             let removed = match sink.region {
-                SinkRegion::Aabb { min, max } => {
+                Region::Aabb { min, max } => {
                     self.remove_where(|x, _, _| x.cmpge(min).all() && x.cmple(max).all())
                 }
-                SinkRegion::Ball { centre, radius } => {
+                Region::Ball { centre, radius } => {
                     let r2 = radius * radius;
                     self.remove_where(|x, _, _| (x - centre).length_squared() <= r2)
                 }
-                SinkRegion::Collider { handle, reach } => {
+                Region::Collider(handle) => {
+                    let Some(co) = colliders.get(handle) else {
+                        continue;
+                    };
+                    let aabb = co.compute_aabb();
+                    let (shape, pose) = (co.shape(), co.position());
+                    self.remove_where(|x, _, _| {
+                        aabb.contains_local_point(x) && shape.contains_point(pose, x)
+                    })
+                }
+                Region::NearCollider { handle, reach } => {
                     let Some(co) = colliders.get(handle) else {
                         continue;
                     };

@@ -129,5 +129,6 @@ fn contact_view<'a>(
         table,
         radius: p.particle_radius,
         mass: p.particle_mass,
+        touch: crate::boundary::forces::touch_distance(p),
     }
 }

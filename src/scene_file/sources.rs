@@ -1,7 +1,7 @@
 //! Emitters, sinks and collider names, as written in a scene file.
 
 use super::values::{NonNegative, Positive, Vec3};
-use crate::emitter::{Emitter, Nozzle, Sink, SinkRegion};
+use crate::emitter::{Emitter, Nozzle, Region, Sink};
 use crate::math::Real;
 use rapier3d::geometry::ColliderHandle;
 use serde::{Deserialize, Serialize};
@@ -124,7 +124,7 @@ impl super::values::Validate for EmitterDesc {
     }
 }
 
-/// Where a sink removes particles, as in [`SinkRegion`].
+/// Where a sink removes particles, as in [`Region`] (`Collider` is [`Region::NearCollider`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub enum SinkRegionDesc {
@@ -168,15 +168,15 @@ impl SinkDesc {
     /// The sink, validated; `collider` resolves a collider name to its handle.
     pub fn sink(&self, collider: impl Fn(&str) -> Option<ColliderHandle>) -> Result<Sink, String> {
         let region = match &self.region {
-            SinkRegionDesc::Aabb { min, max } => SinkRegion::Aabb {
+            SinkRegionDesc::Aabb { min, max } => Region::Aabb {
                 min: min.vector(),
                 max: max.vector(),
             },
-            SinkRegionDesc::Ball { centre, radius } => SinkRegion::Ball {
+            SinkRegionDesc::Ball { centre, radius } => Region::Ball {
                 centre: centre.vector(),
                 radius: radius.0,
             },
-            SinkRegionDesc::Collider { name, reach } => SinkRegion::Collider {
+            SinkRegionDesc::Collider { name, reach } => Region::NearCollider {
                 handle: collider(&name.0)
                     .ok_or_else(|| format!("no collider is named `{}`", name.0))?,
                 reach: reach.map(|r| r.0),

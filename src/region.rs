@@ -1,0 +1,122 @@
+//! One notion of region for the queries, the trackers and the sinks.
+
+use crate::math::{Real, Vector, is_finite};
+use parry3d::bounding_volume::Aabb;
+use rapier3d::geometry::{ColliderHandle, ColliderSet};
+
+/// A region of space: for the queries ([`crate::Fluid::amount_in`], [`crate::RegionTracker`]) and for sinks
+/// ([`crate::Sink`]), one notion for both.
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub enum Region {
+    /// The box `[min, max]`.
+    Aabb {
+        /// Lower corner (m).
+        min: Vector,
+        /// Upper corner (m).
+        max: Vector,
+    },
+    /// A ball.
+    Ball {
+        /// Centre (m).
+        centre: Vector,
+        /// Radius (m).
+        radius: Real,
+    },
+    /// Inside a rapier collider, solid or sensor (parry's `contains_point`: a triangle mesh
+    /// counts as a volume only if built with `TriMeshFlags::ORIENTED`).
+    Collider(ColliderHandle),
+    /// Inside a rapier collider or within `reach` of its surface (`None`: one particle
+    /// spacing of the fluid asked about). A drain plate, which contact keeps particles half a
+    /// spacing off, takes what rests on it.
+    NearCollider {
+        /// The collider.
+        handle: ColliderHandle,
+        /// Distance from the surface that still counts (m).
+        reach: Option<Real>,
+    },
+}
+
+impl Region {
+    /// Checks the region; returns the first problem, naming it.
+    ///
+    /// # Errors
+    ///
+    /// [`crate::SphError::InvalidParameter`] for a box with non-finite corners or `max` below
+    /// `min` (field `max`), a ball with a non-finite centre (`centre`) or a radius that is not
+    /// positive (`radius`), a negative or non-finite reach (`reach`).
+    pub fn validate(&self) -> crate::SphResult<()> {
+        let bad = |field, value: Real, reason| {
+            Err(crate::SphError::InvalidParameter {
+                field,
+                value: value as f64,
+                reason,
+            })
+        };
+        match *self {
+            Region::Aabb { min, max }
+                if !is_finite(min) || !is_finite(max) || max.cmplt(min).any() =>
+            {
+                bad(
+                    "max",
+                    (max - min).min_element(),
+                    "a box needs finite corners with min <= max",
+                )
+            }
+            Region::Ball { centre, .. } if !is_finite(centre) => {
+                bad("centre", centre.length(), "must be finite")
+            }
+            Region::Ball { radius, .. } if !radius.is_finite() || radius <= 0.0 => {
+                bad("radius", radius, "must be positive and finite")
+            }
+            Region::NearCollider { reach: Some(r), .. } if !r.is_finite() || r < 0.0 => {
+                bad("reach", r, "must be finite and non-negative")
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// A bounding box and a containment test (`spacing`: the fluid's, for
+    /// [`Region::NearCollider`] without a reach), or `None` for a collider that does not exist.
+    pub(crate) fn resolve<'a>(
+        &self,
+        colliders: &'a ColliderSet,
+        spacing: Real,
+    ) -> Option<(Aabb, Box<dyn Fn(Vector) -> bool + 'a>)> {
+        Some(match *self {
+            Region::Aabb { min, max } => (
+                Aabb::new(min, max),
+                Box::new(move |x: Vector| x.cmpge(min).all() && x.cmple(max).all()),
+            ),
+            Region::Ball { centre, radius } => (
+                Aabb::new(
+                    centre - Vector::splat(radius),
+                    centre + Vector::splat(radius),
+                ),
+                Box::new(move |x: Vector| (x - centre).length_squared() <= radius * radius),
+            ),
+            Region::Collider(h) => {
+                let co = colliders.get(h)?;
+                let (shape, pose) = (co.shape(), co.position());
+                (
+                    co.compute_aabb(),
+                    Box::new(move |x: Vector| shape.contains_point(pose, x)),
+                )
+            }
+            Region::NearCollider { handle, reach } => {
+                use parry3d::bounding_volume::BoundingVolume;
+                let co = colliders.get(handle)?;
+                let reach = reach.unwrap_or(spacing);
+                let (shape, pose) = (co.shape(), co.position());
+                (
+                    co.compute_aabb().loosened(reach),
+                    Box::new(move |x: Vector| {
+                        shape
+                            .project_point_with_max_dist(pose, x, true, reach)
+                            .is_some()
+                    }),
+                )
+            }
+        })
+    }
+}
