@@ -139,8 +139,8 @@ fn mean_forces(
     (sums, Vector::new(rate(0), rate(1), rate(2)))
 }
 
-/// The hydrostatic loads of a tank at rest with `solver`: returns the worst relative errors
-/// (side-wall force, line of action in units of H, floor) after asserting them.
+/// Asserts the hydrostatic loads of a tank at rest with `solver` (each side wall's force and
+/// line of action, the floor's share, the whole tank's balance), printing them.
 fn hydrostatic_tank(solver: Solver, name: &str) {
     let s = 0.025;
     let (w, d, fill) = (0.3, 0.2, 0.3);
@@ -219,6 +219,17 @@ fn hydrostatic_tank(solver: Solver, name: &str) {
 #[test]
 fn dfsph_tank_walls_and_floor_take_the_hydrostatic_load() {
     hydrostatic_tank(Solver::Dfsph(Dfsph::default()), "DFSPH");
+}
+
+/// WCSPH's and PBF's walls carry the load through the same wall term (their own share of it:
+/// `p/(2ρ²)` for WCSPH, the walls' part of PBF's position corrections), so the same bounds
+/// hold. Clavet's relaxation pushes particles off the walls with a position correction the
+/// solver does not record: only contact and viscosity are reported for it (measured on this
+/// tank: +74 % on a side wall, its line of action at H/2), so no analytic test is claimed.
+#[test]
+fn wcsph_and_pbf_tank_walls_take_the_hydrostatic_load() {
+    hydrostatic_tank(Solver::Wcsph, "WCSPH");
+    hydrostatic_tank(Solver::Pbf(Pbf::default()), "PBF");
 }
 
 /// The mean buoyancy on a fixed cube of half extent `a` held at the middle of a tank
