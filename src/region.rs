@@ -4,6 +4,9 @@ use crate::math::{Real, Vector, is_finite};
 use parry3d::bounding_volume::Aabb;
 use rapier3d::geometry::{ColliderHandle, ColliderSet};
 
+/// A region's bounding box and its containment test.
+pub(crate) type Containment<'a> = (Aabb, Box<dyn Fn(Vector) -> bool + 'a>);
+
 /// A region of space: for the queries ([`crate::Fluid::amount_in`], [`crate::RegionTracker`]) and for sinks
 /// ([`crate::Sink`]), one notion for both.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -82,7 +85,7 @@ impl Region {
         &self,
         colliders: &'a ColliderSet,
         spacing: Real,
-    ) -> Option<(Aabb, Box<dyn Fn(Vector) -> bool + 'a>)> {
+    ) -> Option<Containment<'a>> {
         Some(match *self {
             Region::Aabb { min, max } => (
                 Aabb::new(min, max),

@@ -26,7 +26,7 @@
 //!    `(L_k v_k − L_k v_i)·f/(1 + α)` (see the walls' viscosity, [`crate::FluidParams::wall_viscosity`]).
 //! 3. *Contact*: the velocity change collider contact made on a particle is `−Δv·m` on the
 //!    collider it touched. Contact reflects a particle off several surfaces in one pass, so
-//!    the change is split over the colliders within [`TOUCH`] contact radii of its end
+//!    the change is split over the colliders within 1.1 contact radii of its end
 //!    position: each takes its normal part `n (n·Δv)` (exact for one surface, and for
 //!    perpendicular surfaces without friction), the rest in proportion to those normal parts.
 //!    A dynamic body's impulses are those the coupling records and settles (contact and the

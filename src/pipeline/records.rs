@@ -89,8 +89,9 @@ impl FluidPipeline {
 
     /// The last frame's events: a fluid started or stopped touching a collider whose
     /// `ActiveEvents::COLLISION_EVENTS` flag is set (a particle within
-    /// [`crate::boundary_forces::TOUCH`] contact radii of its surface at the end of a
-    /// substep). Started events come first, each list in the set's fluid order, then by collider handle.
+    /// [`crate::boundary_forces::touch_distance`] of its surface at the end of a substep).
+    /// Started events come first, each list in the set's fluid order, then by collider
+    /// handle.
     ///
     /// # Examples
     /// ```
