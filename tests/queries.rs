@@ -255,3 +255,37 @@ fn surface_of_settled_water_reads_its_fill_height() {
         assert!(v.length() < 0.05, "velocity {v:?} in water at rest");
     }
 }
+
+/// Queries and sinks take the same regions: `NearCollider` counts what is within its reach of
+/// the collider's surface (one spacing by default), `Collider` only what is inside.
+#[test]
+fn near_collider_regions_reach_past_the_surface() {
+    let f = block(Vector::ZERO); // x from 0.025 to 0.475 in steps of 0.05
+    let mut colliders = ColliderSet::new();
+    // A plate whose face is at x = 0.1: the lattice's columns at 0.125 (0.025 off) and
+    // 0.175 (0.075 off) are outside it.
+    let plate = colliders
+        .insert(ColliderBuilder::cuboid(0.05, 1.0, 1.0).translation(Vector::new(0.05, 0.25, 0.25)));
+    let inside = f.amount_in(&Region::Collider(plate), &colliders).particles;
+    let near = |reach| {
+        f.amount_in(
+            &Region::NearCollider {
+                handle: plate,
+                reach,
+            },
+            &colliders,
+        )
+        .particles
+    };
+    assert_eq!(inside, 200); // columns at x = 0.025 and 0.075
+    assert_eq!(near(None), 300); // + the column 0.025 off (within one spacing, 0.05)
+    assert_eq!(near(Some(0.1)), 400); // + the column 0.075 off
+    assert!(
+        Region::NearCollider {
+            handle: plate,
+            reach: Some(-1.0)
+        }
+        .validate()
+        .is_err()
+    );
+}

@@ -69,6 +69,33 @@ impl FluidPipeline {
     /// # Errors
     /// [`SphError::UnknownHandle`] (argument `"body"`) when none of the body's colliders had
     /// the flag at the last step.
+    ///
+    /// # Examples
+    /// ```
+    /// use rapier_sph::prelude::*;
+    /// use rapier_sph::rapier3d::prelude::{ActiveEvents, ColliderBuilder, RigidBodyBuilder};
+    ///
+    /// let mut world = FluidWorld::new();
+    /// let ground = world.physics.insert_body(RigidBodyBuilder::fixed());
+    /// world.physics.insert_collider(ColliderBuilder::cuboid(1.0, 0.1, 1.0), Some(ground));
+    /// // A crate dropped onto a puddle: what the water does to it, per frame.
+    /// let crate_body = world.physics.insert_body(
+    ///     RigidBodyBuilder::dynamic().translation(Vector::new(0.0, 0.3, 0.0)),
+    /// );
+    /// world.physics.insert_collider(
+    ///     ColliderBuilder::cuboid(0.1, 0.1, 0.1).active_events(ActiveEvents::CONTACT_FORCE_EVENTS),
+    ///     Some(crate_body),
+    /// );
+    /// let mut water = Fluid::new(FluidParamsBuilder::water(0.05).build()?)?;
+    /// water.add_block(Vector::new(-0.3, 0.1, -0.3), Vector::new(0.6, 0.1, 0.6))?;
+    /// world.fluids.insert(water);
+    /// for _ in 0..10 {
+    ///     world.step()?;
+    ///     let f = world.pipeline.body_force(crate_body)?;
+    ///     assert!(f.force.is_finite() && f.torque.is_finite());
+    /// }
+    /// # Ok::<(), rapier_sph::SphError>(())
+    /// ```
     pub fn body_force(&self, body: RigidBodyHandle) -> SphResult<ColliderForce> {
         let mut sum: Option<ColliderForce> = None;
         for f in self.records.forces.iter().filter(|f| f.body == Some(body)) {
