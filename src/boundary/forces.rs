@@ -20,8 +20,8 @@
 //!    `1 − a`, as it scales their sum), `s_i` the solver's share
 //!    (`PressureSolver::wall_impulse_scale`, the same the coupling gives dynamic bodies) and
 //!    `h_k` the collider's share of the hydrostatic wall acceleration. The collider takes the
-//!    opposite impulse, at its surface point closest to the particle. The shares are taken
-//!    at the positions the wall stage used.
+//!    opposite impulse, at its surface point closest to the particle. The wall stage records
+//!    the shares as it unites the walls (one push per particle and watched wall near it).
 //! 2. *Wall viscosity*: collider `k`'s share of the implicit velocity change,
 //!    `(L_k v_k − L_k v_i)·f/(1 + α)` (see the walls' viscosity, [`crate::FluidParams::wall_viscosity`]).
 //! 3. *Contact*: the velocity change collider contact made on a particle is `−Δv·m` on the
@@ -138,7 +138,7 @@ impl Watch {
     }
 }
 
-/// One collider's share of a particle's wall terms (see [`WallWorkspace::shares`]).
+/// One collider's share of a particle's wall terms (recorded by the wall stage).
 #[derive(Copy, Clone, Debug)]
 pub(crate) struct Share {
     pub particle: u32,
@@ -183,7 +183,8 @@ impl WallSink for () {
     fn centre(&mut self, _: Real) {}
 }
 
-/// The sink of [`WallWorkspace::shares`]: the watched colliders' shares of one particle.
+/// The wall stage's sink when forces are watched: the watched colliders' shares of one
+/// particle.
 pub(crate) struct ParticleShares<'a> {
     pub watch: &'a Watch,
     pub particle: u32,

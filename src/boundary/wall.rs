@@ -69,6 +69,9 @@ pub(crate) struct WallQuery<'a> {
     pub viscous: bool,
     /// The positions are predicted to the substep's end (moving bodies are taken there).
     pub predicted: bool,
+    /// The watched colliders, when some collider's forces are watched: each particle's
+    /// shares of its walls are recorded in [`WallWorkspace::share_chunks`].
+    pub watch: Option<&'a Watch>,
 }
 
 impl WallQuery<'_> {
@@ -178,6 +181,9 @@ pub struct WallWorkspace {
     /// Gradients of the two densities of `clavet` at the particle (1/m; into the walls).
     pub clavet_gradient: Vec<[Vector; 2]>,
     clavet_tables: Option<(Real, Real, HalfSpaceTable, HalfSpaceTable)>,
+    /// Per chunk of particles, the watched colliders' shares of their wall terms (in particle
+    /// order; empty unless [`WallQuery::watch`]; see `boundary::forces`).
+    pub(crate) share_chunks: Vec<Vec<Share>>,
     near: usize,
     /// See [`Self::pinch_fraction`].
     pinch_fraction: Real,
@@ -293,6 +299,13 @@ impl WallWorkspace {
             .gather(&search.grid, positions, positions, h, &query.colliders());
         let table = query.coupling.map_or(&[][..], |c| c.table());
         self.size_for(positions.len(), query, table);
+        let watch = query.watch;
+        // One buffer per chunk (empty, allocated once, when nothing is watched).
+        self.share_chunks
+            .resize_with(positions.len().div_ceil(CHUNK), Vec::new);
+        if watch.is_some() {
+            self.share_chunks.iter_mut().for_each(Vec::clear);
+        }
         if !self.candidates.any() {
             self.zero(query.viscous);
             return 0;
@@ -324,18 +337,23 @@ impl WallWorkspace {
             .zip(crate::par_chunks_mut!(self.hydrostatic, CHUNK))
             .zip(crate::par_chunks_mut!(self.viscous, CHUNK))
             .zip(crate::par_chunks_mut!(self.viscous_velocity, CHUNK))
+            .zip(crate::par_iter_mut!(self.share_chunks[..]))
             .enumerate()
             .map(
                 |(
                     c,
                     (
                         (
-                            (((((density, gradient), motion), coverage), coupled), hydrostatic),
-                            viscous,
+                            (
+                                (((((density, gradient), motion), coverage), coupled), hydrostatic),
+                                viscous,
+                            ),
+                            viscous_velocity,
                         ),
-                        viscous_velocity,
+                        out,
                     ),
                 )| {
+                    let first = c * CHUNK;
                     let mut rows = Rows {
                         density,
                         gradient,
@@ -346,64 +364,30 @@ impl WallWorkspace {
                         viscous,
                         viscous_velocity,
                     };
+                    let Some(watch) = watch else {
+                        return (0..rows.density.len())
+                            .map(|k| rows.set(k, &terms, &terms.particle(first + k, &mut ())))
+                            .sum::<usize>();
+                    };
+                    // The same terms, with the watched colliders' shares kept (chunk `c`'s
+                    // buffer is only this closure's: the shares stay in particle order).
                     (0..rows.density.len())
-                        .map(|k| rows.set(k, &terms, &terms.particle(c * CHUNK + k, &mut ())))
+                        .map(|k| {
+                            let mut sink = ParticleShares {
+                                watch,
+                                particle: (first + k) as u32,
+                                first: out.len(),
+                                out: &mut *out,
+                                current: None,
+                            };
+                            rows.set(k, &terms, &terms.particle(first + k, &mut sink))
+                        })
                         .sum::<usize>()
                 },
             )
             .sum();
         self.near = near;
         near
-    }
-
-    /// The watched colliders' shares of each particle's wall terms (`out`, in particle order),
-    /// at the positions and with the query of the last [`Self::update`]: the same terms,
-    /// computed again for the particles of cells with a watched collider among their
-    /// candidates (see `boundary::forces`). Nothing when no collider near is watched.
-    pub(crate) fn shares(
-        &self,
-        search: &crate::neighbors::NeighbourSearch,
-        positions: &[Vector],
-        query: &WallQuery<'_>,
-        watch: &Watch,
-        out: &mut Vec<Share>,
-    ) {
-        out.clear();
-        if !watch.any_forces || !self.candidates.any() {
-            return;
-        }
-        let Some((_, _, _, _, td, tf)) = &self.tables else {
-            return;
-        };
-        let terms = Terms {
-            query,
-            grid: &search.grid,
-            neighbors: &search.lists,
-            positions,
-            candidates: &self.candidates,
-            table: query.coupling.map_or(&[][..], |c| c.table()),
-            td,
-            tf,
-            full: (td.full(), tf.full()),
-            lap: crate::kernel::ViscosityLaplacian::new(query.params.smoothing_length),
-            gravity: query.hydrostatic.unwrap_or(Vector::ZERO),
-            hydro: self.hydrostatic_on,
-            any_dynamic: false,
-        };
-        for i in 0..positions.len() {
-            let cands = self.candidates.of_cell(search.grid.cell_of(i));
-            if !cands.iter().any(|&h| watch.slot(h).is_some()) {
-                continue;
-            }
-            let mut sink = ParticleShares {
-                watch,
-                particle: i as u32,
-                first: out.len(),
-                out: &mut *out,
-                current: None,
-            };
-            terms.particle(i, &mut sink);
-        }
     }
 
     /// Sizes every per-particle array for `n` particles and sets the flags of this update
@@ -547,6 +531,11 @@ impl WallWorkspace {
             + self.coupled.capacity() * std::mem::size_of::<Coupled>()
             + self.clavet.capacity() * std::mem::size_of::<[Real; 2]>()
             + self.clavet_gradient.capacity() * std::mem::size_of::<[Vector; 2]>()
+            + self
+                .share_chunks
+                .iter()
+                .map(|c| c.capacity() * std::mem::size_of::<Share>() + 24)
+                .sum::<usize>()
     }
 }
 

@@ -292,6 +292,7 @@ fn project(
                 hydrostatic: None,
                 viscous: false,
                 predicted: false,
+                watch: None,
             };
             let positions = &particles.positions[..];
             report.timed(Stage::WallDensity, || {

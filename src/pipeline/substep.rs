@@ -89,7 +89,7 @@ pub(crate) fn substep(
     report.neighbour_pairs += ws.search.lists.total_pairs();
     let query = wall_query(params, &rt.solver, input, coupling.as_deref());
     walls(query.as_ref(), particles.positions, ws, report);
-    wall_shares(query.as_ref(), input, particles.positions, ws);
+    wall_shares(query.as_ref(), ws);
     let (outcome, mean_error) = solve(
         (params, hold),
         particles,
@@ -233,6 +233,7 @@ fn wall_query<'a>(
         // Position-based solvers predicted the positions to the substep's end: the moving
         // bodies are taken there too.
         predicted: solver.predicts_positions(),
+        watch: Some(scene.watch).filter(|w| w.any_forces),
     };
     Some((query, request.double_density))
 }
@@ -261,18 +262,13 @@ fn walls(
 }
 
 /// The watched colliders' shares of the wall terms just computed (`boundary::forces`; none
-/// when nothing near is watched).
-fn wall_shares(
-    query: Option<&(WallQuery<'_>, bool)>,
-    input: &SubstepInput<'_>,
-    positions: &[Vector],
-    ws: &mut Workspace,
-) {
+/// when no collider's forces are watched).
+fn wall_shares(query: Option<&(WallQuery<'_>, bool)>, ws: &mut Workspace) {
     ws.forces.shares.clear();
-    if let (Some((query, _)), Some(scene)) = (query, input.scene) {
-        let out = &mut ws.forces.shares;
-        ws.wall
-            .shares(&ws.search, positions, query, scene.watch, out);
+    if query.is_some_and(|(q, _)| q.watch.is_some()) {
+        for chunk in &ws.wall.share_chunks {
+            ws.forces.shares.extend_from_slice(chunk);
+        }
     }
 }
 
