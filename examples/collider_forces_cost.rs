@@ -8,8 +8,14 @@
 //! cargo run --release --example collider_forces_cost -- [spacing] [frames]
 //! ```
 //!
-//! The last line of each watched run is its state hash: equal to the unwatched run's (watching
-//! reads the step and changes none of it).
+//! Each run prints its state hash: equal to the unwatched run's (watching reads the step and
+//! changes none of it).
+//!
+//! Measured (2-core VM, load about 4.5, two runs): nothing watched 16.1–16.3 ms/frame; forces
+//! of the 9 colliders +1.1–1.2 ms (120–130 µs per collider, ~200 ns per particle of the
+//! pool); their touch events +0.6 ms; both +1.7–1.8 ms. `WaterSurface::new` 94 µs (16 ns per
+//! particle), a height 80–100 ns, a boat's submerged volume 7 µs, `FluidSampler::new`
+//! 100 µs, `velocity_at` about 2 µs (4 µs at load 11).
 
 use rapier_sph::math::{Real, Vector};
 use rapier_sph::prelude::*;
