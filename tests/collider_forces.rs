@@ -377,3 +377,55 @@ fn watching_changes_no_bit_of_the_simulation() {
     let watched = run(ActiveEvents::CONTACT_FORCE_EVENTS | ActiveEvents::COLLISION_EVENTS);
     assert!(plain == watched);
 }
+
+/// A kinematic block pushed down into the water: the forces reported on it and on the tank
+/// balance the fluid's momentum change every frame, as for fixed and dynamic colliders, and
+/// the water resists the paddle (a force against its motion).
+#[test]
+fn a_kinematic_block_takes_the_force_it_puts_into_the_water() {
+    let s = 0.025;
+    let mut t = tank(Solver::Dfsph(Dfsph::default()), s, (0.3, 0.3, 0.2), None);
+    let p = &mut t.world.physics;
+    // A 0.1 m cube just above the water, pushed down into it at 0.3 m/s.
+    let body = p.insert_body(
+        RigidBodyBuilder::kinematic_velocity_based()
+            .translation(Vector::new(0.15, 0.26, 0.15))
+            .linvel(Vector::new(0.0, -0.3, 0.0)),
+    );
+    let paddle = p.insert_collider(
+        watched(ColliderBuilder::cuboid(0.05, 0.05, 0.05)),
+        Some(body),
+    );
+    let mut all = vec![t.floor, paddle];
+    all.extend(t.walls);
+    let dt = t.world.physics.integration_parameters.dt;
+    let (mut worst, mut drag) = (0.0 as Real, 0.0 as Real);
+    for frame in 0..30 {
+        t.world.physics.step();
+        let p0 = t.world.fluids[t.fluid].linear_momentum();
+        let r = t.world.step_fluids().unwrap();
+        assert_eq!(r.non_finite + r.quarantined, 0);
+        let p1 = t.world.fluids[t.fluid].linear_momentum();
+        let dp = Vector::new(
+            (p1[0] - p0[0]) as Real,
+            (p1[1] - p0[1]) as Real,
+            (p1[2] - p0[2]) as Real,
+        );
+        let weight = t.world.fluids[t.fluid].total_mass() * G;
+        let on_all: Vector = all
+            .iter()
+            .map(|&c| t.world.pipeline.collider_force(c).unwrap().force)
+            .sum();
+        let residual = dp / dt + on_all + Vector::new(0.0, weight, 0.0);
+        worst = worst.max(residual.length() / weight);
+        assert!(
+            residual.length() < 1e-4 * weight,
+            "frame {frame}: balance residual {residual:?} N"
+        );
+        drag += t.world.pipeline.collider_force(paddle).unwrap().force.y / 30.0;
+    }
+    println!(
+        "kinematic paddle: mean upward force {drag:.3} N, worst balance residual {worst:.2e} of the weight"
+    );
+    assert!(drag > 0.0, "the water should resist the paddle: {drag} N");
+}
