@@ -1,7 +1,8 @@
 //! A boat in a wave pool: a 500 kg/m³ hull floats in a pool whose kinematic paddle makes
 //! waves (`rapier_sph::scenes::WavePool`, the scene of `cargo bench --bench game`). Every
 //! half second it prints the hull's draft against Archimedes', its roll and pitch, and the
-//! force the water puts on it against its weight.
+//! water's vertical force on it (`FluidPipeline::body_force`, averaged over the half second)
+//! against its weight: a floating hull's mean is 1.
 //!
 //! ```text
 //! cargo run --release --example boat                          # 10,000 particles, 6 s, headless
@@ -19,6 +20,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse()?;
     let mut pool = WavePool::new(WavePoolConfig {
         particles: args.particles,
+        watch_hull: true,
         ..Default::default()
     })?;
     let n0 = pool.world.fluids[pool.water].len();
@@ -29,28 +31,43 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         args.seconds
     );
     println!(
-        "{:>6} {:>14} {:>9} {:>9} {:>14} {:>10}",
-        "t (s)", "draft/expected", "roll (°)", "pitch (°)", "water level (m)", "substeps"
+        "{:>6} {:>14} {:>9} {:>9} {:>15} {:>16} {:>9}",
+        "t (s)",
+        "draft/expected",
+        "roll (°)",
+        "pitch (°)",
+        "water level (m)",
+        "water force/weight",
+        "substeps"
     );
     let mut pictures = args.render.as_ref().map(Pictures::new).transpose()?;
     let frames = (args.seconds * 60.0).round() as usize;
+    let weight = {
+        let hull = &pool.world.physics.bodies[pool.hull];
+        hull.mass() * pool.world.physics.gravity.length()
+    };
+    let mut lift = 0.0;
     let start = Instant::now();
     for frame in 1..=frames {
         pool.frame()?;
         if let Some(p) = pictures.as_mut() {
             p.frame(frame, &pool)?;
         }
+        // The water's vertical force on the hull, averaged over the half second.
+        lift += pool.world.pipeline.body_force(pool.hull)?.force.y / 30.0;
         if frame % 30 == 0 {
             let (roll, pitch) = pool.roll_pitch();
             println!(
-                "{:>6.2} {:>14.2} {:>9.2} {:>9.2} {:>14.3} {:>10}",
+                "{:>6.2} {:>14.2} {:>9.2} {:>9.2} {:>15.3} {:>16.3} {:>9}",
                 frame as Real / 60.0,
                 pool.draft_ratio(),
                 roll,
                 pitch,
                 pool.water_level(),
+                lift / weight,
                 pool.world.pipeline.report().substeps
             );
+            lift = 0.0;
         }
     }
     let wall = start.elapsed().as_secs_f64();

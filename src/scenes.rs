@@ -10,7 +10,8 @@ use crate::params::FluidParams;
 use crate::world::FluidWorld;
 use rapier3d::pipeline::PhysicsWorld;
 use rapier3d::prelude::{
-    Array2, ColliderBuilder, ColliderHandle, Pose, RigidBodyBuilder, RigidBodyHandle, SharedShape,
+    ActiveEvents, Array2, ColliderBuilder, ColliderHandle, Pose, RigidBodyBuilder, RigidBodyHandle,
+    SharedShape,
 };
 
 /// A closed box of six cuboid colliders whose **interior** is `[min, max]`, walls `thickness`
@@ -962,6 +963,10 @@ pub struct WavePoolConfig {
     /// The paddle's stroke: it moves `amplitude` m each way every `period` s (default 8 cm,
     /// 1.5 s); an amplitude of 0 keeps it still.
     pub paddle: (Real, Real),
+    /// Whether the hull's collider asks for the fluid's force on it
+    /// (`ActiveEvents::CONTACT_FORCE_EVENTS`, read with `FluidPipeline::body_force`; default
+    /// off: the benchmark measures the pool alone).
+    pub watch_hull: bool,
 }
 
 impl Default for WavePoolConfig {
@@ -971,6 +976,7 @@ impl Default for WavePoolConfig {
             params: |s| crate::params::FluidParamsBuilder::water(s).build(),
             hull_density: 500.0,
             paddle: (0.08, 1.5),
+            watch_hull: false,
         }
     }
 }
@@ -1040,10 +1046,11 @@ impl WavePool {
         let hull = world
             .physics
             .insert_body(RigidBodyBuilder::dynamic().translation(hull_center));
-        world.physics.insert_collider(
-            ColliderBuilder::cuboid(h.x, h.y, h.z).density(config.hull_density),
-            Some(hull),
-        );
+        let mut hull_collider = ColliderBuilder::cuboid(h.x, h.y, h.z).density(config.hull_density);
+        if config.watch_hull {
+            hull_collider = hull_collider.active_events(ActiveEvents::CONTACT_FORCE_EVENTS);
+        }
+        world.physics.insert_collider(hull_collider, Some(hull));
         let mut fluid = Fluid::new(params)?;
         fluid.add_block(Vector::new(behind_paddle, 0.0, 0.0), water)?;
         let (lo, hi) = (hull_center - h, hull_center + h);
