@@ -252,6 +252,19 @@ impl FluidParams {
         non_negative("friction", self.friction)
     }
 
+    /// Upper bound of the memory a particle of this fluid needs in a step (bytes): its
+    /// solver's `fixed + per_neighbour·N` with `N` the expected neighbour count (see
+    /// [`crate::fluid::bytes_per_particle`] for the measurements behind it).
+    pub fn bytes_per_particle(&self) -> usize {
+        let (fixed, per_neighbour) = match &self.solver {
+            Solver::Dfsph(_) => (500.0, 32.0),
+            Solver::Clavet(c) if c.springs.is_some() => (300.0, 45.0),
+            _ => (300.0, 7.0),
+        };
+        let n = self.expected_neighbours().ceil() as f64;
+        (fixed + per_neighbour * n) as usize
+    }
+
     /// Number of neighbours a particle has inside a uniform lattice (`≈ 4/3·π·(h/spacing)³`).
     pub fn expected_neighbours(&self) -> Real {
         let q = self.smoothing_length / self.particle_spacing;

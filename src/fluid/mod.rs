@@ -45,14 +45,7 @@ pub const MAX_PARTICLES: usize = u32::MAX as usize;
 /// `vm.overcommit_memory = 1` every reservation succeeds, and only [`MAX_PARTICLES`] is
 /// checked.
 pub fn bytes_per_particle(params: &FluidParams) -> usize {
-    use crate::solver::Solver;
-    let (fixed, per_neighbour) = match &params.solver {
-        Solver::Dfsph(_) => (500.0, 32.0),
-        Solver::Clavet(c) if c.springs.is_some() => (300.0, 45.0),
-        _ => (300.0, 7.0),
-    };
-    let n = params.expected_neighbours().ceil() as f64;
-    (fixed + per_neighbour * n) as usize
+    params.bytes_per_particle()
 }
 
 /// Refuses a fluid of `total` particles that exceeds [`MAX_PARTICLES`] or whose working set
