@@ -197,9 +197,9 @@ mod tests {
 
     /// Density, pressure force and viscosity passes give the same bits through the AVX-512
     /// and AVX2 paths (where the CPU has them) and the portable one.
-    #[test]
-    fn wide_and_portable_pair_passes_agree_bit_for_bit() {
-        let (h, s, m) = (0.1, 0.05, 0.125);
+    /// A jittered 12³ lattice at spacing `s` with random velocities, sorted into the grid's
+    /// order, and its neighbour lists for support `h`.
+    fn jittered_block(h: Real, s: Real) -> (Vec<Vector>, Vec<Vector>, NeighborLists) {
         let mut seed = 0x2545_F491_4F6C_DD1Du64;
         let mut next = || {
             seed ^= seed << 13;
@@ -230,6 +230,13 @@ mod tests {
         grid.build_cells();
         let mut lists = NeighborLists::default();
         lists.build(&grid, &positions, h);
+        (positions, velocities, lists)
+    }
+
+    #[test]
+    fn wide_and_portable_pair_passes_agree_bit_for_bit() {
+        let (h, s, m) = (0.1, 0.05, 0.125);
+        let (positions, velocities, lists) = jittered_block(h, s);
         let n = positions.len();
         let run = |ceiling: u8| {
             CEILING.store(ceiling, Ordering::Relaxed);

@@ -166,72 +166,8 @@ fn validate(scenes: &[PathBuf]) -> Result<()> {
     for path in scenes {
         match SceneFile::load_and_build(path) {
             Ok((scene, built)) => {
-                let w = &built.world;
                 println!("{}: ok", path.display());
-                if !scene.description.is_empty() {
-                    println!("  {}", scene.description);
-                }
-                for (k, h) in built.fluids.iter().enumerate() {
-                    let f = &w.fluids[*h];
-                    let name = &scene.fluids[k].name;
-                    println!(
-                        "  fluid {k} {name:?}: {} particles, spacing {} m, h {} m, ρ0 {} kg/m³{}",
-                        f.len(),
-                        f.params().particle_spacing,
-                        f.params().smoothing_length,
-                        f.params().rest_density,
-                        match f.capacity() {
-                            Some(c) => format!(", capacity {c}"),
-                            None => String::new(),
-                        }
-                    );
-                    let spacing = f.params().particle_spacing;
-                    for (j, (_, e)) in f.emitters().enumerate() {
-                        let d = e.direction();
-                        let towards = match e.nozzle() {
-                            rapier_sph::Nozzle::Sphere { .. } => "radially".to_string(),
-                            _ => format!("towards ({:.3}, {:.3}, {:.3})", d.x, d.y, d.z),
-                        };
-                        println!(
-                            "    emitter {j}: {:?} at ({}, {}, {}) {towards}, {} m/s, {:.1} particles/s (blocking rate {:.1}){}",
-                            e.nozzle(),
-                            e.position().x,
-                            e.position().y,
-                            e.position().z,
-                            e.speed(),
-                            e.rate(),
-                            e.max_rate(spacing),
-                            match e.particle_budget() {
-                                Some(b) => format!(", budget {b}"),
-                                None => String::new(),
-                            }
-                        );
-                    }
-                    for (j, (_, s)) in f.sinks().enumerate() {
-                        println!(
-                            "    sink {j}: {}",
-                            describe_sink(&s.region(), &built.named_colliders)
-                        );
-                    }
-                }
-                if !built.named_colliders.is_empty() {
-                    let names: Vec<&str> = built
-                        .named_colliders
-                        .iter()
-                        .map(|(n, _)| n.as_str())
-                        .collect();
-                    println!("  named colliders: {}", names.join(", "));
-                }
-                println!(
-                    "  {} bodies, {} colliders; {} s at {} frames/s = {} frames of {} steps, dt = {:.6} s",
-                    w.physics.bodies.len(),
-                    w.physics.colliders.len(),
-                    scene.duration.0,
-                    scene.frame_rate.0,
-                    built.frames,
-                    built.steps_per_frame,
-                    built.dt
-                );
+                describe_scene(&scene, &built);
             }
             Err(e) => {
                 eprintln!("{e}");
@@ -243,6 +179,83 @@ fn validate(scenes: &[PathBuf]) -> Result<()> {
         return Err(format!("{failed} of {} scene files are invalid", scenes.len()).into());
     }
     Ok(())
+}
+
+/// What a valid scene file builds: its fluids with their emitters and sinks, its named
+/// colliders, its bodies and its timing.
+fn describe_scene(scene: &SceneFile, built: &rapier_sph::scene_file::BuiltScene) {
+    let w = &built.world;
+    if !scene.description.is_empty() {
+        println!("  {}", scene.description);
+    }
+    for (k, h) in built.fluids.iter().enumerate() {
+        describe_fluid(k, &scene.fluids[k].name, &w.fluids[*h], built);
+    }
+    if !built.named_colliders.is_empty() {
+        let names: Vec<&str> = built
+            .named_colliders
+            .iter()
+            .map(|(n, _)| n.as_str())
+            .collect();
+        println!("  named colliders: {}", names.join(", "));
+    }
+    println!(
+        "  {} bodies, {} colliders; {} s at {} frames/s = {} frames of {} steps, dt = {:.6} s",
+        w.physics.bodies.len(),
+        w.physics.colliders.len(),
+        scene.duration.0,
+        scene.frame_rate.0,
+        built.frames,
+        built.steps_per_frame,
+        built.dt
+    );
+}
+
+fn describe_fluid(
+    k: usize,
+    name: &str,
+    f: &rapier_sph::Fluid,
+    built: &rapier_sph::scene_file::BuiltScene,
+) {
+    println!(
+        "  fluid {k} {name:?}: {} particles, spacing {} m, h {} m, ρ0 {} kg/m³{}",
+        f.len(),
+        f.params().particle_spacing,
+        f.params().smoothing_length,
+        f.params().rest_density,
+        match f.capacity() {
+            Some(c) => format!(", capacity {c}"),
+            None => String::new(),
+        }
+    );
+    let spacing = f.params().particle_spacing;
+    for (j, (_, e)) in f.emitters().enumerate() {
+        let d = e.direction();
+        let towards = match e.nozzle() {
+            rapier_sph::Nozzle::Sphere { .. } => "radially".to_string(),
+            _ => format!("towards ({:.3}, {:.3}, {:.3})", d.x, d.y, d.z),
+        };
+        println!(
+            "    emitter {j}: {:?} at ({}, {}, {}) {towards}, {} m/s, {:.1} particles/s (blocking rate {:.1}){}",
+            e.nozzle(),
+            e.position().x,
+            e.position().y,
+            e.position().z,
+            e.speed(),
+            e.rate(),
+            e.max_rate(spacing),
+            match e.particle_budget() {
+                Some(b) => format!(", budget {b}"),
+                None => String::new(),
+            }
+        );
+    }
+    for (j, (_, s)) in f.sinks().enumerate() {
+        println!(
+            "    sink {j}: {}",
+            describe_sink(&s.region(), &built.named_colliders)
+        );
+    }
 }
 
 struct RunArgs {

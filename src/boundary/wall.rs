@@ -353,8 +353,7 @@ impl WallWorkspace {
                         out,
                     ),
                 )| {
-                    let first = c * CHUNK;
-                    let mut rows = Rows {
+                    let rows = Rows {
                         density,
                         gradient,
                         motion,
@@ -364,25 +363,7 @@ impl WallWorkspace {
                         viscous,
                         viscous_velocity,
                     };
-                    let Some(watch) = watch else {
-                        return (0..rows.density.len())
-                            .map(|k| rows.set(k, &terms, &terms.particle(first + k, &mut ())))
-                            .sum::<usize>();
-                    };
-                    // The same terms, with the watched colliders' shares kept (chunk `c`'s
-                    // buffer is only this closure's: the shares stay in particle order).
-                    (0..rows.density.len())
-                        .map(|k| {
-                            let mut sink = ParticleShares {
-                                watch,
-                                particle: (first + k) as u32,
-                                first: out.len(),
-                                out: &mut *out,
-                                current: None,
-                            };
-                            rows.set(k, &terms, &terms.particle(first + k, &mut sink))
-                        })
-                        .sum::<usize>()
+                    update_chunk(c * CHUNK, rows, &terms, watch, out)
                 },
             )
             .sum();
@@ -751,6 +732,36 @@ impl Terms<'_> {
             if sw > 0.0 { sx / sw } else { Vector::ZERO }
         })
     }
+}
+
+/// The wall terms of the particles of one chunk (`first`: its first particle) into its
+/// rows; with `watch`, the watched colliders' shares too, into the chunk's own buffer `out`
+/// (so the shares stay in particle order). Returns how many particles have a wall near.
+#[inline]
+fn update_chunk(
+    first: usize,
+    mut rows: Rows<'_>,
+    terms: &Terms<'_>,
+    watch: Option<&Watch>,
+    out: &mut Vec<Share>,
+) -> usize {
+    let Some(watch) = watch else {
+        return (0..rows.density.len())
+            .map(|k| rows.set(k, terms, &terms.particle(first + k, &mut ())))
+            .sum::<usize>();
+    };
+    (0..rows.density.len())
+        .map(|k| {
+            let mut sink = ParticleShares {
+                watch,
+                particle: (first + k) as u32,
+                first: out.len(),
+                out: &mut *out,
+                current: None,
+            };
+            rows.set(k, terms, &terms.particle(first + k, &mut sink))
+        })
+        .sum::<usize>()
 }
 
 /// One chunk of [`WallWorkspace`]'s per-particle arrays.

@@ -216,6 +216,8 @@ impl FluidPipeline {
         broad_phase: &BroadPhaseBvh,
     ) -> SphResult<&StepReport> {
         self.validate(gravity, dt)?;
+        let has_colliders = self.check_broad_phase(broad_phase, colliders)?;
+        self.begin_frame(dt, fluids, bodies, colliders, has_colliders);
         // The BVH is the broad-phase's own tree; an empty body set keeps it from borrowing
         // `bodies`, which the coupling writes impulses into at the end of the step.
         let query = broad_phase.as_query_pipeline(
@@ -225,44 +227,6 @@ impl FluidPipeline {
             QueryFilter::default(),
         );
         let bvh = query.bvh;
-        // Colliders with a non-finite pose (a body set to NaN) are not in the BVH, and not
-        // in contact either.
-        let finite =
-            |c: &rapier3d::geometry::Collider| crate::math::is_finite(c.position().translation);
-        if bvh.is_empty() && colliders.iter().any(|(_, c)| finite(c)) {
-            return Err(SphError::BroadPhaseNotUpdated {
-                colliders: colliders.len(),
-            });
-        }
-        let has_colliders = !bvh.is_empty();
-        self.runtimes.sync(fluids);
-        let radius = fluids
-            .iter()
-            .map(|(_, f)| f.params().particle_radius)
-            .fold(Real::MAX, Real::min);
-        self.coupling.detect_teleports(
-            dt,
-            self.rapier_substeps,
-            0.5 * radius,
-            if has_colliders {
-                bodies
-            } else {
-                &self.no_bodies
-            },
-            colliders,
-        );
-        let scene_colliders = has_colliders.then_some((&*bodies, colliders));
-        begin_records(&mut self.records, &mut self.runtimes, scene_colliders);
-        self.coupling.begin_frame(
-            dt,
-            self.rapier_substeps,
-            if has_colliders {
-                bodies
-            } else {
-                &self.no_bodies
-            },
-            colliders,
-        );
         let mut frame = Frame {
             gravity,
             dt,
@@ -300,6 +264,58 @@ impl FluidPipeline {
         report.coupled_bodies = self.coupling.apply(bodies);
         self.report = report;
         Ok(&self.report)
+    }
+
+    /// Whether the broad-phase holds colliders; an error if it is empty beside colliders
+    /// with a finite pose (rapier has not stepped since they were added). Colliders with a
+    /// non-finite pose (a body set to NaN) are not in the BVH, and not in contact either.
+    fn check_broad_phase(
+        &self,
+        broad_phase: &BroadPhaseBvh,
+        colliders: &ColliderSet,
+    ) -> SphResult<bool> {
+        let query = broad_phase.as_query_pipeline(
+            &DefaultQueryDispatcher,
+            &self.no_bodies,
+            colliders,
+            QueryFilter::default(),
+        );
+        let finite =
+            |c: &rapier3d::geometry::Collider| crate::math::is_finite(c.position().translation);
+        if query.bvh.is_empty() && colliders.iter().any(|(_, c)| finite(c)) {
+            return Err(SphError::BroadPhaseNotUpdated {
+                colliders: colliders.len(),
+            });
+        }
+        Ok(!query.bvh.is_empty())
+    }
+
+    /// The frame's preparations before its substeps: the fluids' runtimes matched by handle,
+    /// the bodies that teleported, the watched colliders, the moving bodies' table.
+    fn begin_frame(
+        &mut self,
+        dt: Real,
+        fluids: &FluidSet,
+        bodies: &RigidBodySet,
+        colliders: &ColliderSet,
+        has_colliders: bool,
+    ) {
+        self.runtimes.sync(fluids);
+        let radius = fluids
+            .iter()
+            .map(|(_, f)| f.params().particle_radius)
+            .fold(Real::MAX, Real::min);
+        let bodies = if has_colliders {
+            bodies
+        } else {
+            &self.no_bodies
+        };
+        self.coupling
+            .detect_teleports(dt, self.rapier_substeps, 0.5 * radius, bodies, colliders);
+        let scene_colliders = has_colliders.then_some((bodies, colliders));
+        begin_records(&mut self.records, &mut self.runtimes, scene_colliders);
+        self.coupling
+            .begin_frame(dt, self.rapier_substeps, bodies, colliders);
     }
 
     /// Advances every fluid by one frame of a rapier [`PhysicsWorld`] that has just stepped

@@ -51,11 +51,7 @@ pub(crate) fn substep(
         return SubstepResult::default();
     }
     wrap_periodic(fluid, report);
-    if (fluid.needs_depenetration || fluid.relax_pending) && rt.relax.left > 0 {
-        let (ws, budget) = (&mut rt.ws, &mut rt.relax);
-        fluid.relax_pending = !super::relax::relax_overlaps(fluid, ws, input.scene, budget, report);
-        report.relax_unfinished |= fluid.relax_pending;
-    }
+    relax_if_needed(fluid, rt, input, report);
     let mut coupling = begin_coupling(fluid, &rt.ws, input, coupling, report);
     if let Some(c) = coupling.as_deref() {
         rt.ws.bodies_near = rt.ws.bodies_near.merge(c.table_surface_speeds());
@@ -71,22 +67,11 @@ pub(crate) fn substep(
         params
     };
     let ws = &mut rt.ws;
-    if rt.solver.predicts_positions() {
+    let predicts = rt.solver.predicts_positions();
+    if predicts {
         predict(&mut particles, ws, input.gravity, input.dt, report);
     }
-    let previous = rt
-        .solver
-        .predicts_positions()
-        .then_some(&mut ws.previous_positions);
-    report.timed(Stage::NeighbourSearch, || {
-        ws.search.search(
-            &mut particles,
-            previous,
-            params.smoothing_length,
-            params.domain.minimum_image(),
-        )
-    });
-    report.neighbour_pairs += ws.search.lists.total_pairs();
+    search_neighbours(params, &mut particles, ws, predicts, report);
     let query = wall_query(params, &rt.solver, input, coupling.as_deref());
     walls(query.as_ref(), particles.positions, ws, report);
     wall_shares(query.as_ref(), ws);
@@ -106,12 +91,7 @@ pub(crate) fn substep(
         coupling.as_deref_mut(),
         report,
     );
-    let mut max_speed = outcome.max_speed;
-    if let Some(kinematic) = rt.ws.bodies_near.kinematic {
-        let cap = rt.ws.frame_speed + 2.0 * kinematic;
-        report.speed_limited += limit_near_bodies(fluid.velocities_mut(), cap, report);
-        max_speed = max_speed.min(cap);
-    }
+    let max_speed = limit_near_kinematic(fluid, &rt.ws, outcome.max_speed, report);
     // Particles pushed out of a solid land on its surface, on top of each other: the next
     // substep relaxes them (and checks for more) before giving them dynamics.
     fluid.needs_depenetration = depenetrated > 0;
@@ -122,6 +102,60 @@ pub(crate) fn substep(
     SubstepResult {
         mean_error,
         non_finite: outcome.non_finite,
+    }
+}
+
+/// The overlap relaxation (pipeline/relax.rs) when particles were added or pushed out of a
+/// solid, within what is left of the frame's budget.
+fn relax_if_needed(
+    fluid: &mut Fluid,
+    rt: &mut FluidRuntime,
+    input: &SubstepInput<'_>,
+    report: &mut StepReport,
+) {
+    if (fluid.needs_depenetration || fluid.relax_pending) && rt.relax.left > 0 {
+        let (ws, budget) = (&mut rt.ws, &mut rt.relax);
+        fluid.relax_pending = !super::relax::relax_overlaps(fluid, ws, input.scene, budget, report);
+        report.relax_unfinished |= fluid.relax_pending;
+    }
+}
+
+/// The neighbour search (sort, cells, lists); a solver that predicts positions has its
+/// substep-start positions re-sorted with the particles.
+fn search_neighbours(
+    params: &FluidParams,
+    particles: &mut ParticlesMut<'_>,
+    ws: &mut Workspace,
+    predicts: bool,
+    report: &mut StepReport,
+) {
+    let previous = predicts.then_some(&mut ws.previous_positions);
+    report.timed(Stage::NeighbourSearch, || {
+        ws.search.search(
+            particles,
+            previous,
+            params.smoothing_length,
+            params.domain.minimum_image(),
+        )
+    });
+    report.neighbour_pairs += ws.search.lists.total_pairs();
+}
+
+/// Near a kinematic body, the speed limit of [`limit_near_bodies`]; returns the fluid's
+/// fastest speed after it.
+fn limit_near_kinematic(
+    fluid: &mut Fluid,
+    ws: &Workspace,
+    max_speed: Real,
+    report: &mut StepReport,
+) -> Real {
+    match ws.bodies_near.kinematic {
+        Some(kinematic) => {
+            let cap = ws.frame_speed + 2.0 * kinematic;
+            report.speed_limited += limit_near_bodies(fluid.velocities_mut(), cap, report);
+            max_speed.min(cap)
+        }
+        None => max_speed,
     }
 }
 
