@@ -11,7 +11,7 @@
 //! ```
 
 use rapier_sph::math::{Real, Vector};
-use rapier_sph::render::{Camera, GifWriter, RenderOptions, Renderer};
+use rapier_sph::render::{Camera, Recorder, RenderOptions};
 use rapier_sph::scenes::{WavePool, WavePoolConfig};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -40,7 +40,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "water force/weight",
         "substeps"
     );
-    let mut pictures = args.render.as_ref().map(Pictures::new).transpose()?;
+    let mut pictures = args
+        .render
+        .as_ref()
+        .map(|dir| pictures(dir, "boat"))
+        .transpose()?;
     let frames = (args.seconds * 60.0).round() as usize;
     let weight = {
         let hull = &pool.world.physics.bodies[pool.hull];
@@ -51,7 +55,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for frame in 1..=frames {
         pool.frame()?;
         if let Some(p) = pictures.as_mut() {
-            p.frame(frame, &pool)?;
+            if frame % 6 == 0 {
+                p.frame(&pool.world)?;
+            }
         }
         // The water's vertical force on the hull, averaged over the half second.
         lift += pool.world.pipeline.body_force(pool.hull)?.force.y / 30.0;
@@ -78,8 +84,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         pool.outside(),
         wall * 1e3 / frames as f64
     );
-    if let Some(p) = pictures {
+    if let (Some(p), Some(dir)) = (pictures, args.render.as_ref()) {
         p.finish()?;
+        println!(
+            "pictures  {}/frame_*.png and boat.gif (10 frames a second)",
+            dir.display()
+        );
     }
     Ok(())
 }
@@ -119,45 +129,13 @@ impl Args {
     }
 }
 
-/// Every third frame in a GIF (20 frames a second: real time), every 30th as a PNG.
-struct Pictures {
-    dir: PathBuf,
-    renderer: Renderer,
-    camera: Camera,
-    gif: GifWriter,
-}
-
-impl Pictures {
-    fn new(dir: &PathBuf) -> Result<Self, Box<dyn std::error::Error>> {
-        std::fs::create_dir_all(dir)?;
-        let (width, height) = (480, 270);
-        Ok(Self {
-            dir: dir.clone(),
-            renderer: Renderer::new(RenderOptions {
-                width,
-                height,
-                ..RenderOptions::default()
-            }),
-            camera: Camera::framing(Vector::ZERO, Vector::new(2.0, 0.6, 0.7), 25.0, 32.0),
-            gif: GifWriter::create(dir.join("boat.gif"), width, height, 5)?,
-        })
-    }
-
-    fn frame(&mut self, frame: usize, pool: &WavePool) -> Result<(), Box<dyn std::error::Error>> {
-        if frame % 3 != 0 {
-            return Ok(());
-        }
-        let image = self.renderer.render_world(&self.camera, &pool.world, None);
-        self.gif.add_frame(&image)?;
-        if frame % 30 == 0 {
-            image.save_png(self.dir.join(format!("boat_{frame:04}.png")))?;
-        }
-        Ok(())
-    }
-
-    fn finish(self) -> Result<(), Box<dyn std::error::Error>> {
-        self.gif.finish()?;
-        println!("pictures  {}/boat.gif, boat_*.png", self.dir.display());
-        Ok(())
-    }
+/// Pictures of every sixth frame (10 a second): `DIR/frame_*.png` and `DIR/boat.gif`.
+fn pictures(dir: &PathBuf, name: &str) -> Result<Recorder, Box<dyn std::error::Error>> {
+    let options = RenderOptions {
+        width: 480,
+        height: 270,
+        ..RenderOptions::default()
+    };
+    let camera = Camera::framing(Vector::ZERO, Vector::new(2.0, 0.6, 0.7), 25.0, 32.0);
+    Ok(Recorder::create(dir, name, options, camera, 0.0, 10)?)
 }

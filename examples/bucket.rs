@@ -15,7 +15,7 @@ use rapier_sph::prelude::*;
 use rapier_sph::rapier3d::prelude::{
     ActiveEvents, ColliderBuilder, ColliderHandle, RigidBodyBuilder, RigidBodyHandle,
 };
-use rapier_sph::render::{Camera, GifWriter, RenderOptions, Renderer};
+use rapier_sph::render::{Camera, Recorder, RenderOptions};
 use rapier_sph::{Attachment, FluidContactKind};
 use std::path::PathBuf;
 
@@ -49,7 +49,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "fastest m/s",
         "substeps"
     );
-    let mut pictures = render.as_ref().map(Pictures::new).transpose()?;
+    let mut pictures = render
+        .as_ref()
+        .map(|dir| pictures(dir, "bucket"))
+        .transpose()?;
     let (mut started, mut stopped) = (0, 0);
     let frames = (SECONDS * 60.0) as usize;
     for frame in 1..=frames {
@@ -64,7 +67,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
         if let Some(p) = pictures.as_mut() {
-            p.frame(frame, &scene.world)?;
+            if frame % 6 == 0 {
+                p.frame(&scene.world)?;
+            }
         }
         if frame % 30 == 0 {
             let (inside, level) = scene.contents();
@@ -93,8 +98,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             - fluid.quarantined() as i64
             - fluid.removed() as i64
     );
-    if let Some(p) = pictures {
+    if let (Some(p), Some(dir)) = (pictures, render.as_ref()) {
         p.finish()?;
+        println!(
+            "pictures  {}/frame_*.png and bucket.gif (10 frames a second)",
+            dir.display()
+        );
     }
     Ok(())
 }
@@ -231,54 +240,18 @@ impl Scene {
     }
 }
 
-/// Every third frame in a GIF (real time), every 30th as a PNG.
-struct Pictures {
-    dir: PathBuf,
-    renderer: Renderer,
-    camera: Camera,
-    gif: GifWriter,
-}
-
-impl Pictures {
-    fn new(dir: &PathBuf) -> Result<Self, Box<dyn std::error::Error>> {
-        std::fs::create_dir_all(dir)?;
-        let (width, height) = (480, 270);
-        Ok(Self {
-            dir: dir.clone(),
-            renderer: Renderer::new(RenderOptions {
-                width,
-                height,
-                ..RenderOptions::default()
-            }),
-            camera: Camera::framing(
-                Vector::new(-0.9, 0.0, -1.3),
-                Vector::new(1.3, 0.9, 0.3),
-                25.0,
-                32.0,
-            ),
-            gif: GifWriter::create(dir.join("bucket.gif"), width, height, 5)?,
-        })
-    }
-
-    fn frame(
-        &mut self,
-        frame: usize,
-        world: &FluidWorld,
-    ) -> Result<(), Box<dyn std::error::Error>> {
-        if frame % 3 != 0 {
-            return Ok(());
-        }
-        let image = self.renderer.render_world(&self.camera, world, None);
-        self.gif.add_frame(&image)?;
-        if frame % 30 == 0 {
-            image.save_png(self.dir.join(format!("bucket_{frame:04}.png")))?;
-        }
-        Ok(())
-    }
-
-    fn finish(self) -> Result<(), Box<dyn std::error::Error>> {
-        self.gif.finish()?;
-        println!("pictures  {}/bucket.gif, bucket_*.png", self.dir.display());
-        Ok(())
-    }
+/// Pictures of every sixth frame (10 a second): `DIR/frame_*.png` and `DIR/bucket.gif`.
+fn pictures(dir: &PathBuf, name: &str) -> Result<Recorder, Box<dyn std::error::Error>> {
+    let options = RenderOptions {
+        width: 480,
+        height: 270,
+        ..RenderOptions::default()
+    };
+    let camera = Camera::framing(
+        Vector::new(-0.9, 0.0, -1.3),
+        Vector::new(1.3, 0.9, 0.3),
+        25.0,
+        32.0,
+    );
+    Ok(Recorder::create(dir, name, options, camera, 0.0, 10)?)
 }
