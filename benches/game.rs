@@ -42,13 +42,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!();
     print!(
         "| particles | spacing (mm) | paddle | threads | ms/frame [p10–p90] | CPU ms/frame | \
-         substeps/frame | mean density error | left the pool | hull draft / expected | rapier (ms) |"
+         substeps/frame | iterations/substep (density, divergence) | mean density error | left the pool | hull draft / expected | rapier (ms) |"
     );
     for s in Stage::ALL {
         print!(" {} |", s.name());
     }
     println!();
-    print!("|---|---|---|---|---|---|---|---|---|---|---|");
+    print!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     for _ in Stage::ALL {
         print!("---|");
     }
@@ -101,6 +101,7 @@ struct Row {
     frame_ms: (f64, f64, f64),
     cpu_ms: f64,
     substeps: f64,
+    iterations: (f64, f64),
     density_error: f64,
     outside: usize,
     draft: Real,
@@ -124,6 +125,7 @@ fn run(n: usize, paddle: bool, seconds: Real) -> SphResult<Row> {
     let frames = (seconds * 60.0).round() as usize;
     let (mut times, mut rapier) = (Vec::with_capacity(frames), Duration::ZERO);
     let (mut stages, mut substeps, mut error) = (StageTimings::default(), 0u64, 0.0f64);
+    let mut iterations = (0u64, 0u64);
     let mut draft = 0.0;
     let cpu0 = cpu_seconds();
     for _ in 0..frames {
@@ -133,6 +135,8 @@ fn run(n: usize, paddle: bool, seconds: Real) -> SphResult<Row> {
         let report = pool.world.pipeline.report();
         stages.accumulate(&report.timings);
         substeps += report.substeps as u64;
+        iterations.0 += report.solver_iterations as u64;
+        iterations.1 += report.divergence_iterations as u64;
         error += report.mean_density_error as f64;
         draft += pool.draft_ratio();
     }
@@ -146,6 +150,10 @@ fn run(n: usize, paddle: bool, seconds: Real) -> SphResult<Row> {
         frame_ms: (pick(0.1), pick(0.5), pick(0.9)),
         cpu_ms: cpu * 1e3 / frames as f64,
         substeps: substeps as f64 / frames as f64,
+        iterations: (
+            iterations.0 as f64 / substeps.max(1) as f64,
+            iterations.1 as f64 / substeps.max(1) as f64,
+        ),
         density_error: error / frames as f64,
         outside: pool.outside(),
         draft: draft / frames as Real,
@@ -159,12 +167,14 @@ impl Row {
     fn print(&self, threads: usize) {
         let (p10, p50, p90) = self.frame_ms;
         print!(
-            "| {} | {:.1} | {} | {threads} | {p50:.2} [{p10:.2}–{p90:.2}] | {:.1} | {:.2} | {:.3} % | {} | {:.2} | {:.2} |",
+            "| {} | {:.1} | {} | {threads} | {p50:.2} [{p10:.2}–{p90:.2}] | {:.1} | {:.2} | {:.1}, {:.1} | {:.3} % | {} | {:.2} | {:.2} |",
             self.particles,
             self.spacing * 1e3,
             if self.paddle { "moving" } else { "still" },
             self.cpu_ms,
             self.substeps,
+            self.iterations.0,
+            self.iterations.1,
             100.0 * self.density_error,
             self.outside,
             self.draft,
