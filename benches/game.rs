@@ -1,7 +1,7 @@
 //! Game benchmark: a pool of water in 1/60 s frames, as a game steps it (rapier's step and
 //! the fluid's adaptive substeps in each frame), at 2,500, 10,000 and 40,000 particles, on 1
 //! and 2 threads. Reports the milliseconds per frame (wall and CPU), the substeps per frame,
-//! the per-stage breakdown, the density error, the particles that left the pool and how deep
+//! the solver's iterations per substep, the per-stage breakdown, the density error, the particles that left the pool and how deep
 //! the hull floats.
 //!
 //! ```text
