@@ -177,7 +177,7 @@ fn float(
                 let box_e =
                     b.kinetic_energy() as f64 + b.mass() as f64 * g * b.center_of_mass().y as f64;
                 println!(
-                    "  frame {_frame:4}: box centre y {:.4} m, angular speed {:.3} rad/s, water \
+                    "  frame {_frame:4}: box center y {:.4} m, angular speed {:.3} rad/s, water \
                      kinetic energy {:.4} J, total (water + box, kinetic + potential) {:.4} J",
                     b.translation().y,
                     b.angvel().length(),

@@ -15,7 +15,7 @@
 //! substeps). Every 0.25 s it prints the kinetic energy and the largest speed; over the last
 //! quarter of the run it averages, per layer one spacing thick, the pressure over
 //! `ρ0·g·depth` (depth from the free surface of the fluid's rest volume), separately for the
-//! particles next to a side wall (centre within one spacing of it) and for the interior ones
+//! particles next to a side wall (center within one spacing of it) and for the interior ones
 //! (at least 3 spacings from every side wall), and the layer's mean density; and the kinetic
 //! energy split between the bulk and the top two layers, next to a side wall or not.
 //!
@@ -27,7 +27,7 @@
 //! term, floor and side hydrostatic terms) and contact carry the weight; it prints each SPH
 //! term's share and the rest (contact, and inertia, about zero averaged at rest).
 //! `--trace` prints, every frame, the scene's bottom error, the mean pressure (the column's
-//! pressure level), the centre of mass's height and the kinetic energy.
+//! pressure level), the center of mass's height and the kinetic energy.
 //! At the end it prints the kernel's first moment `M = −Σ_j V_j (x_j − x_i) ⊗ ∇W_ij` in the
 //! bulk (the identity for a continuum; a symmetric SPH gradient reads a linear pressure's
 //! gradient scaled by it), brute force over all pairs.
@@ -258,13 +258,13 @@ fn main() {
             .fold(0.0, Real::max);
         if trace {
             // Frame by frame: time, the scene's bottom error, the mean pressure (the column's
-            // pressure level), the centre of mass's height, the kinetic energy.
+            // pressure level), the center of mass's height, the kinetic energy.
             let b = HydrostaticTank::bottom_pressure_error_of(&tank.world, tank.fluid, height);
             let n_p = fl.len().max(1) as f64;
             let mean_p: f64 = fl.pressures().iter().map(|&p| p as f64).sum::<f64>() / n_p;
             let cy: f64 = fl.positions().iter().map(|x| x.y as f64).sum::<f64>() / n_p;
             println!(
-                "trace {:.4} s: bottom {b:+.4}, mean pressure {mean_p:.2} Pa, centre {cy:.6} m, \
+                "trace {:.4} s: bottom {b:+.4}, mean pressure {mean_p:.2} Pa, center {cy:.6} m, \
                  kinetic energy {ke:.3e} J",
                 f as Real * frame
             );

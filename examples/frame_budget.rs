@@ -238,8 +238,8 @@ fn add_tank(world: &mut FluidWorld, interior: Vector) {
             Vector::new(c.x + 2.0 * t, c.y + 2.0 * t, t),
         ),
     ];
-    for (centre, half) in walls {
-        let wall = ColliderBuilder::cuboid(half.x, half.y, half.z).translation(centre);
+    for (center, half) in walls {
+        let wall = ColliderBuilder::cuboid(half.x, half.y, half.z).translation(center);
         world.physics.insert_collider(wall, Some(body));
     }
 }

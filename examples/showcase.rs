@@ -40,7 +40,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut world = FluidWorld::new();
     world.physics.integration_parameters.dt = 1.0 / 60.0;
     add_tank(&mut world);
-    let floating = POOL; // a crate half under has its centre at the water's level
+    let floating = POOL; // a crate half under has its center at the water's level
     let mut boxes = Vec::new();
     for (x, z) in [(0.75, 0.17), (1.0, 0.4), (1.3, 0.2)] {
         boxes.push(add_box(&mut world, Vector::new(x, floating, z), CRATE));
@@ -107,7 +107,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let lost = n - fluid.positions().iter().filter(|p| inside(p)).count();
     let height = |i: usize| world.physics.bodies[boxes[i].body].translation().y;
     // The water's level at rest: its volume plus what the crates (half) and the block (all)
-    // displace, over the floor. A floating crate's centre sits at that level.
+    // displace, over the floor. A floating crate's center sits at that level.
     let displaced = |(half, _): (Vector, Real)| 8.0 * half.x * half.y * half.z;
     let level = (fluid.len() as Real * s * s * s + 1.5 * displaced(CRATE) + displaced(BLOCK))
         / (TANK.x * TANK.z);
@@ -131,7 +131,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         100.0 * error_max
     );
     println!(
-        "bodies               crates' centres {:.3} / {:.3} / {:.3} m above the floor, the \
+        "bodies               crates' centers {:.3} / {:.3} / {:.3} m above the floor, the \
          water's level at rest {level:.3} m (they float half under; the water still sloshes); \
          granite block {:.3} m ({:.3} m standing on the floor)",
         height(0),
@@ -183,30 +183,30 @@ fn add_tank(world: &mut FluidWorld) {
             Vector::new(c.x + 2.0 * t, c.y + 2.0 * t, t),
         ),
     ];
-    for (centre, half) in walls {
-        let wall = ColliderBuilder::cuboid(half.x, half.y, half.z).translation(centre);
+    for (center, half) in walls {
+        let wall = ColliderBuilder::cuboid(half.x, half.y, half.z).translation(center);
         world.physics.insert_collider(wall, Some(body));
     }
 }
 
-/// A box on a dynamic body: its centre, half extents and density.
+/// A box on a dynamic body: its center, half extents and density.
 struct Box3 {
     body: RigidBodyHandle,
     collider: ColliderHandle,
-    centre: Vector,
+    center: Vector,
     half: Vector,
 }
 
-fn add_box(world: &mut FluidWorld, centre: Vector, (half, density): (Vector, Real)) -> Box3 {
+fn add_box(world: &mut FluidWorld, center: Vector, (half, density): (Vector, Real)) -> Box3 {
     let body = world
         .physics
-        .insert_body(RigidBodyBuilder::dynamic().translation(centre));
+        .insert_body(RigidBodyBuilder::dynamic().translation(center));
     let shape = ColliderBuilder::cuboid(half.x, half.y, half.z).density(density);
     let collider = world.physics.insert_collider(shape, Some(body));
     Box3 {
         body,
         collider,
-        centre,
+        center,
         half,
     }
 }
@@ -219,7 +219,7 @@ fn lattice(min: Vector, max: Vector, s: Real, boxes: &[Box3]) -> Vec<Vector> {
         for j in 0..n.y as usize {
             for k in 0..n.z as usize {
                 let p = min + (Vector::new(i as Real, j as Real, k as Real) + 0.5) * s;
-                let clear = |b: &Box3| ((p - b.centre).abs() - b.half).max_element() >= 0.5 * s;
+                let clear = |b: &Box3| ((p - b.center).abs() - b.half).max_element() >= 0.5 * s;
                 if boxes.iter().all(clear) {
                     points.push(p);
                 }

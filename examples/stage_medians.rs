@@ -49,7 +49,7 @@ fn main() {
         if floating_box {
             use rapier_sph::rapier3d::prelude::*;
             let half = 0.25 * scene.column_width;
-            let centre = Vector::new(
+            let center = Vector::new(
                 0.5 * scene.column_width,
                 scene.column_height,
                 0.5 * scene.tank_max.z,
@@ -57,7 +57,7 @@ fn main() {
             let body = scene
                 .world
                 .physics
-                .insert_body(RigidBodyBuilder::dynamic().translation(centre));
+                .insert_body(RigidBodyBuilder::dynamic().translation(center));
             let half_z = half.min(0.4 * scene.tank_max.z);
             scene.world.physics.insert_collider(
                 ColliderBuilder::cuboid(half, half, half_z).density(500.0),

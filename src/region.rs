@@ -21,8 +21,8 @@ pub enum Region {
     },
     /// A ball.
     Ball {
-        /// Centre (m).
-        centre: Vector,
+        /// Center (m).
+        center: Vector,
         /// Radius (m).
         radius: Real,
     },
@@ -46,7 +46,7 @@ impl Region {
     /// # Errors
     ///
     /// [`crate::SphError::InvalidParameter`] for a box with non-finite corners or `max` below
-    /// `min` (field `max`), a ball with a non-finite centre (`centre`) or a radius that is not
+    /// `min` (field `max`), a ball with a non-finite center (`center`) or a radius that is not
     /// positive (`radius`), a negative or non-finite reach (`reach`).
     pub fn validate(&self) -> crate::SphResult<()> {
         let bad = |field, value: Real, reason| {
@@ -66,8 +66,8 @@ impl Region {
                     "a box needs finite corners with min <= max",
                 )
             }
-            Region::Ball { centre, .. } if !is_finite(centre) => {
-                bad("centre", centre.length(), "must be finite")
+            Region::Ball { center, .. } if !is_finite(center) => {
+                bad("center", center.length(), "must be finite")
             }
             Region::Ball { radius, .. } if !radius.is_finite() || radius <= 0.0 => {
                 bad("radius", radius, "must be positive and finite")
@@ -91,12 +91,12 @@ impl Region {
                 Aabb::new(min, max),
                 Box::new(move |x: Vector| x.cmpge(min).all() && x.cmple(max).all()),
             ),
-            Region::Ball { centre, radius } => (
+            Region::Ball { center, radius } => (
                 Aabb::new(
-                    centre - Vector::splat(radius),
-                    centre + Vector::splat(radius),
+                    center - Vector::splat(radius),
+                    center + Vector::splat(radius),
                 ),
-                Box::new(move |x: Vector| (x - centre).length_squared() <= radius * radius),
+                Box::new(move |x: Vector| (x - center).length_squared() <= radius * radius),
             ),
             Region::Collider(h) => {
                 let co = colliders.get(h)?;

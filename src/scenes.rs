@@ -22,7 +22,7 @@ pub fn add_closed_box(world: &mut FluidWorld, min: Vector, max: Vector, thicknes
     let he = (max - min) * 0.5;
     let t = thickness * 0.5;
     let slabs = [
-        // (centre, half extents) of floor, lid, and the four walls
+        // (center, half extents) of floor, lid, and the four walls
         (
             Vector::new(c.x, min.y - t, c.z),
             Vector::new(he.x + 2.0 * t, t, he.z + 2.0 * t),
@@ -48,9 +48,9 @@ pub fn add_closed_box(world: &mut FluidWorld, min: Vector, max: Vector, thicknes
             Vector::new(he.x + 2.0 * t, he.y + 2.0 * t, t),
         ),
     ];
-    for (centre, half) in slabs {
+    for (center, half) in slabs {
         world.physics.insert_collider(
-            ColliderBuilder::cuboid(half.x, half.y, half.z).translation(centre),
+            ColliderBuilder::cuboid(half.x, half.y, half.z).translation(center),
             Some(body),
         );
     }
@@ -784,7 +784,7 @@ impl FloatingBox {
         let mut fluid = Fluid::new(params)?;
         let mid = 0.5 * tank;
         let half = Vector::new(hw, hh, hw);
-        let centre = Vector::new(
+        let center = Vector::new(
             mid,
             depth + hh * (1.0 - 2.0 * c.density.min(1000.0) / 1000.0),
             mid,
@@ -792,13 +792,13 @@ impl FloatingBox {
         let n = (tank / s) as usize;
         let pts: Vec<Vector> = try_lattice(Vector::splat(0.5 * s), n, (depth / s) as usize, n, s)?
             .into_iter()
-            .filter(|p| ((*p - centre).abs() - half - Vector::splat(0.5 * s)).max_element() > 0.0)
+            .filter(|p| ((*p - center).abs() - half - Vector::splat(0.5 * s)).max_element() > 0.0)
             .collect();
         fluid.add_particles(&pts)?;
         let fluid = world.fluids.insert(fluid);
         let body = world
             .physics
-            .insert_body(RigidBodyBuilder::dynamic().translation(centre));
+            .insert_body(RigidBodyBuilder::dynamic().translation(center));
         world.physics.insert_collider(
             ColliderBuilder::cuboid(hw, hh, hw).density(c.density),
             Some(body),
@@ -885,7 +885,7 @@ impl FloatingBox {
     }
 
     /// Water surface: mean height of the topmost 5 % of the particles more than two
-    /// spacings away from the box (particle centres sit half a spacing under it).
+    /// spacings away from the box (particle centers sit half a spacing under it).
     fn water_surface(&self) -> Real {
         let (s, mid, hw) = (
             self.config.spacing,

@@ -823,11 +823,11 @@ fn immersed(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>> {
             frames,
         )?;
         // A ball in the middle of the block: the particles inside it start in a solid.
-        let centre = Vector::splat(0.5 * side);
+        let center = Vector::splat(0.5 * side);
         let radius = 0.25 * side;
         let body = setup.world.physics.insert_body(RigidBodyBuilder::fixed());
         setup.world.physics.insert_collider(
-            ColliderBuilder::ball(radius).translation(centre),
+            ColliderBuilder::ball(radius).translation(center),
             Some(body),
         );
         let (lo, hi) = (Vector::ZERO, Vector::new(side, 2.0 * side, side));
@@ -839,7 +839,7 @@ fn immersed(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>> {
                     // Outside the box, or still inside the ball after the first frame.
                     !(p.cmpge(lo - Vector::splat(eps)).all()
                         && p.cmple(hi + Vector::splat(eps)).all())
-                        || (**p - centre).length() < radius - eps
+                        || (**p - center).length() < radius - eps
                 })
                 .count()
         });

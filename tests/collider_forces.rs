@@ -36,7 +36,7 @@ const RHO: Real = 1000.0;
 const T: Real = 0.1;
 
 /// A tank of inner size `w × d` (x, z), floor at y = 0, filled to `fill` at spacing `s`, with
-/// every wall watched; `obstacle`: a fixed box `(centre, half extent)` held in the water
+/// every wall watched; `obstacle`: a fixed box `(center, half extent)` held in the water
 /// (watched too), with no particle inside it.
 struct Tank {
     world: FluidWorld,
@@ -130,7 +130,7 @@ fn mean_forces(
             let f = t.world.pipeline.collider_force(c).unwrap();
             s.0 += f.force / frames as Real;
             s.1 += f.torque / frames as Real;
-            s.2 = f.centre;
+            s.2 = f.center;
         }
     }
     let p1 = momentum(t);
@@ -154,18 +154,18 @@ fn hydrostatic_tank(solver: Solver, name: &str) {
     let widths = [d, d, w, w];
     let mut side_vertical = 0.0;
     for (k, width) in widths.iter().enumerate() {
-        let (force, torque, centre) = f[1 + k];
+        let (force, torque, center) = f[1 + k];
         let expected = RHO * G * hgt * hgt * width / 2.0;
         let (normal, along) = if k < 2 { (force.x, 0) } else { (force.z, 2) };
         let out = if k % 2 == 0 { -1.0 } else { 1.0 };
-        // The line of action's height from the torque about the wall's centre, the force
-        // acting on the wall's inner face (T/2 from its centre): for an x wall
+        // The line of action's height from the torque about the wall's center, the force
+        // acting on the wall's inner face (T/2 from its center): for an x wall
         // τ_z = (p_x − c_x)·F_y − (p_y − c_y)·F_x, for a z wall τ_x = (p_y − c_y)·F_z − (p_z − c_z)·F_y.
         let lever = -out * 0.5 * T;
         let y = if along == 0 {
-            centre.y + (lever * force.y - torque.z) / force.x
+            center.y + (lever * force.y - torque.z) / force.x
         } else {
-            centre.y + (torque.x + lever * force.y) / force.z
+            center.y + (torque.x + lever * force.y) / force.z
         };
         let rel = (out * normal / expected - 1.0).abs();
         println!(
@@ -236,12 +236,12 @@ fn wcsph_and_pbf_tank_walls_take_the_hydrostatic_load() {
 /// `3a` of water above and beside it, at spacing `s`; relative to `ρ0·g·V`.
 fn fixed_cube_buoyancy(s: Real, a: Real) -> Real {
     let (w, fill) = (8.0 * a, 6.0 * a);
-    let centre = Vector::new(0.5 * w, 0.5 * fill, 0.5 * w);
+    let center = Vector::new(0.5 * w, 0.5 * fill, 0.5 * w);
     let mut t = tank(
         Solver::Dfsph(Dfsph::default()),
         s,
         (w, w, fill),
-        Some((centre, a)),
+        Some((center, a)),
     );
     let obstacle = t.obstacle.unwrap();
     let f = mean_forces(&mut t, 90, 60, &[obstacle]).0[0];

@@ -24,8 +24,8 @@ fn pose(t: [Real; 3], axis_angle: [Real; 3]) -> Pose {
     Pose::new(Vector::from(t), Vector::from(axis_angle))
 }
 
-fn random_in(rng: &mut Pcg64, centre: Vector, spread: Vector) -> Vector {
-    centre
+fn random_in(rng: &mut Pcg64, center: Vector, spread: Vector) -> Vector {
+    center
         + Vector::new(
             rng.random_range(-1.0..1.0),
             rng.random_range(-1.0..1.0),
@@ -33,13 +33,13 @@ fn random_in(rng: &mut Pcg64, centre: Vector, spread: Vector) -> Vector {
         ) * spread
 }
 
-/// `n` shots from random directions at random points of the box `centre ± spread`, a cloud
+/// `n` shots from random directions at random points of the box `center ± spread`, a cloud
 /// with every other one.
-fn random_shots(rng: &mut Pcg64, n: usize, centre: Vector, spread: Vector) -> Vec<Shot> {
+fn random_shots(rng: &mut Pcg64, n: usize, center: Vector, spread: Vector) -> Vec<Shot> {
     (0..n)
         .map(|k| Shot {
             dir: random_unit(rng),
-            target: random_in(rng, centre, spread),
+            target: random_in(rng, center, spread),
             cloud: k % 2 == 0,
         })
         .collect()
@@ -244,7 +244,7 @@ fn convex_polyhedron() {
         solid,
         |rng| {
             let mut s = random_shots(rng, 10, p.translation, Vector::splat(0.2));
-            // Straight at a hull vertex (the input point farthest from the centre).
+            // Straight at a hull vertex (the input point farthest from the center).
             let far = points
                 .iter()
                 .copied()
@@ -268,8 +268,8 @@ fn box_mesh_is_wound_outward() {
     for t in idx {
         let [a, b, c] = t.map(|i| v[i as usize]);
         let n = (b - a).cross(c - a);
-        let centre = (a + b + c) / 3.0;
-        assert!(n.dot(centre) > 0.0, "triangle {t:?} faces inward");
+        let center = (a + b + c) / 3.0;
+        assert!(n.dot(center) > 0.0, "triangle {t:?} faces inward");
     }
 }
 
@@ -331,7 +331,7 @@ fn sheet() -> ColliderBuilder {
 }
 
 /// Shots at a sheet of pose `p` from both faces: random directions on each side, plus
-/// streams straight down and up onto the shared diagonal edge and the centre vertex.
+/// streams straight down and up onto the shared diagonal edge and the center vertex.
 fn sheet_shots(rng: &mut Pcg64, p: Pose) -> Vec<Shot> {
     let mut s = Vec::new();
     for k in 0..12 {

@@ -230,13 +230,13 @@ fn spawned_inside_a_ball_are_pushed_out() {
     );
 }
 
-/// The centre of a ball has no nearest surface point (every direction is as good): the
+/// The center of a ball has no nearest surface point (every direction is as good): the
 /// particle must still come out, in some direction, with a finite position.
 #[test]
-fn spawned_at_the_centre_of_a_ball_is_pushed_out() {
+fn spawned_at_the_center_of_a_ball_is_pushed_out() {
     let c = Vector::new(0.1, 0.0, -0.1);
     depenetration(
-        "ball centre",
+        "ball center",
         ColliderBuilder::ball(0.3).translation(c),
         &[c],
         1,
@@ -250,7 +250,7 @@ fn spawned_inside_a_cuboid_are_pushed_out() {
     depenetration(
         "cuboid",
         ColliderBuilder::cuboid(0.3, 0.15, 0.2).position(p),
-        // The centre (equidistant from two faces) first.
+        // The center (equidistant from two faces) first.
         &[p.translation],
         40,
         32,

@@ -296,7 +296,7 @@ fn bad_emitters_and_sinks_are_refused_with_the_field() {
     );
     assert_eq!(
         field(f.add_sink(Sink::new(Region::Ball {
-            centre: o,
+            center: o,
             radius: 0.0
         }))),
         "radius"

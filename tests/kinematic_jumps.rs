@@ -42,7 +42,7 @@ fn solvers() -> [(&'static str, Solver); 4] {
     ]
 }
 
-/// The bucket's colliders: `(half extents, centre)` in the body's frame.
+/// The bucket's colliders: `(half extents, center)` in the body's frame.
 fn bucket_parts() -> [(Vector, Vector); 5] {
     let side = INNER + 2.0 * WALL;
     let h = HEIGHT * 0.5;

@@ -23,8 +23,8 @@ const G: Real = 9.81;
 struct Outcome {
     body_speed: Real,
     water_speed: Real,
-    /// Height of the box's centre at the end, over the water's depth.
-    final_centre: Real,
+    /// Height of the box's center at the end, over the water's depth.
+    final_center: Real,
     escaped: usize,
     quarantined: usize,
     cap_hit: bool,
@@ -83,7 +83,7 @@ fn drop_box(solver: Solver, density: Real, drop: Real, seconds: Real) -> Outcome
     Outcome {
         body_speed,
         water_speed,
-        final_centre: b.translation().y - 0.24,
+        final_center: b.translation().y - 0.24,
         escaped,
         quarantined,
         cap_hit,
@@ -102,14 +102,14 @@ fn check(cases: &[(Solver, Real)]) {
         let o = drop_box(solver, density, drop, 1.5);
         println!(
             "{:6} {:4} kg/m³: body ≤ {:.2} m/s (bound {:.2}), water ≤ {:.2} m/s (bound {:.2}), \
-             centre {:+.3} m over the surface, escaped {}, quarantined {}, cap {}",
+             center {:+.3} m over the surface, escaped {}, quarantined {}, cap {}",
             solver.name(),
             density,
             o.body_speed,
             body_bound,
             o.water_speed,
             water_bound,
-            o.final_centre,
+            o.final_center,
             o.escaped,
             o.quarantined,
             o.cap_hit
@@ -119,10 +119,10 @@ fn check(cases: &[(Solver, Real)]) {
             && o.escaped == 0
             && o.quarantined == 0
             && !o.cap_hit
-            // Floating: the centre at most one spacing under the still surface and not
+            // Floating: the center at most one spacing under the still surface and not
             // above the drop height.
-            && o.final_centre > -0.04
-            && o.final_centre < 0.08 + drop + 0.04;
+            && o.final_center > -0.04
+            && o.final_center < 0.08 + drop + 0.04;
         if !ok {
             failures.push(format!("{} at {density} kg/m³", solver.name()));
         }

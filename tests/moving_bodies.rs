@@ -259,7 +259,7 @@ fn sloshing_box(
     let container = world.physics.insert_body(RigidBodyBuilder::dynamic());
     let c = (min + max) * 0.5;
     let he = (max - min) * 0.5;
-    for (centre, half) in [
+    for (center, half) in [
         (
             Vector::new(c.x, min.y - t, c.z),
             Vector::new(he.x + 2.0 * t, t, he.z + 2.0 * t),
@@ -287,7 +287,7 @@ fn sloshing_box(
     ] {
         world.physics.insert_collider(
             ColliderBuilder::cuboid(half.x, half.y, half.z)
-                .translation(centre)
+                .translation(center)
                 .density(300.0),
             Some(container),
         );
@@ -459,10 +459,10 @@ fn angular_momentum_z(world: &FluidWorld, fluid: FluidHandle) -> (f64, f64) {
 }
 
 #[test]
-fn an_off_centre_jet_spins_a_plate_with_the_angular_momentum_it_loses() {
+fn an_off_center_jet_spins_a_plate_with_the_angular_momentum_it_loses() {
     // Zero gravity, no other collider: a slab of water moving at +2 m/s along x hits the
     // upper half of a free plate (0.04 × 0.4 × 0.3 m, 600 kg/m³) standing across its path.
-    // The push acts above the plate's centre of mass, so the plate must turn clockwise about
+    // The push acts above the plate's center of mass, so the plate must turn clockwise about
     // z (ω_z < 0) while it is pushed along +x, and the angular momentum it gains must be the
     // angular momentum the water loses (about any point: here the origin). Viscosity off:
     // Müller's viscosity force is not central, so it does not conserve angular momentum
@@ -519,7 +519,7 @@ fn an_off_centre_jet_spins_a_plate_with_the_angular_momentum_it_loses() {
         // Balance: angular momentum goes from the water to the plate only through central
         // impulses (along the contact normal at the contact point, or along the wall
         // gradient at the closest point; the particle sits on that line), each applied to
-        // the plate at that point (force at the centre of mass plus torque about it), and
+        // the plate at that point (force at the center of mass plus torque about it), and
         // the plate turns about a principal axis (no gyroscopic exchange); the velocity
         // changes act from the next substep on, at the pose where their torque was taken.
         // What is left is round-off and the contact details (a particle pushed off several
@@ -532,7 +532,7 @@ fn an_off_centre_jet_spins_a_plate_with_the_angular_momentum_it_loses() {
     }
 }
 
-/// A free ball spinning about z at the centre of a still blob of water in zero gravity
+/// A free ball spinning about z at the center of a still blob of water in zero gravity
 /// (particle–particle viscosity off, so the fluid conserves angular momentum on its own):
 /// returns the ball's ω_z after `frames` frames, its initial ω_z, and the angular momentum
 /// about the origin the ball lost and the water gained (kg·m²/s).
@@ -576,7 +576,7 @@ fn spinning_ball(wall_viscosity: Real, frames: usize) -> (Real, Real, f64, f64) 
 }
 
 /// The walls' viscosity is the only thing that can slow a ball spinning in water: pressure
-/// and frictionless contact push along the ball's normals, through its centre. Free-slip
+/// and frictionless contact push along the ball's normals, through its center. Free-slip
 /// walls (`wall_viscosity` 0) leave its spin alone; with `wall_viscosity` the ball spins
 /// down and the water takes up exactly the angular momentum it loses (the viscous impulse
 /// goes to the ball at the particle's position, so the torque matches).

@@ -22,7 +22,7 @@ fn solvers() -> [(&'static str, Solver); 4] {
     ]
 }
 
-/// A closed tank on a kinematic body moving with `linvel` and `angvel` about its centre.
+/// A closed tank on a kinematic body moving with `linvel` and `angvel` about its center.
 fn tank(world: &mut FluidWorld, linvel: Vector, angvel: Vector) -> RigidBodyHandle {
     let body = world.physics.insert_body(
         RigidBodyBuilder::kinematic_velocity_based()

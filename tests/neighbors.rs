@@ -104,10 +104,10 @@ fn try_check(
     Ok(())
 }
 
-fn uniform(rng: &mut rand_pcg::Pcg64, n: usize, centre: Vector, half: Real) -> Vec<Vector> {
+fn uniform(rng: &mut rand_pcg::Pcg64, n: usize, center: Vector, half: Real) -> Vec<Vector> {
     (0..n)
         .map(|_| {
-            centre
+            center
                 + Vector::new(
                     rng.random_range(-half..half),
                     rng.random_range(-half..half),
@@ -311,7 +311,7 @@ fn wrapped_cell_keys_alias_without_false_neighbours() {
         Vector::new(-w, -w, -w),
         Vector::ZERO,
     ] {
-        // Points on the 1/64 m grid f32 can hold there, within 0.3 m of the centre.
+        // Points on the 1/64 m grid f32 can hold there, within 0.3 m of the center.
         for _ in 0..300 {
             let o = Vector::new(
                 r.random_range(-19..19) as Real / 64.0,

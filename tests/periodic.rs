@@ -248,7 +248,7 @@ fn blob_crossing_faces_conserves_momentum_and_count() {
         // A ball of 0.2 m radius near the box's upper corner (it straddles three faces
         // after a few steps).
         let mut r = rng(3);
-        let centre = max - Vector::splat(0.22);
+        let center = max - Vector::splat(0.22);
         let mut pts = Vec::new();
         let mut vels = Vec::new();
         let k = (0.2 / s) as i32;
@@ -257,7 +257,7 @@ fn blob_crossing_faces_conserves_momentum_and_count() {
                 for z in -k..=k {
                     let o = Vector::new(x as Real, y as Real, z as Real) * s;
                     if o.length() <= 0.2 {
-                        pts.push(centre + o);
+                        pts.push(center + o);
                         vels.push(
                             Vector::new(3.0, 2.0, 1.5)
                                 + Vector::new(

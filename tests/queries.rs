@@ -44,7 +44,7 @@ fn amount_in_boxes_balls_and_sensors() {
     // A ball of radius 1.01 spacings around a lattice point: it and its 6 face neighbours.
     let c = f.amount_in(
         &Region::Ball {
-            centre: Vector::splat(0.225),
+            center: Vector::splat(0.225),
             radius: 1.01 * S,
         },
         &colliders,
@@ -94,11 +94,11 @@ fn samples_match_a_brute_force_sum() {
     assert!(inside > 50);
     // Deep inside, the interpolated density is the lattice's: ρ0 within the cubic spline's
     // lattice-sum error at h = 2s (the same figure the density stage computes there).
-    let centre = sampler.sample(Vector::splat(0.225)).unwrap();
+    let center = sampler.sample(Vector::splat(0.225)).unwrap();
     assert!(
-        (centre.density - 1000.0).abs() < 0.05 * 1000.0,
+        (center.density - 1000.0).abs() < 0.05 * 1000.0,
         "{}",
-        centre.density
+        center.density
     );
 }
 
@@ -131,7 +131,7 @@ fn enter_and_leave_counts() {
 }
 
 /// The water's surface and depth over a pool at rest on its lattice: the fill height
-/// everywhere over it (exact: the top layer's centres plus half a spacing), nothing beside it,
+/// everywhere over it (exact: the top layer's centers plus half a spacing), nothing beside it,
 /// and a typed error for a non-finite coordinate.
 #[test]
 fn surface_height_and_depth_over_a_pool() {

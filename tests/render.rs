@@ -44,7 +44,7 @@ fn an_empty_world_is_background_and_a_ball_shows_in_the_middle() {
         .physics
         .insert_collider(ColliderBuilder::ball(1.0), Some(body));
     let img = Renderer::new(options()).render_world(&camera, &world, None);
-    // The ball (radius 1 at distance 5, 40° field of view) spans ±41 px around the centre:
+    // The ball (radius 1 at distance 5, 40° field of view) spans ±41 px around the center:
     // tan(11.5°)·60/tan(20°) ≈ 33.5 px, so ±30 px is inside and ±50 px outside.
     assert!(!is_background(img.pixel(80, 60)));
     assert!(!is_background(img.pixel(110, 60)));

@@ -493,6 +493,30 @@ fn emitters_sinks_and_capacity_build() {
 }
 
 #[test]
+fn a_ball_sink_reads_center_and_the_old_spelling_centre() {
+    let aabb = "Aabb(min: (-9.0, -9.0, -9.0), max: (9.0, -1.0, 9.0))";
+    let ball = |field: &str| {
+        let text = SOURCES.replace(
+            aabb,
+            &format!("Ball({field}: (1.0, 2.0, 3.0), radius: 0.5)"),
+        );
+        let scene = SceneFile::parse(&text, "ball.ron").unwrap();
+        let built = scene.build(Path::new("ball.ron"), scenes_dir()).unwrap();
+        let f = &built.world.fluids[built.fluids[0]];
+        f.sinks()
+            .map(|(_, s)| s.region())
+            .nth(1)
+            .expect("two sinks")
+    };
+    let expected = Region::Ball {
+        center: Vector::new(1.0, 2.0, 3.0),
+        radius: 0.5,
+    };
+    assert_eq!(ball("center"), expected);
+    assert_eq!(ball("centre"), expected);
+}
+
+#[test]
 fn emitter_and_sink_mistakes_name_the_line_and_field() {
     assert!(SceneFile::parse(SOURCES, "good.ron").is_ok());
     let bad = |from: &str, to: &str| {

@@ -136,7 +136,7 @@ fn restore_and_continue_with_an_emitter_and_a_sink() {
     )
     .unwrap();
     f.add_sink(Sink::new(Region::Ball {
-        centre: Vector::new(0.0, 0.0, 0.0),
+        center: Vector::new(0.0, 0.0, 0.0),
         radius: 0.15,
     }))
     .unwrap();

@@ -47,7 +47,7 @@ fn snapshot_bytes() -> &'static [u8] {
         )
         .unwrap();
         f.add_sink(Sink::new(Region::Ball {
-            centre: Vector::new(0.9, 0.0, 0.1),
+            center: Vector::new(0.9, 0.0, 0.1),
             radius: 0.1,
         }))
         .unwrap();

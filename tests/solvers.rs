@@ -316,7 +316,7 @@ fn non_finite_particles_are_quarantined() {
 }
 
 /// PBF's position corrections `Δx_i = 1/ρ0 Σ_j m (λ_i + λ_j + s_corr(|x_ij|)) ∇W_ij` are
-/// antisymmetric pair by pair, so an isolated blob's centre of mass moves only with its
+/// antisymmetric pair by pair, so an isolated blob's center of mass moves only with its
 /// momentum: `Σ m Δx = 0` each iteration, and `v = Δx/dt` keeps `Σ m v` to round-off.
 ///
 /// Bound as for DFSPH above: round-off of order 1e-5 of the impulse exchanged (`Σ m|Δv_i|`);

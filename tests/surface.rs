@@ -193,7 +193,7 @@ fn the_worker_thread_returns_the_same_mesh_later() {
     assert!(worker.wait().is_none());
 }
 
-/// Smoothed centres (Yu & Turk's λ) shrink the surface, as `SurfaceOptions` documents.
+/// Smoothed centers (Yu & Turk's λ) shrink the surface, as `SurfaceOptions` documents.
 #[test]
 fn smoothed_centers_pull_the_surface_in() {
     let (points, s) = settled_block();

@@ -137,9 +137,9 @@ fn describe_sink(r: &Region, named: &[(String, ColliderHandle)]) -> String {
             "box ({}, {}, {}) to ({}, {}, {})",
             min.x, min.y, min.z, max.x, max.y, max.z
         ),
-        Region::Ball { centre, radius } => format!(
+        Region::Ball { center, radius } => format!(
             "ball of radius {radius} m at ({}, {}, {})",
-            centre.x, centre.y, centre.z
+            center.x, center.y, center.z
         ),
         Region::Collider(handle) => {
             let name = named

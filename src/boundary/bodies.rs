@@ -5,7 +5,7 @@
 //! found by running its motion backward along the path rapier's own substeps gave it: rapier
 //! adds its velocity change `Δv` of the step (gravity, its contacts) in `n` equal parts, each
 //! before moving the body, so `pose(T − τ)` is the end pose moved by
-//! `−τ·v + Δv·(n − 1)/(2n)·τ²/dt` and rotated by `−τ·ω` about the centre of mass (exact for
+//! `−τ·v + Δv·(n − 1)/(2n)·τ²/dt` and rotated by `−τ·ω` about the center of mass (exact for
 //! the translation, first order for the rotation; `Δv` is known from the velocity the
 //! coupling left the body with at the end of the last frame, see [`Coupling::begin_frame`]).
 //! Contact then sweeps each particle's motion of a substep *in the body's moving frame* (the
@@ -22,7 +22,7 @@
 //! body's linear velocity (through the added-mass solve of [`Coupling::exchange`]) and its
 //! angular velocity (`I⁻¹·L`), and the body moves with those velocities from the next substep
 //! on ([`Drift`]): the body follows the substeps the fluid takes. At the frame's end the
-//! impulses go to rapier (`apply_impulse` and `apply_torque_impulse` about the centre of
+//! impulses go to rapier (`apply_impulse` and `apply_torque_impulse` about the center of
 //! mass: the velocities rapier continues with are the ones the fluid saw last), and the body
 //! is moved by the drift its velocity changes made over the frame (`set_position`; the
 //! colliders follow at rapier's next step). Applying the whole frame's impulse once at its end
@@ -80,19 +80,19 @@ pub struct MovingCollider {
     pub drift: Drift,
     /// Collider pose at the frame's end (rapier's current pose).
     pub end: Pose,
-    /// Body centre of mass at the frame's end.
+    /// Body center of mass at the frame's end.
     pub com_end: Vector,
     /// Collider pose at the start of the current substep.
     pub start: Pose,
     /// Collider pose at the end of the current substep.
     pub stop: Pose,
-    /// Centre of mass at the start and end of the current substep.
+    /// Center of mass at the start and end of the current substep.
     pub com_start: Vector,
-    /// Centre of mass at the end of the current substep.
+    /// Center of mass at the end of the current substep.
     pub com_stop: Vector,
     /// Box swept by the collider over the substep.
     pub aabb: Aabb,
-    /// Distance from the body's centre of mass to the farthest corner of the collider's box
+    /// Distance from the body's center of mass to the farthest corner of the collider's box
     /// (m): a point of the collider moves at most `|v| + |ω|·reach`.
     pub reach: Real,
 }
@@ -119,16 +119,16 @@ impl MovingCollider {
 }
 
 /// The motion the fluid's impulses added to a body during the current frame, on top of the
-/// path rapier gave it: the body's centre of mass is shifted by `shift + dv·τ` and the body
+/// path rapier gave it: the body's center of mass is shifted by `shift + dv·τ` and the body
 /// turned about it by `exp(dw·τ)·turn`, where `τ` is the time since `anchor` (seconds before
 /// the frame's end) at which the velocity changes `dv`, `dw` started to act.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct Drift {
     /// Seconds before the frame's end at which `dv` and `dw` started to act.
     pub anchor: Real,
-    /// Shift of the centre of mass at `anchor` (m).
+    /// Shift of the center of mass at `anchor` (m).
     pub shift: Vector,
-    /// Rotation about the centre of mass at `anchor`.
+    /// Rotation about the center of mass at `anchor`.
     pub turn: Rotation,
     /// Linear velocity change moving the body since `anchor` (m/s).
     pub dv: Vector,
@@ -167,7 +167,7 @@ impl Drift {
         (self.shift + self.dv * tau, turn)
     }
 
-    /// Moves `pose` (whose body's centre of mass is `com`) by the drift at `back`.
+    /// Moves `pose` (whose body's center of mass is `com`) by the drift at `back`.
     fn apply(&self, pose: Pose, com: Vector, back: Real) -> (Pose, Vector) {
         if self.is_none() {
             return (pose, com);
@@ -238,7 +238,7 @@ impl NearBodies {
 }
 
 /// Accumulated impulse on one body: `(body, linear impulse, angular impulse about the
-/// centre of mass)`, summed in f64.
+/// center of mass)`, summed in f64.
 type BodyImpulse = (RigidBodyHandle, [f64; 3], [f64; 3]);
 
 /// Coupling state of the pipeline: the non-fixed colliders of the frame, the table of those
@@ -501,7 +501,7 @@ impl Coupling {
     /// substep while rapier takes its weight off once per frame, shares a one-sided `Δu` with
     /// the particles under it every substep (measured effect on floating boxes: their depth
     /// moves by less than 0.005 of their height; momentum is exact either way). The angular
-    /// impulse about the centre of mass changes the angular velocity by `I⁻¹·L` (world
+    /// impulse about the center of mass changes the angular velocity by `I⁻¹·L` (world
     /// inverse inertia at the frame's end). Both changes move the body from the next substep
     /// on ([`Drift`]): the body moves with the substeps the fluid takes, not once per frame.
     pub fn exchange(

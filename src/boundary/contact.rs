@@ -15,7 +15,7 @@ use rayon::prelude::*;
 /// Contact response constants.
 #[derive(Copy, Clone, Debug)]
 pub struct ContactResponse {
-    /// Distance kept between particle centres and surfaces (m).
+    /// Distance kept between particle centers and surfaces (m).
     pub radius: Real,
     /// Restitution `e ∈ [0, 1]`.
     pub restitution: Real,
@@ -480,7 +480,7 @@ fn static_particle(
     }
     let mut p = Particle::begin(input, (cands, &own_pose), start, *x, *v);
 
-    // 1. Sweep the motion: the centre never crosses a surface. Ray casts are skipped for
+    // 1. Sweep the motion: the center never crosses a surface. Ray casts are skipped for
     // candidates whose box the segment's box does not reach within round-off (`tight`: 1 %
     // of r plus a few ulps of the coordinates), so particles gliding at distance r along a
     // wall cast none.

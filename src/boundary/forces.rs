@@ -36,7 +36,7 @@
 //! Every impulse is added in particle order into f64 sums per collider, per fluid; the
 //! fluids' sums are added in the set's order: the results do not depend on the thread count.
 //!
-//! **Touch.** A particle touches a collider when, at the end of a substep, its centre is
+//! **Touch.** A particle touches a collider when, at the end of a substep, its center is
 //! within [`touch_distance`] of the collider's surface (contact radius plus half a spacing:
 //! the first layer of resting fluid and no other). Each watched
 //! collider costs one box test per particle per substep, and a point projection for the
@@ -58,7 +58,7 @@ use rapier3d::pipeline::ActiveEvents;
 /// `1 − 10⁻³` and 1).
 const TOUCH: Real = 1.1;
 
-/// How close a particle's centre comes to a collider's surface to touch it: its contact
+/// How close a particle's center comes to a collider's surface to touch it: its contact
 /// radius `r` plus half a spacing `s`, midway between the first layer of resting fluid
 /// (`r` off, or a little farther where the walls' pressure holds it) and the second
 /// (`r + s`).
@@ -77,9 +77,9 @@ pub(crate) struct Watched {
     pub forces: bool,
     /// `COLLISION_EVENTS`.
     pub events: bool,
-    /// The torques' reference point: the body's centre of mass (the collider's position
+    /// The torques' reference point: the body's center of mass (the collider's position
     /// without a body).
-    pub centre: Vector,
+    pub center: Vector,
 }
 
 /// The watched colliders of a frame, sorted by handle.
@@ -110,7 +110,7 @@ impl Watch {
                 dynamic: body.is_some_and(|(_, b)| b.is_dynamic()),
                 forces: flags.contains(ActiveEvents::CONTACT_FORCE_EVENTS),
                 events: flags.contains(ActiveEvents::COLLISION_EVENTS),
-                centre: body.map_or(co.position().translation, |(_, b)| b.center_of_mass()),
+                center: body.map_or(co.position().translation, |(_, b)| b.center_of_mass()),
             });
         }
         self.list.sort_by_key(|w| w.handle.0);
@@ -169,8 +169,8 @@ pub(crate) trait WallSink {
         lv: Vector,
         point: Vector,
     );
-    /// The neighbours' centre term: every share's hydrostatic part gains its gradient × `c`.
-    fn centre(&mut self, c: Real);
+    /// The neighbours' center term: every share's hydrostatic part gains its gradient × `c`.
+    fn center(&mut self, c: Real);
 }
 
 /// The wall stage's own sink: nothing (compiled away).
@@ -180,7 +180,7 @@ impl WallSink for () {
     #[inline(always)]
     fn wall(&mut self, _: Real, _: Vector, _: Vector, _: Real, _: Vector, _: Vector) {}
     #[inline(always)]
-    fn centre(&mut self, _: Real) {}
+    fn center(&mut self, _: Real) {}
 }
 
 /// The wall stage's sink when forces are watched: the watched colliders' shares of one
@@ -229,7 +229,7 @@ impl WallSink for ParticleShares<'_> {
     }
 
     #[inline]
-    fn centre(&mut self, c: Real) {
+    fn center(&mut self, c: Real) {
         for s in &mut self.out[self.first..] {
             s.hydrostatic += s.gradient * c;
         }
@@ -282,7 +282,7 @@ impl FluidForces {
     /// Adds `impulse` at `point` to slot `k`.
     #[inline]
     fn add(&mut self, watch: &Watch, k: usize, impulse: Vector, point: Vector) {
-        let torque = (point - watch.list[k].centre).cross(impulse);
+        let torque = (point - watch.list[k].center).cross(impulse);
         let a = &mut self.acc[k];
         for c in 0..3 {
             a[c] += impulse[c] as f64;
@@ -561,11 +561,11 @@ pub struct ColliderForce {
     pub body: Option<RigidBodyHandle>,
     /// Force (N): wall pressure, viscosity and contact together.
     pub force: Vector,
-    /// Torque (N·m) about [`ColliderForce::centre`].
+    /// Torque (N·m) about [`ColliderForce::center`].
     pub torque: Vector,
-    /// The torque's reference point (m): the body's centre of mass as rapier left it when the
+    /// The torque's reference point (m): the body's center of mass as rapier left it when the
     /// fluid stepped (the collider's position for a collider without a body).
-    pub centre: Vector,
+    pub center: Vector,
     /// Particles that touched it during the frame (0 unless its touch events are watched
     /// too).
     pub touching: usize,
@@ -652,7 +652,7 @@ impl Records {
                     body: w.body,
                     force: v(&s[..3]),
                     torque: v(&s[3..]),
-                    centre: w.centre,
+                    center: w.center,
                     touching: *n,
                 });
             }

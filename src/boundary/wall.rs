@@ -146,7 +146,7 @@ pub struct WallWorkspace {
     /// acts through `gradient`; this is the rest, `−Σ_b V_b (g·(x_b − x_i)) ∇W_ib =
     /// −(M·n⊗n + Φ·(I − n⊗n))·g` per wall (see [`HalfSpaceTable::eval_moment`]), plus
     /// `∇ρ_wall·(g·(x̄_i − x_i))/ρ0`: the wall's pressure is taken from the neighbours
-    /// (see `neighbour_pressure`), whose weighted centre `x̄_i` is not at the particle.
+    /// (see `neighbour_pressure`), whose weighted center `x̄_i` is not at the particle.
     pub hydrostatic: Vec<Vector>,
     /// `true` when the last update computed `hydrostatic` (asked for it, under gravity).
     pub hydrostatic_on: bool,
@@ -170,7 +170,7 @@ pub struct WallWorkspace {
     /// `π̂_i·∇ρ_wall` to the own term, `π̂_i` the average of the pressure values of the
     /// neighbours on the fluid side of the particle, weighted by `max(0, ∇W_ij·û_i)` with
     /// `û_i` the unit vector away from the walls (`−∇ρ_wall` normalised); the hydrostatic
-    /// difference from their weighted centre back to the particle is part of `hydrostatic`.
+    /// difference from their weighted center back to the particle is part of `hydrostatic`.
     pub neighbour_pressure: bool,
     /// Clavet's densities `Σ(1 − q)²` and `Σ(1 − q)³` (see [`crate::solver::clavet`]) the
     /// walls add to each particle, from the static and kinematic colliders: the solid as the
@@ -591,12 +591,12 @@ impl Terms<'_> {
         }
         if self.hydro && s.g != Vector::ZERO {
             // The neighbours' pressure is carried back to the particle by the hydrostatic
-            // difference from their weighted centre (the same weights as DFSPH's average);
+            // difference from their weighted center (the same weights as DFSPH's average);
             // ∇ρ_wall = g·ρ0·full_f.
-            let off = self.neighbour_centre(i, -s.g.normalize());
+            let off = self.neighbour_center(i, -s.g.normalize());
             let c = self.full.1 * self.gravity.dot(off);
             s.hs += s.g * c;
-            sink.centre(c);
+            sink.center(c);
             if self.any_dynamic {
                 s.hc += s.gc * c;
             }
@@ -703,11 +703,11 @@ impl Terms<'_> {
         }
     }
 
-    /// `x̄_i − x_i`, the centre of the neighbours of sorted particle `i` weighted by
+    /// `x̄_i − x_i`, the center of the neighbours of sorted particle `i` weighted by
     /// `max(0, ∇W_ij·û)` (the weights of the wall's pressure, see
     /// [`WallWorkspace::neighbour_pressure`]); zero when none has weight, or in a periodic
     /// grid (the separations would need the minimum image).
-    fn neighbour_centre(&self, i: usize, away: Vector) -> Vector {
+    fn neighbour_center(&self, i: usize, away: Vector) -> Vector {
         if self.grid.is_periodic() {
             return Vector::ZERO;
         }

@@ -260,9 +260,9 @@ impl Fluid {
                 Region::Aabb { min, max } => {
                     self.remove_where(|x, _, _| x.cmpge(min).all() && x.cmple(max).all())
                 }
-                Region::Ball { centre, radius } => {
+                Region::Ball { center, radius } => {
                     let r2 = radius * radius;
-                    self.remove_where(|x, _, _| (x - centre).length_squared() <= r2)
+                    self.remove_where(|x, _, _| (x - center).length_squared() <= r2)
                 }
                 Region::Collider(handle) => {
                     let Some(co) = colliders.get(handle) else {

@@ -730,16 +730,16 @@ mod tests {
             seed ^= seed << 17;
             (seed >> 40) as Real / (1u64 << 24) as Real
         };
-        for centre in [
+        for center in [
             Vector::ZERO,
             Vector::new(-3.05, 0.2, 7.0),
             Vector::new(1.0e4, -2.0e3, 5.0e2),
         ] {
             let mut positions: Vec<Vector> = (0..3000)
-                .map(|_| centre + Vector::new(next(), next(), next()) * 0.6)
+                .map(|_| center + Vector::new(next(), next(), next()) * 0.6)
                 .collect();
             // Some exactly on cell borders, some coincident.
-            let c = (centre / h).floor() * h;
+            let c = (center / h).floor() * h;
             for (k, p) in positions.iter_mut().enumerate().take(50) {
                 *p = c + Vector::new((k % 5) as Real * h, 0.0, (k / 10) as Real * h);
             }
@@ -763,7 +763,7 @@ mod tests {
                     assert_eq!(
                         wide.of(i),
                         portable.of(i),
-                        "{isa:?}: particle {i} near {centre:?}"
+                        "{isa:?}: particle {i} near {center:?}"
                     );
                 }
             }

@@ -64,7 +64,7 @@ impl FluidPipeline {
     }
 
     /// The sum over `body`'s colliders whose `CONTACT_FORCE_EVENTS` flag is set of
-    /// [`FluidPipeline::collider_force`] (torques about the body's centre of mass).
+    /// [`FluidPipeline::collider_force`] (torques about the body's center of mass).
     ///
     /// # Errors
     /// [`SphError::UnknownHandle`] (argument `"body"`) when none of the body's colliders had

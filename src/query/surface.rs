@@ -12,9 +12,9 @@ use std::collections::HashMap;
 /// support, 2 spacings for the presets) the highest and lowest particle. Build it once per
 /// frame (one pass over the particles, `O(N)`), then each height is four hash look-ups.
 ///
-/// A column's surface is its highest particle's centre plus half a spacing (the layer that
+/// A column's surface is its highest particle's center plus half a spacing (the layer that
 /// particle stands for), its bottom the lowest one's minus half a spacing; between cell
-/// centres the heights are interpolated bilinearly over the cells that hold fluid. A pool at
+/// centers the heights are interpolated bilinearly over the cells that hold fluid. A pool at
 /// rest on a lattice reads its fill height exactly; a moving surface is smoothed over one
 /// kernel support; a drop in the air over a pool counts as the column's top (the surface is
 /// the topmost fluid, as a splash seen from above).
@@ -39,7 +39,7 @@ use std::collections::HashMap;
 pub struct WaterSurface {
     cell: Real,
     half_layer: Real,
-    /// `(top, bottom)` particle centres per cell `(i, k)`.
+    /// `(top, bottom)` particle centers per cell `(i, k)`.
     columns: HashMap<(i32, i32), (Real, Real)>,
     spacing: Real,
 }
@@ -99,7 +99,7 @@ impl WaterSurface {
     pub fn column(&self, x: Real, z: Real) -> SphResult<Option<WaterColumn>> {
         finite("x", x)?;
         finite("z", z)?;
-        // Bilinear over the four cell centres around the point, renormalised over those
+        // Bilinear over the four cell centers around the point, renormalised over those
         // holding fluid.
         let (u, v) = (x / self.cell - 0.5, z / self.cell - 0.5);
         let (i0, k0) = (u.floor(), v.floor());
@@ -121,7 +121,7 @@ impl WaterSurface {
             }
         }
         if w_sum <= 0.0 {
-            // On a cell centre line next to empty cells: the point's own cell.
+            // On a cell center line next to empty cells: the point's own cell.
             let key = (
                 (x / self.cell).floor() as i32,
                 (z / self.cell).floor() as i32,

@@ -371,7 +371,7 @@ struct NarrowRange {
     focal: Real,
     /// The footprint's half-width (m).
     radius_world: Real,
-    /// The range (m): depths farther than `mu` behind the centre are ignored, nearer ones
+    /// The range (m): depths farther than `mu` behind the center are ignored, nearer ones
     /// clamped.
     mu: Real,
     /// Caps the footprint (pixels).

@@ -35,7 +35,7 @@
 //!             sinks: [
 //!                 Sink(region: Collider(name: "drain")),  // reach: 0.05 (default: one spacing)
 //!                 Sink(region: Aabb(min: (-9.0, -9.0, -9.0), max: (9.0, -1.0, 9.0))),
-//!                 // Sink(region: Ball(centre: (0.0, 0.0, 0.0), radius: 0.2)),
+//!                 // Sink(region: Ball(center: (0.0, 0.0, 0.0), radius: 0.2)),
 //!             ],
 //!             capacity: 20000,                // emitters pause at this many particles
 //!         ),

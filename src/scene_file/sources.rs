@@ -50,7 +50,7 @@ impl From<&NozzleDesc> for Nozzle {
 pub struct EmitterDesc {
     /// The opening.
     pub nozzle: NozzleDesc,
-    /// Centre of the nozzle (m).
+    /// Center of the nozzle (m).
     pub position: Vec3,
     /// Direction of the jet (any length, not zero; not used by a sphere). Default `(0, -1, 0)`.
     #[serde(default = "default_direction")]
@@ -137,8 +137,9 @@ pub enum SinkRegionDesc {
     },
     /// A ball.
     Ball {
-        /// Centre (m).
-        centre: Vec3,
+        /// Center (m). The old spelling `centre` is still read.
+        #[serde(alias = "centre")]
+        center: Vec3,
         /// Radius (m).
         radius: Positive,
     },
@@ -172,8 +173,8 @@ impl SinkDesc {
                 min: min.vector(),
                 max: max.vector(),
             },
-            SinkRegionDesc::Ball { centre, radius } => Region::Ball {
-                centre: centre.vector(),
+            SinkRegionDesc::Ball { center, radius } => Region::Ball {
+                center: center.vector(),
                 radius: radius.0,
             },
             SinkRegionDesc::Collider { name, reach } => Region::NearCollider {

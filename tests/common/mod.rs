@@ -117,7 +117,7 @@ pub struct Tracker {
 /// Largest coordinate magnitude of the scene (m), for round-off tolerances.
 pub const SCENE_SCALE: f64 = 4.0;
 
-/// The contact code promises centres at least `radius` off every surface, minus its own
+/// The contact code promises centers at least `radius` off every surface, minus its own
 /// `slack = 1e-3·radius` (below which it does not push), minus f32 round-off: the pushed
 /// position `proj + n·r` and our check's re-projection each go through a pose transform and
 /// a projection, about 16 correctly rounded operations on coordinates of magnitude up to
@@ -368,7 +368,7 @@ pub fn emission(
     }
     if with_cloud {
         let a = 1.2 * spacing;
-        let centre = hit - dir * (gap + 2.5 * a);
+        let center = hit - dir * (gap + 2.5 * a);
         for i in 0..4 {
             for j in 0..4 {
                 for k in 0..4 {
@@ -378,7 +378,7 @@ pub fn emission(
                         rng.random_range(-0.1..0.1),
                     ) * spacing;
                     let lattice = Vector::new(i as Real, j as Real, k as Real) - Vector::splat(1.5);
-                    pos.push(centre + lattice * a + jitter);
+                    pos.push(center + lattice * a + jitter);
                     vel.push((dir + random_unit(rng) * rng.random_range(0.0..0.2)) * speed);
                 }
             }
