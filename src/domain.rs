@@ -18,6 +18,19 @@ use crate::error::{SphError, SphResult};
 use crate::math::{Real, Vector};
 
 /// Where a fluid's particles live.
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::{Domain, FluidParamsBuilder, SphError, math::Vector};
+/// // A 1 m periodic box (each edge at least 3 h = 0.3 m at a 5 cm spacing).
+/// let params = FluidParamsBuilder::water(0.05).periodic(Vector::ZERO, Vector::ONE).build()?;
+/// assert_eq!(params.domain, Domain::Periodic { min: Vector::ZERO, max: Vector::ONE });
+/// // A box shorter than three smoothing lengths is refused.
+/// let small = Domain::Periodic { min: Vector::ZERO, max: Vector::splat(0.2) };
+/// assert!(small.validate(params.smoothing_length).is_err());
+/// # Ok::<(), SphError>(())
+/// ```
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub enum Domain {

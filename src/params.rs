@@ -280,6 +280,8 @@ impl FluidParams {
 
 /// Builds validated [`FluidParams`].
 ///
+/// # Examples
+///
 /// ```
 /// use rapier_sph::{FluidParamsBuilder, EquationOfState};
 /// let water = FluidParamsBuilder::water(0.05).viscosity(0.2).build().unwrap();

@@ -9,6 +9,26 @@ pub(crate) type Containment<'a> = (Aabb, Box<dyn Fn(Vector) -> bool + 'a>);
 
 /// A region of space: for the queries ([`crate::Fluid::amount_in`], [`crate::RegionTracker`]) and for sinks
 /// ([`crate::Sink`]), one notion for both.
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::{Fluid, FluidParamsBuilder, Region, SphError};
+/// use rapier_sph::math::Vector;
+/// use rapier_sph::rapier3d::prelude::ColliderSet;
+///
+/// let mut fluid = Fluid::new(FluidParamsBuilder::water(0.1))?;
+/// fluid.add_block(Vector::ZERO, Vector::splat(1.0))?; // 10 × 10 × 10 particles
+/// let colliders = ColliderSet::new();
+/// // How much water is within 0.25 m of the block's middle (a splash zone, a trigger).
+/// let zone = Region::Ball { center: Vector::splat(0.5), radius: 0.25 };
+/// let inside = fluid.amount_in(&zone, &colliders);
+/// assert!(inside.particles > 0 && inside.particles < fluid.len());
+/// // A bad region is refused with the field named.
+/// let inverted = Region::Aabb { min: Vector::ONE, max: Vector::ZERO };
+/// assert!(matches!(inverted.validate(), Err(SphError::InvalidParameter { field: "max", .. })));
+/// # Ok::<(), SphError>(())
+/// ```
 #[derive(Copy, Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub enum Region {

@@ -553,6 +553,9 @@ pub(crate) struct WallTerms<'a> {
 
 /// The force and torque the fluid applied to one collider (or one body) over the last frame,
 /// averaged over its substeps: the frame's impulse divided by its length, in rapier's units.
+///
+/// # Examples
+/// See [`FluidPipeline::collider_force`](crate::FluidPipeline::collider_force).
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct ColliderForce {
     /// The collider (for a body's sum: its first watched collider).
@@ -572,6 +575,9 @@ pub struct ColliderForce {
 }
 
 /// Whether a fluid started or stopped touching a collider.
+///
+/// # Examples
+/// See [`FluidPipeline::contact_events`](crate::FluidPipeline::contact_events).
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub enum FluidContactKind {
     /// No particle of the fluid touched the collider in the frame before, some did in this
@@ -584,6 +590,9 @@ pub enum FluidContactKind {
 
 /// A fluid started or stopped touching a collider whose `COLLISION_EVENTS` flag is set
 /// (rapier's `ActiveEvents`).
+///
+/// # Examples
+/// See [`FluidPipeline::contact_events`](crate::FluidPipeline::contact_events).
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub struct FluidContactEvent {
     /// The fluid.

@@ -84,6 +84,19 @@ pub const MAX_NOZZLE_SLOTS: usize = 1 << 22;
 pub const MAX_ATTEMPTS_PER_FRAME: usize = 2 * MAX_NOZZLE_SLOTS;
 
 /// Shape of an emitter's opening.
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::{Emitter, Nozzle, math::Vector};
+/// // A 10 cm square spout pouring down at 1 m/s, 500 particles a second.
+/// let spout = Emitter::new(Nozzle::Square { half_width: 0.05 }, Vector::new(0.0, 1.0, 0.0),
+///                          -Vector::Y, 1.0, 500.0);
+/// assert!(spout.validate().is_ok());
+/// let negative = Emitter::new(Nozzle::Square { half_width: -0.05 }, Vector::ZERO, Vector::Y,
+///                             1.0, 500.0);
+/// assert!(negative.validate().is_err()); // names `half_width`
+/// ```
 #[derive(Copy, Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub enum Nozzle {
@@ -486,6 +499,26 @@ impl Emitter {
 pub type SinkRegion = Region;
 
 /// A region that removes the particles of its fluid that enter it.
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::prelude::*;
+/// // A 0.6 m cube of water with a 15 cm drain ball at its middle.
+/// let mut world = FluidWorld::new();
+/// let mut water = Fluid::new(FluidParamsBuilder::water(0.05))?;
+/// water.add_block(Vector::ZERO, Vector::splat(0.6))?;
+/// let ball = Region::Ball { center: Vector::splat(0.3), radius: 0.15 };
+/// let drain = water.add_sink(Sink::new(ball))?;
+/// let before = water.len();
+/// let water = world.fluids.insert(water);
+/// world.step()?;
+/// let fluid = &world.fluids[water];
+/// let drained = fluid.sink(drain).unwrap().drained();
+/// assert!(drained > 0);
+/// assert_eq!(fluid.len() as u64, before as u64 - drained); // no emitter: only the sink removed
+/// # Ok::<(), SphError>(())
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub struct Sink {

@@ -7,6 +7,21 @@ pub use super::dfsph::settings::Dfsph;
 pub use super::pbf::settings::Pbf;
 
 /// Which pressure solver a fluid uses.
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::{Dfsph, Fluid, FluidParamsBuilder, SphError, Solver};
+/// // DFSPH held to 0.05 % density error instead of the default 0.1 %.
+/// let tight = Solver::Dfsph(Dfsph { max_density_error: 0.0005, ..Dfsph::default() });
+/// let fluid = Fluid::new(FluidParamsBuilder::water(0.05).solver(tight).build()?)?;
+/// assert_eq!(fluid.params().solver.name(), "DFSPH");
+/// // Settings are checked when the parameters are built, naming the field.
+/// let none = Solver::Dfsph(Dfsph { max_iterations: 0, ..Dfsph::default() });
+/// let err = FluidParamsBuilder::water(0.05).solver(none).build().unwrap_err();
+/// assert!(matches!(err, SphError::InvalidParameter { field: "max_iterations", .. }));
+/// # Ok::<(), SphError>(())
+/// ```
 #[derive(Copy, Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub enum Solver {
