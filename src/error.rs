@@ -33,7 +33,8 @@ pub enum SphError {
         /// Why it was refused.
         reason: &'static str,
     },
-    /// The time step is NaN, infinite, zero or negative.
+    /// The time step is NaN, infinite, or below [`crate::pipeline::MIN_TIME_STEP`] (zero and
+    /// negative included).
     InvalidTimeStep {
         /// The time step that was given.
         dt: f64,
@@ -100,7 +101,11 @@ impl fmt::Display for SphError {
                 write!(f, "invalid particle #{index}: {reason}")
             }
             SphError::InvalidTimeStep { dt } => {
-                write!(f, "invalid time step {dt}: it must be finite and positive")
+                write!(
+                    f,
+                    "invalid time step {dt}: it must be finite and at least {} s",
+                    crate::pipeline::MIN_TIME_STEP
+                )
             }
             SphError::UnknownFluid => write!(f, "the fluid handle does not name a live fluid"),
             SphError::BroadPhaseNotUpdated { colliders } => write!(

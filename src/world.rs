@@ -51,7 +51,7 @@ impl FluidWorld {
     /// # Errors
     ///
     /// As [`FluidPipeline::step`]: [`crate::SphError::InvalidTimeStep`] for a time step that
-    /// is not positive and finite, [`crate::SphError::InvalidParameter`] for a non-finite
+    /// is not finite or below [`crate::pipeline::MIN_TIME_STEP`], [`crate::SphError::InvalidParameter`] for a non-finite
     /// gravity, [`crate::SphError::InvalidParameter`] naming `num_solver_iterations` when
     /// it is 0; the fluids are left unchanged (rapier has stepped).
     pub fn step(&mut self) -> SphResult<&StepReport> {

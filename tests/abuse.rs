@@ -3,7 +3,7 @@
 //! timed), what could not be finished is reported, and nothing explodes.
 
 use rapier_sph::math::{Real, Vector};
-use rapier_sph::pipeline::{RELAX_FRAME_ROUNDS, RELAX_STALLED_ROUNDS};
+use rapier_sph::pipeline::{MIN_TIME_STEP, RELAX_FRAME_ROUNDS, RELAX_STALLED_ROUNDS};
 use rapier_sph::scenes::add_closed_box;
 use rapier_sph::*;
 
@@ -273,8 +273,10 @@ fn the_stability_cases_for_abuse_pass() {
 }
 
 /// Extreme accepted settings (item of the abuse list: densities and pressures a game reads):
-/// frames of 10⁻³⁰ s and 10⁻⁴⁰ s (a subnormal `f32`), and the stiffest equation of state the
-/// builder accepts, for every solver: what `densities()` and `pressures()` return is finite.
+/// the shortest frame the pipeline accepts ([`MIN_TIME_STEP`], 1 ns) and the stiffest
+/// equation of state the builder accepts, for every solver: what `densities()` and
+/// `pressures()` return is finite. Shorter frames (10⁻³⁰ s, a subnormal 10⁻⁴⁰ s) are refused
+/// with a typed error and change nothing.
 #[test]
 fn densities_and_pressures_stay_finite_at_extreme_settings() {
     for solver in [
@@ -284,7 +286,8 @@ fn densities_and_pressures_stay_finite_at_extreme_settings() {
         Solver::clavet(),
     ] {
         for (dt, c) in [
-            (1e-30 as Real, 30.0 as Real),
+            (MIN_TIME_STEP, 30.0 as Real),
+            (1e-30, 30.0),
             (1e-40, 30.0),
             (1.0 / 60.0, 1e18),
         ] {
@@ -307,6 +310,16 @@ fn densities_and_pressures_stay_finite_at_extreme_settings() {
                 .add_block(Vector::ZERO, Vector::new(0.4, 0.1, 0.4))
                 .unwrap();
             world.physics.integration_parameters.dt = dt;
+            if dt < MIN_TIME_STEP {
+                let before = world.fluids[h].positions().to_vec();
+                let refused = world.step();
+                assert!(
+                    matches!(refused, Err(SphError::InvalidTimeStep { .. })),
+                    "{refused:?}"
+                );
+                assert_eq!(world.fluids[h].positions(), &before[..]);
+                continue;
+            }
             for _ in 0..3 {
                 world.step().unwrap();
             }

@@ -21,7 +21,7 @@ mod time_stepping;
 mod workspace;
 
 pub use relax::{RELAX_FRAME_ROUNDS, RELAX_PROGRESS, RELAX_STALLED_ROUNDS};
-pub use time_stepping::{MAX_SUBSTEPS, TimeStepping};
+pub use time_stepping::{MAX_GRAVITY, MAX_SUBSTEPS, MIN_TIME_STEP, TimeStepping};
 
 use crate::boundary::Coupling;
 use crate::boundary::forces::Records;
@@ -203,7 +203,8 @@ impl FluidPipeline {
     /// are slowed to it and counted in [`StepReport::speed_limited`].
     ///
     /// # Errors
-    /// Bad input (a non-finite or non-positive `dt`, non-finite gravity, an invalid
+    /// Bad input (a `dt` that is not finite or below [`MIN_TIME_STEP`], gravity not finite or
+    /// stronger than [`MAX_GRAVITY`], an invalid
     /// [`TimeStepping`], `rapier_substeps` of 0, an empty broad-phase beside a non-empty
     /// collider set) returns an error and changes nothing.
     pub fn step(
@@ -369,7 +370,8 @@ impl FluidPipeline {
     ///
     /// # Errors
     /// [`SphError::InvalidParameter`] naming `num_solver_iterations` when it is 0; then
-    /// [`FluidPipeline::step`]'s errors (`dt` not positive and finite: `InvalidTimeStep`).
+    /// [`FluidPipeline::step`]'s errors (`dt` not finite or below [`MIN_TIME_STEP`]:
+    /// `InvalidTimeStep`).
     /// Nothing changes on error.
     pub fn step_with_parameters(
         &mut self,
@@ -399,7 +401,7 @@ impl FluidPipeline {
 
     /// The checks of [`FluidPipeline::step`]'s arguments and of the pipeline's settings.
     fn validate(&self, gravity: Vector, dt: Real) -> SphResult<()> {
-        if !dt.is_finite() || dt <= 0.0 {
+        if !dt.is_finite() || dt < MIN_TIME_STEP {
             return Err(SphError::InvalidTimeStep { dt: dt as f64 });
         }
         self.time_stepping.validate()?;
@@ -410,11 +412,11 @@ impl FluidPipeline {
                 reason: "rapier takes at least one substep per step",
             });
         }
-        if !crate::math::is_finite(gravity) {
+        if !crate::math::is_finite(gravity) || !(gravity.length() <= MAX_GRAVITY) {
             return Err(SphError::InvalidParameter {
                 field: "gravity",
                 value: gravity.length() as f64,
-                reason: "must be finite",
+                reason: "must be finite and at most MAX_GRAVITY (10^6 m/s^2)",
             });
         }
         Ok(())

@@ -57,6 +57,24 @@ impl Default for TimeStepping {
     }
 }
 
+/// The shortest frame [`crate::FluidPipeline::step`] accepts, in seconds (1 ns).
+///
+/// Why: the pressure solvers divide by the squared substep (DFSPH's `1/dt²`), and a frame is
+/// split into as many as [`MAX_SUBSTEPS`] substeps; at 1 ns per frame the squared substep is
+/// still ≈ 2·10⁻²⁸ s², far inside single precision's normal range (a frame of 10⁻³⁸ s made
+/// `1/dt²` infinite and the reported pressures NaN). No simulation needs shorter frames: the
+/// acoustic step of a 1 mm particle is about 10 µs, four orders above this floor.
+pub const MIN_TIME_STEP: Real = 1e-9;
+
+/// The strongest gravity [`crate::FluidPipeline::step`] accepts, in m/s² (10⁶, about
+/// 10⁵ g; a game in centimetres has g = 981, in millimetres 9,810).
+///
+/// Why: gravity is integrated in single precision, and each frame's velocity change `g·dt`
+/// feeds the pressure solve's `1/dt²` terms; a gravity of 10³⁸ m/s² overflowed the reported
+/// pressures to infinity. Under this bound a 1/60 s frame adds at most 1.7·10⁴ m/s, which
+/// the adaptive substeps and the quarantine handle.
+pub const MAX_GRAVITY: Real = 1e6;
+
 /// Most substeps [`TimeStepping::Adaptive`] may divide a frame into (`max_substeps`).
 ///
 /// Why 2^16 = 65,536: 256 times the default cap (256), so a frame costs at most 256 times

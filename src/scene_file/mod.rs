@@ -813,6 +813,16 @@ impl SceneFile {
     /// message of the first problem (see [`SceneFile::parse`]).
     fn check(&self) -> Result<(), (String, String)> {
         self.check_timing()?;
+        let g = self.gravity.vector();
+        if !crate::math::is_finite(g) || !(g.length() <= crate::pipeline::MAX_GRAVITY) {
+            return Err((
+                "gravity".into(),
+                format!(
+                    "{:e} m/s^2: gravity must be finite and at most MAX_GRAVITY (10^6 m/s^2)",
+                    g.length()
+                ),
+            ));
+        }
         for (fi, f) in self.fluids.iter().enumerate() {
             check_fluid(fi, f)?;
         }
@@ -844,7 +854,7 @@ impl SceneFile {
                 ),
             ));
         }
-        if steps > MAX_STEPS_PER_FRAME || !(dt > 0.0) {
+        if steps > MAX_STEPS_PER_FRAME || !(dt >= crate::pipeline::MIN_TIME_STEP) {
             let given = if self.dt.is_some() {
                 ""
             } else {
