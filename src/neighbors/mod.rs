@@ -33,7 +33,6 @@ pub(crate) struct NeighbourSearch {
     pub grid: NeighborGrid,
     /// Neighbour lists of the current positions.
     pub lists: NeighborLists,
-    vectors: Vec<Vector>,
     reals: Vec<Real>,
     ids: Vec<u32>,
 }
@@ -56,14 +55,17 @@ impl NeighbourSearch {
         };
         if reordered {
             let perm = self.grid.permutation();
-            crate::par::permute(particles.positions, &mut self.vectors, perm);
-            crate::par::permute(particles.velocities, &mut self.vectors, perm);
+            // The accelerations are rewritten by the stages after the search before they are
+            // read, so their buffer is the vectors' scratch (12 bytes per particle saved).
+            let scratch = &mut *particles.accelerations;
+            crate::par::permute(particles.positions, scratch, perm);
+            crate::par::permute(particles.velocities, scratch, perm);
             crate::par::permute(particles.ids, &mut self.ids, perm);
             for values in particles.attributes.values_mut() {
                 crate::par::permute(values, &mut self.reals, perm);
             }
             if let Some(previous) = previous {
-                crate::par::permute(previous, &mut self.vectors, perm);
+                crate::par::permute(previous, scratch, perm);
             }
         }
         self.grid.build_cells();
@@ -83,9 +85,6 @@ impl NeighbourSearch {
     /// own growth.
     pub fn reserve(&mut self, capacity: usize) {
         let _ = self
-            .vectors
-            .try_reserve_exact(capacity.saturating_sub(self.vectors.len()));
-        let _ = self
             .reals
             .try_reserve_exact(capacity.saturating_sub(self.reals.len()));
         let _ = self
@@ -97,7 +96,6 @@ impl NeighbourSearch {
     pub fn heap_bytes(&self) -> usize {
         self.grid.heap_bytes()
             + self.lists.heap_bytes()
-            + self.vectors.capacity() * std::mem::size_of::<Vector>()
             + (self.reals.capacity() + self.ids.capacity()) * 4
     }
 }
