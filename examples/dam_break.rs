@@ -107,81 +107,64 @@ struct Args {
     spheres: bool,
 }
 
+/// The `--render DIR` pictures: the library's [`Recorder`](rapier_sph::render::Recorder)
+/// (`DIR/frame_NNNN.png` and `DIR/dam_break.gif`), with foam and spray unless `--spheres`,
+/// and the wall time spent on them (left out of the step's figures).
 #[cfg(feature = "render")]
 struct Pictures {
     dir: std::path::PathBuf,
-    renderer: rapier_sph::render::Renderer,
-    camera: rapier_sph::render::Camera,
-    gif: rapier_sph::render::GifWriter,
-    diffuse: Option<rapier_sph::render::WorldDiffuse>,
-    orbit: f32,
-    frames: usize,
+    recorder: rapier_sph::render::Recorder,
     seconds: f64,
-    render_seconds: f64,
 }
 
 #[cfg(feature = "render")]
 impl Pictures {
     fn new(
+        args: &Args,
         dir: &std::path::Path,
-        size: &str,
-        orbit: f32,
         scene: &rapier_sph::scenes::DamBreak,
-        max_speed: f32,
-        spheres: bool,
     ) -> Result<Self, Box<dyn std::error::Error>> {
-        use rapier_sph::render::{
-            Camera, FluidStyle, GifWriter, RenderOptions, Renderer, WorldDiffuse,
-        };
-        let (w, h) = size
+        use rapier_sph::render::{Camera, FluidStyle, Recorder, RenderOptions};
+        let (width, height) = args
+            .size
             .split_once('x')
             .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
             .ok_or("--size must look like 640x360")?;
-        std::fs::create_dir_all(dir)?;
+        let max_speed = (2.0 * 9.81 * scene.column_height).sqrt();
         let options = RenderOptions {
-            width: w,
-            height: h,
+            width,
+            height,
             speed_range: Some((0.0, max_speed)),
-            style: if spheres {
+            style: if args.spheres {
                 FluidStyle::Spheres
             } else {
                 FluidStyle::ScreenSpace
             },
             ..RenderOptions::default()
         };
-        let diffuse = if spheres {
-            None
-        } else {
-            Some(WorldDiffuse::new(Default::default())?)
-        };
+        let camera = Camera::framing(scene.tank_min, scene.tank_max, 30.0, 28.0);
+        let mut recorder = Recorder::create(dir, "dam_break", options, camera, args.orbit, 5)?;
+        if !args.spheres {
+            recorder = recorder.with_diffuse(Default::default())?;
+        }
         Ok(Self {
             dir: dir.to_path_buf(),
-            diffuse,
-            renderer: Renderer::new(options),
-            camera: Camera::framing(scene.tank_min, scene.tank_max, 30.0, 28.0),
-            gif: GifWriter::create(dir.join("dam_break.gif"), w, h, 5)?,
-            orbit,
-            frames: 0,
+            recorder,
             seconds: 0.0,
-            render_seconds: 0.0,
         })
     }
 
-    fn frame(&mut self, world: &rapier_sph::FluidWorld) -> Result<(), Box<dyn std::error::Error>> {
+    /// After a step: foam and spray follow the liquid; a frame is drawn if `draw`.
+    fn step(
+        &mut self,
+        world: &rapier_sph::FluidWorld,
+        draw: bool,
+    ) -> Result<(), Box<dyn std::error::Error>> {
         let t = Instant::now();
-        let camera = self.camera.rotated(self.orbit * self.frames as f32);
-        let layers = self
-            .diffuse
-            .as_ref()
-            .map(|d| d.layers())
-            .unwrap_or_default();
-        let image = self
-            .renderer
-            .render_world_with(&camera, world, None, &layers);
-        self.render_seconds += t.elapsed().as_secs_f64();
-        image.save_png(self.dir.join(format!("frame_{:04}.png", self.frames)))?;
-        self.gif.add_frame(&image)?;
-        self.frames += 1;
+        self.recorder.step(world)?;
+        if draw {
+            self.recorder.frame(world)?;
+        }
         self.seconds += t.elapsed().as_secs_f64();
         Ok(())
     }
@@ -292,14 +275,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     #[cfg(feature = "render")]
     let mut pictures = match &args.render {
-        Some(dir) => Some(Pictures::new(
-            dir,
-            &args.size,
-            args.orbit,
-            &scene,
-            (2.0 * 9.81 * scene.column_height).sqrt(),
-            args.spheres,
-        )?),
+        Some(dir) => Some(Pictures::new(&args, dir, &scene)?),
         None => None,
     };
     #[cfg(not(feature = "render"))]
@@ -310,7 +286,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let _ = frame_every;
     #[cfg(feature = "render")]
     if let Some(p) = &mut pictures {
-        p.frame(&scene.world)?;
+        let t = Instant::now();
+        p.recorder.frame(&scene.world)?;
+        p.seconds += t.elapsed().as_secs_f64();
     }
 
     let mut timings = StageTimings::default();
@@ -342,13 +320,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         dropped += report.solver_wall_neighbour_dropped as u64;
         #[cfg(feature = "render")]
         if let Some(p) = &mut pictures {
-            // Foam and spray follow the liquid at every step, drawn every frame_every.
-            if let Some(d) = &mut p.diffuse {
-                d.step(&scene.world)?;
-            }
-            if step % frame_every == 0 {
-                p.frame(&scene.world)?;
-            }
+            p.step(&scene.world, step % frame_every == 0)?;
         }
         if args.every > 0 && (step % args.every == 0 || step == args.steps) {
             let r = scene.world.pipeline.report();
@@ -374,14 +346,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     #[cfg(feature = "render")]
     if let Some(p) = pictures {
         wall -= p.seconds;
+        let frames = p.recorder.frames();
         println!(
-            "rendered {} frames to {}: {:.1} ms per frame, of which drawing {:.1} ms and PNG + GIF encoding the rest (not counted below)",
-            p.frames,
+            "rendered {frames} frames to {}: {:.1} ms per frame (foam, drawing, PNG + GIF \
+             encoding; not counted below)",
             p.dir.display(),
-            1e3 * p.seconds / p.frames.max(1) as f64,
-            1e3 * p.render_seconds / p.frames.max(1) as f64
+            1e3 * p.seconds / frames.max(1) as f64
         );
-        p.gif.finish()?;
+        p.recorder.finish()?;
     }
     let steps_per_s = args.steps as f64 / wall;
     println!();

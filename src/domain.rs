@@ -51,6 +51,9 @@ pub enum Domain {
 impl Domain {
     /// Checks the box against the smoothing length `h`: finite corners, each periodic length
     /// at least `3·h`. Errors name the field (`domain_min`, `domain_max`).
+    ///
+    /// # Errors
+    /// [`SphError::InvalidParameter`] naming `domain_min` or `domain_max`.
     pub fn validate(&self, h: Real) -> SphResult<()> {
         let Domain::Periodic { min, max } = *self else {
             return Ok(());

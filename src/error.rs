@@ -149,6 +149,16 @@ impl fmt::Display for SphError {
 impl std::error::Error for SphError {}
 
 /// Shorthand for results of this crate.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::{Fluid, FluidParamsBuilder, SphResult};
+/// fn level(spacing: f32) -> SphResult<Fluid> {
+///     Fluid::new(FluidParamsBuilder::water(spacing))
+/// }
+/// assert!(level(0.05).is_ok());
+/// assert!(level(0.0).is_err()); // names `particle_spacing`
+/// ```
 pub type SphResult<T> = Result<T, SphError>;
 
 /// Reads a whole file of at most `max_bytes`: refuses what is not a regular file (a device

@@ -25,7 +25,22 @@ use rapier3d::geometry::InteractionGroups;
 /// about 20 times DFSPH's default cap (100).
 pub const MAX_SOLVER_ITERATIONS: u32 = 2048;
 
-/// The equation of state: how pressure follows from density.
+/// The equation of state: how pressure follows from density (used by WCSPH, and for the
+/// speed of sound that bounds every solver's time step).
+///
+/// # Examples
+/// ```
+/// use rapier_sph::{EquationOfState, FluidParamsBuilder, Solver};
+/// // WCSPH water with a faster speed of sound (less compression, smaller substeps).
+/// let params = FluidParamsBuilder::water(0.05)
+///     .solver(Solver::Wcsph)
+///     .equation_of_state(EquationOfState::Tait { speed_of_sound: 60.0, exponent: 7.0 })
+///     .build()?;
+/// assert_eq!(params.equation_of_state.speed_of_sound(), 60.0);
+/// // The paper's linear law: its stiffness k is c².
+/// assert_eq!(EquationOfState::Linear { stiffness: 9.0 }.speed_of_sound(), 3.0);
+/// # Ok::<(), rapier_sph::SphError>(())
+/// ```
 #[derive(Copy, Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub enum EquationOfState {
@@ -61,6 +76,23 @@ impl EquationOfState {
 
 /// Parameters of one fluid. Fields are documented with their unit and default; build them
 /// through [`FluidParamsBuilder`] so they are validated.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::{Fluid, FluidParamsBuilder};
+/// let params = FluidParamsBuilder::water(0.04).viscosity(0.2).build()?;
+/// // What the water preset derives from the spacing: h = 2s, mass ρ0·s³.
+/// assert_eq!(params.smoothing_length, 0.08);
+/// assert!((params.particle_mass - 1000.0 * 0.04f32.powi(3)).abs() < 1e-6);
+/// // Edited by hand, the fields are validated again where they are used.
+/// let mut edited = params.clone();
+/// edited.viscosity = -1.0;
+/// assert!(edited.validate().is_err()); // names `viscosity`
+/// assert!(Fluid::new(edited).is_err());
+/// let fluid = Fluid::new(params)?;
+/// assert_eq!(fluid.params().viscosity, 0.2);
+/// # Ok::<(), rapier_sph::SphError>(())
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub struct FluidParams {

@@ -25,7 +25,21 @@ use crate::fluid::Fluid;
 use crate::math::{Real, Vector, is_finite};
 use rapier3d::geometry::ColliderSet;
 
-/// How much fluid a region holds.
+/// How much fluid a region holds ([`Fluid::amount_in`]).
+///
+/// # Examples
+/// ```
+/// use rapier_sph::{Fluid, FluidParamsBuilder, Region, math::Vector};
+/// use rapier_sph::rapier3d::prelude::ColliderSet;
+/// let mut fluid = Fluid::new(FluidParamsBuilder::water(0.1))?;
+/// fluid.add_block(Vector::ZERO, Vector::new(1.0, 0.5, 1.0))?; // 500 particles of 1 kg
+/// let tank = Region::Aabb { min: Vector::ZERO, max: Vector::ONE };
+/// let amount = fluid.amount_in(&tank, &ColliderSet::new());
+/// // A fill-level readout: 0.5 m³, 500 kg.
+/// assert_eq!(amount.particles, 500);
+/// assert!((amount.volume - 0.5).abs() < 1e-4 && (amount.mass - 500.0).abs() < 1e-2);
+/// # Ok::<(), rapier_sph::SphError>(())
+/// ```
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub struct FluidAmount {
     /// Particles inside.
@@ -116,7 +130,7 @@ fn cell_of(x: Vector, h: Real) -> [i64; 3] {
     [c.x as i64, c.y as i64, c.z as i64]
 }
 
-/// What [`FluidSampler::sample`] returns.
+/// What [`FluidSampler::sample`] returns (its example reads one).
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct Sample {
     /// Interpolated density (kg/m³): near `ρ0` inside the fluid, falling to 0 across its
@@ -252,7 +266,8 @@ pub struct RegionTracker {
     scratch: Vec<u32>,
 }
 
-/// What a region saw since the last update.
+/// What a region saw since the last update ([`RegionTracker::update`]; the tracker's
+/// example reads one).
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
 pub struct RegionEvents {
     /// Particles inside now that were not at the last update.

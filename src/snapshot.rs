@@ -174,6 +174,9 @@ impl fmt::Display for SnapshotError {
 impl std::error::Error for SnapshotError {}
 
 /// The whole state as bytes.
+///
+/// # Errors
+/// [`SnapshotError::Encoding`] when the state cannot be encoded.
 pub fn to_bytes(world: &FluidWorld) -> Result<Vec<u8>, SnapshotError> {
     let data = SnapshotRef {
         time_stepping: world.pipeline.time_stepping,
@@ -505,6 +508,9 @@ fn check_references(p: &PhysicsWorld) -> Result<(), SphError> {
 }
 
 /// Writes the whole state to `path`.
+///
+/// # Errors
+/// [`SnapshotError::Io`] naming the file when it cannot be written; [`to_bytes`]'s errors.
 pub fn save(world: &FluidWorld, path: impl AsRef<Path>) -> Result<(), SnapshotError> {
     let path = path.as_ref();
     let bytes = to_bytes(world)?;

@@ -111,6 +111,9 @@ pub fn volume_radius(spacing: Real) -> Real {
 }
 
 /// The surface of one fluid (an empty mesh for an empty fluid).
+///
+/// # Errors
+/// [`SurfaceError`] with splashsurf's message when the reconstruction fails.
 pub fn reconstruct(fluid: &Fluid, options: &SurfaceOptions) -> Result<TriangleMesh, SurfaceError> {
     reconstruct_points(
         fluid.positions(),
@@ -121,6 +124,9 @@ pub fn reconstruct(fluid: &Fluid, options: &SurfaceOptions) -> Result<TriangleMe
 }
 
 /// The surface around `positions`, particles on a lattice of `spacing` at rest.
+///
+/// # Errors
+/// [`SurfaceError`] with splashsurf's message when the reconstruction fails.
 pub fn reconstruct_points(
     positions: &[Vector],
     spacing: Real,
@@ -268,6 +274,9 @@ fn postprocess(r: &mut splashsurf_lib::SurfaceReconstruction<i64, f32>, options:
 }
 
 /// The surfaces of every fluid of the set, in one mesh.
+///
+/// # Errors
+/// [`SurfaceError`] with splashsurf's message when the reconstruction fails.
 pub fn reconstruct_fluids(
     fluids: &FluidSet,
     options: &SurfaceOptions,
@@ -407,6 +416,9 @@ impl SurfaceWorker {
     }
 
     /// The finished mesh, if the worker has one; never waits.
+    ///
+    /// # Errors
+    /// Inside the option: the job's [`SurfaceError`].
     pub fn try_take(&mut self) -> Option<Result<SurfaceFrame, SurfaceError>> {
         let r = self.results.try_recv().ok()?;
         self.busy = false;
@@ -414,6 +426,9 @@ impl SurfaceWorker {
     }
 
     /// Waits for the job in flight; `None` when there is none.
+    ///
+    /// # Errors
+    /// Inside the option: the job's [`SurfaceError`].
     pub fn wait(&mut self) -> Option<Result<SurfaceFrame, SurfaceError>> {
         if !self.busy {
             return None;

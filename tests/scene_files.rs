@@ -45,11 +45,23 @@ fn every_shipped_scene_loads_and_builds() {
 fn the_reference_scene_has_every_shape() {
     let (scene, built) = SceneFile::load_and_build(scenes_dir().join("reference.ron")).unwrap();
     assert_eq!(scene.bodies[0].colliders.len(), 21); // every parry shape, TriMesh inline and from a file, Polyline with and without indices
-    assert_eq!(built.world.physics.colliders.len(), 22);
-    assert_eq!(built.world.physics.bodies.len(), 2);
-    // 7 × 7 × 10 particles in the block (0.3/0.04 → 7, 0.4/0.04 → 10), plus two singles.
+    assert_eq!(built.world.physics.colliders.len(), 23);
+    assert_eq!(built.world.physics.bodies.len(), 3);
+    // 7 × 7 × 10 particles in the block (0.3/0.04 → 7, 0.4/0.04 → 10), two singles, the
+    // fills: the 6 cm ball on the 3 × 3 × 3 lattice at 4 cm less its 8 corners (0.069 m from
+    // the center), and the 10 cm can, 2 × 2 × 2.
     let f = &built.world.fluids[built.fluids[0]];
-    assert_eq!(f.len(), 7 * 7 * 10 + 2);
+    assert_eq!(f.len(), 7 * 7 * 10 + 2 + 19 + 8);
+    // The third emitter rides the can's body.
+    let can = built
+        .named_colliders
+        .iter()
+        .find(|(n, _)| n == "can")
+        .unwrap()
+        .1;
+    let body = built.world.physics.colliders[can].parent().unwrap();
+    let attached: Vec<_> = f.emitters().filter_map(|(_, e)| e.attachment()).collect();
+    assert_eq!(attached, [rapier_sph::Attachment::Body(body)]);
     assert_eq!(f.params().viscosity, 0.5);
     assert_eq!(f.params().wall_viscosity, 0.1);
     assert_eq!(
@@ -678,8 +690,9 @@ fn the_module_docs_example_parses() {
         .collect::<Vec<_>>()
         .join("\n");
     let scene = SceneFile::parse(&text, "docs.ron").unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(scene.fluids[0].emitters.len(), 1);
+    assert_eq!(scene.fluids[0].emitters.len(), 2);
     assert_eq!(scene.fluids[0].sinks.len(), 2);
+    assert_eq!(scene.fluids[0].fill.len(), 2);
 }
 
 /// A fluid's solver and wall densities come from the file, unset fields keep the solver's
@@ -951,4 +964,109 @@ fn file_reads_are_bounded() {
         ));
     }
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A hose carried by a moving pipe, and a tub of water filled from a named sensor and a
+/// shape: the carried nozzle's particles leave with the pipe's velocity, and every name and
+/// every fill that cannot be made is reported at its line and field.
+const CARRIED: &str = "Scene(
+    duration: 1.0,
+    fluids: [
+        Fluid(
+            preset: Water(spacing: 0.05),
+            fill: [
+                Collider(name: \"pool\"),
+                Shape(shape: Cylinder(half_height: 0.1, radius: 0.1), position: (0.5, 0.5, 0.0)),
+            ],
+            emitters: [
+                Emitter(nozzle: Disk(radius: 0.05), position: (0.0, -0.1, 0.0), speed: 1.0,
+                        rate: 200.0, attached_to: Body(collider: \"pipe\")),
+            ],
+        ),
+    ],
+    bodies: [
+        Body(colliders: [
+            Collider(shape: Cuboid(half_extents: (1.0, 0.1, 1.0))),
+            Collider(name: \"pool\", shape: Cuboid(half_extents: (0.2, 0.1, 0.2)), position: (0.0, 0.2, 0.0), sensor: true),
+        ]),
+        Body(kind: KinematicVelocityBased, position: (0.0, 1.0, 0.0), linvel: (0.5, 0.0, 0.0), colliders: [
+            Collider(name: \"pipe\", shape: Cuboid(half_extents: (0.05, 0.05, 0.05)), sensor: true),
+        ]),
+    ],
+)";
+
+#[test]
+fn carried_emitters_and_fills_build_and_their_mistakes_are_located() {
+    let scene = SceneFile::parse(CARRIED, "carried.ron").unwrap();
+    let mut built = scene.build(Path::new("carried.ron"), scenes_dir()).unwrap();
+    let water = built.fluids[0];
+    // The pool: 0.4 × 0.2 × 0.4 m at 5 cm, 8 × 4 × 8 exactly; the cylinder: 4 layers of the
+    // 4 × 4 lattice less its 4 corners (0.106 m from the axis).
+    assert_eq!(built.world.fluids[water].len(), 8 * 4 * 8 + 4 * 12);
+    let before = built.world.fluids[water].len();
+    let ids_before = built.world.fluids[water]
+        .ids()
+        .iter()
+        .copied()
+        .max()
+        .unwrap();
+    for _ in 0..6 {
+        built.world.step().unwrap();
+    }
+    // The jet left the moving pipe with its 0.5 m/s along x (plus its own 1 m/s down).
+    let f = &built.world.fluids[water];
+    assert!(f.len() > before);
+    let jet: Vec<_> = f
+        .ids()
+        .iter()
+        .zip(f.velocities())
+        .filter(|(id, _)| **id > ids_before)
+        .map(|(_, v)| *v)
+        .collect();
+    assert!(!jet.is_empty());
+    assert!(jet.iter().all(|v| (v.x - 0.5).abs() < 0.05), "{jet:?}");
+
+    let bad = |from: &str, to: &str| {
+        assert!(CARRIED.contains(from), "{from}");
+        parse_err(&CARRIED.replacen(from, to, 1))
+    };
+    // Names no collider has, at the name's line, listing the names there are.
+    let (line, _, field, message) = bad("Collider(name: \"pool\"),", "Collider(name: \"poll\"),");
+    assert_eq!(
+        (line, field.as_str()),
+        (7, "fluids[0].fill[0].Collider.name")
+    );
+    assert!(
+        message.contains("`poll`") && message.contains("`pool`"),
+        "{message}"
+    );
+    // (An emitter is checked as a whole where its entry ends: its errors point at the entry.)
+    let (line, _, field, _) = bad("Body(collider: \"pipe\")", "Body(collider: \"pip\")");
+    assert_eq!(
+        (line, field.as_str()),
+        (12, "fluids[0].emitters[0].attached_to.Body.collider")
+    );
+    let (line, _, field, _) = bad("Body(collider: \"pipe\")", "Collider(name: \"pip\")");
+    assert_eq!(
+        (line, field.as_str()),
+        (12, "fluids[0].emitters[0].attached_to.Collider.name")
+    );
+    // A shape that cannot be filled: a bad size as it is read, an unbounded one (whose box
+    // would hold more particles than memory) when built.
+    let (line, _, field, _) = bad("radius: 0.1)", "radius: -0.1)");
+    assert_eq!(line, 8);
+    assert!(field.starts_with("fluids[0].fill[1]"), "{field}");
+    let text = CARRIED.replacen(
+        "Cylinder(half_height: 0.1, radius: 0.1)",
+        "HalfSpace(normal: (0.0, 1.0, 0.0))",
+        1,
+    );
+    let scene = SceneFile::parse(&text, "unbounded.ron").unwrap();
+    match scene.build(Path::new("unbounded.ron"), scenes_dir()) {
+        Err(SceneError::Invalid { field, message, .. }) => {
+            assert_eq!(field, "fluids[0].fill[1]");
+            assert!(message.contains("`shape`"), "{message}");
+        }
+        other => panic!("expected an invalid fill, got {:?}", other.err()),
+    }
 }

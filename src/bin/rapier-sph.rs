@@ -249,12 +249,42 @@ fn describe_fluid(
                 None => String::new(),
             }
         );
+        if let Some(a) = e.attachment() {
+            println!("      carried by {}", describe_carrier(a, built));
+        }
     }
     for (j, (_, s)) in f.sinks().enumerate() {
         println!(
             "    sink {j}: {}",
             describe_sink(&s.region(), &built.named_colliders)
         );
+    }
+}
+
+/// What carries an emitter, named through the scene's named colliders.
+fn describe_carrier(
+    a: rapier_sph::Attachment,
+    built: &rapier_sph::scene_file::BuiltScene,
+) -> String {
+    let colliders = &built.world.physics.colliders;
+    let name = |pick: &dyn Fn(ColliderHandle) -> bool| {
+        built
+            .named_colliders
+            .iter()
+            .find(|(_, h)| pick(*h))
+            .map_or("?".to_string(), |(n, _)| format!("`{n}`"))
+    };
+    match a {
+        rapier_sph::Attachment::Collider(h) => {
+            format!(
+                "the collider {} (position and direction in its frame)",
+                name(&|c| c == h)
+            )
+        }
+        rapier_sph::Attachment::Body(b) => format!(
+            "the body of the collider {} (position and direction in its frame)",
+            name(&|c| colliders.get(c).and_then(|c| c.parent()) == Some(b))
+        ),
     }
 }
 

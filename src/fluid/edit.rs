@@ -8,6 +8,22 @@ use crate::params::{FluidParams, FluidParamsBuilder};
 /// What [`Fluid::new`] accepts: [`FluidParams`] (validated again) or a [`FluidParamsBuilder`]
 /// (built, which validates), so `Fluid::new(FluidParamsBuilder::water(0.05))?` is one fallible
 /// call.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::{Fluid, FluidParamsBuilder, IntoFluidParams};
+/// let from_builder = Fluid::new(FluidParamsBuilder::water(0.05))?;
+/// let params = FluidParamsBuilder::water(0.05).build()?;
+/// let from_params = Fluid::new(params.clone())?;
+/// assert_eq!(from_builder.params(), from_params.params());
+/// // A function of the game's own that takes either.
+/// fn spacing(p: impl IntoFluidParams) -> rapier_sph::SphResult<f32> {
+///     Ok(p.into_fluid_params()?.particle_spacing)
+/// }
+/// assert_eq!(spacing(params)?, 0.05);
+/// assert!(spacing(FluidParamsBuilder::water(-1.0)).is_err()); // names the field
+/// # Ok::<(), rapier_sph::SphError>(())
+/// ```
 pub trait IntoFluidParams {
     /// The parameters, validated.
     ///

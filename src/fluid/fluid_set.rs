@@ -1,7 +1,21 @@
 use super::Fluid;
 use crate::error::{SphError, SphResult};
 
-/// A generational handle naming one fluid of a [`FluidSet`].
+/// A generational handle naming one fluid of a [`FluidSet`]: a removed fluid's handle never
+/// names another fluid later inserted in its place.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::{Fluid, FluidParamsBuilder, FluidSet};
+/// let mut fluids = FluidSet::new();
+/// let water = fluids.insert(Fluid::new(FluidParamsBuilder::water(0.05))?);
+/// assert_eq!(fluids[water].params().rest_density, 1000.0);
+/// fluids.remove(water)?;
+/// let oil = fluids.insert(Fluid::new(FluidParamsBuilder::water(0.05).rest_density(900.0))?);
+/// assert!(fluids.get(water).is_none()); // the old handle is stale, not the oil
+/// assert!(fluids.get(oil).is_some());
+/// # Ok::<(), rapier_sph::SphError>(())
+/// ```
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
 pub struct FluidHandle {
     index: u32,
@@ -71,6 +85,10 @@ impl FluidSet {
     }
 
     /// Removes a fluid, returning it.
+    ///
+    /// # Errors
+    /// [`SphError::InvalidParameter`] when the handle names no fluid of the set (removed
+    /// already, or from another set).
     pub fn remove(&mut self, handle: FluidHandle) -> SphResult<Fluid> {
         match self.entries.get(handle.index as usize) {
             Some(Entry::Occupied { generation, .. }) if *generation == handle.generation => {

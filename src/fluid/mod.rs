@@ -204,12 +204,21 @@ impl Fluid {
 
     /// Adds particles at rest. Returns the range of their ids. Refuses non-finite positions
     /// with [`SphError::InvalidParticle`] (and then adds nothing).
+    ///
+    /// # Errors
+    /// [`SphError::InvalidParticle`] naming the first non-finite position or one beyond
+    /// 10,000 km; [`SphError::InvalidParameter`] when the fluid's capacity or memory is
+    /// exceeded. Nothing is added on error.
     pub fn add_particles(&mut self, positions: &[Vector]) -> SphResult<std::ops::Range<u32>> {
         self.add_particles_with_velocities(positions, None)
     }
 
     /// Adds particles with initial velocities (`velocities.len()` must equal
     /// `positions.len()`). Returns the range of their ids.
+    ///
+    /// # Errors
+    /// [`Fluid::add_particles`]'s, and [`SphError::InvalidParticle`] when the lengths
+    /// differ or a velocity is not finite. Nothing is added on error.
     pub fn add_particles_with_velocities(
         &mut self,
         positions: &[Vector],

@@ -86,6 +86,9 @@ impl ParticleData {
     }
 
     /// Checks that every attribute has one value per particle.
+    ///
+    /// # Errors
+    /// [`ExportError::Inconsistent`] naming the attribute whose length differs.
     pub fn check(&self) -> Result<(), ExportError> {
         let n = self.positions.len();
         let lens = [

@@ -8,6 +8,10 @@ use std::path::Path;
 /// Writes a triangle mesh as OBJ text (`v x y z` lines, then `f a b c` with 1-based indices).
 /// Floats are printed with Rust's shortest round-trip representation, so reading the file
 /// back gives bitwise the same vertices.
+///
+/// # Errors
+/// [`super::ExportError::Io`] naming the file when it cannot be created or written;
+/// [`super::ExportError::Format`] with the format library's message.
 pub fn write_mesh_obj(path: impl AsRef<Path>, mesh: &TriangleMesh) -> Result<(), ExportError> {
     let path = path.as_ref();
     check_mesh(mesh, path)?;
@@ -34,6 +38,11 @@ pub fn write_mesh_obj(path: impl AsRef<Path>, mesh: &TriangleMesh) -> Result<(),
 /// Reads every model of an OBJ file into one triangle mesh (polygons are triangulated by
 /// `tobj`). Files beyond [`super::MAX_FILE_BYTES`], and what is not a regular file, are
 /// refused before they are read.
+///
+/// # Errors
+/// [`super::ExportError::Io`] naming the file when it cannot be read (missing, too large, not a
+/// regular file); [`super::ExportError::Format`] or [`super::ExportError::Inconsistent`] when
+/// its contents are not what the writer above writes.
 pub fn read_mesh_obj(path: impl AsRef<Path>) -> Result<TriangleMesh, ExportError> {
     let path = path.as_ref();
     let options = tobj::LoadOptions {

@@ -61,6 +61,12 @@ fn uint(e: &DefaultElement, key: &str, path: &Path) -> Result<u32, ExportError> 
 
 /// Writes particles as PLY vertices with properties `x y z vx vy vz density pressure`
 /// (float) and `fluid_id id` (uint).
+///
+/// # Errors
+/// [`super::ExportError::Io`] naming the file when it cannot be created or written;
+/// [`super::ExportError::Inconsistent`] when the data's attributes differ in length
+/// ([`super::ParticleData::check`]), [`super::ExportError::Format`] with the format library's
+/// message.
 pub fn write_particles_ply(path: impl AsRef<Path>, data: &ParticleData) -> Result<(), ExportError> {
     let path = path.as_ref();
     data.check()?;
@@ -108,6 +114,11 @@ pub fn write_particles_ply(path: impl AsRef<Path>, data: &ParticleData) -> Resul
 ///
 /// Files beyond [`super::MAX_FILE_BYTES`], and what is not a regular file (a device, a pipe),
 /// are refused with [`ExportError::Io`] before they are read.
+///
+/// # Errors
+/// [`super::ExportError::Io`] naming the file when it cannot be read (missing, too large, not a
+/// regular file); [`super::ExportError::Format`] or [`super::ExportError::Inconsistent`] when
+/// its contents are not what the writer above writes.
 pub fn read_particles_ply(path: impl AsRef<Path>) -> Result<ParticleData, ExportError> {
     let path = path.as_ref();
     let ply = read(path)?;
@@ -129,6 +140,10 @@ pub fn read_particles_ply(path: impl AsRef<Path>) -> Result<ParticleData, Export
 }
 
 /// Writes a triangle mesh as PLY (`vertex` with `x y z`, `face` with `vertex_indices`).
+///
+/// # Errors
+/// [`super::ExportError::Io`] naming the file when it cannot be created or written;
+/// [`super::ExportError::Format`] with the format library's message.
 pub fn write_mesh_ply(path: impl AsRef<Path>, mesh: &TriangleMesh) -> Result<(), ExportError> {
     let path = path.as_ref();
     check_mesh(mesh, path)?;
@@ -176,6 +191,11 @@ pub fn write_mesh_ply(path: impl AsRef<Path>, mesh: &TriangleMesh) -> Result<(),
 ///
 /// Files beyond [`super::MAX_FILE_BYTES`], and what is not a regular file (a device, a pipe),
 /// are refused with [`ExportError::Io`] before they are read.
+///
+/// # Errors
+/// [`super::ExportError::Io`] naming the file when it cannot be read (missing, too large, not a
+/// regular file); [`super::ExportError::Format`] or [`super::ExportError::Inconsistent`] when
+/// its contents are not what the writer above writes.
 pub fn read_mesh_ply(path: impl AsRef<Path>) -> Result<TriangleMesh, ExportError> {
     let path = path.as_ref();
     let ply = read(path)?;

@@ -42,6 +42,12 @@ fn import(path: &Path) -> Result<PolyDataPiece, ExportError> {
 
 /// Writes particles as VTK `POLYDATA`: one vertex cell per particle, point data `velocity`
 /// (vectors), `density`, `pressure` (f32 scalars), `fluid_id`, `id` (u32 scalars).
+///
+/// # Errors
+/// [`super::ExportError::Io`] naming the file when it cannot be created or written;
+/// [`super::ExportError::Inconsistent`] when the data's attributes differ in length
+/// ([`super::ParticleData::check`]), [`super::ExportError::Format`] with the format library's
+/// message.
 pub fn write_particles_vtk(path: impl AsRef<Path>, data: &ParticleData) -> Result<(), ExportError> {
     let path = path.as_ref();
     data.check()?;
@@ -123,6 +129,11 @@ fn points(piece: &PolyDataPiece, path: &Path) -> Result<Vec<crate::math::Vector>
 ///
 /// Files beyond [`super::MAX_FILE_BYTES`], and what is not a regular file (a device, a pipe),
 /// are refused with [`ExportError::Io`] before they are read.
+///
+/// # Errors
+/// [`super::ExportError::Io`] naming the file when it cannot be read (missing, too large, not a
+/// regular file); [`super::ExportError::Format`] or [`super::ExportError::Inconsistent`] when
+/// its contents are not what the writer above writes.
 pub fn read_particles_vtk(path: impl AsRef<Path>) -> Result<ParticleData, ExportError> {
     let path = path.as_ref();
     let piece = import(path)?;
@@ -139,6 +150,10 @@ pub fn read_particles_vtk(path: impl AsRef<Path>) -> Result<ParticleData, Export
 }
 
 /// Writes a triangle mesh as VTK `POLYDATA` polygons.
+///
+/// # Errors
+/// [`super::ExportError::Io`] naming the file when it cannot be created or written;
+/// [`super::ExportError::Format`] with the format library's message.
 pub fn write_mesh_vtk(path: impl AsRef<Path>, mesh: &TriangleMesh) -> Result<(), ExportError> {
     let path = path.as_ref();
     check_mesh(mesh, path)?;
@@ -164,6 +179,11 @@ pub fn write_mesh_vtk(path: impl AsRef<Path>, mesh: &TriangleMesh) -> Result<(),
 ///
 /// Files beyond [`super::MAX_FILE_BYTES`], and what is not a regular file (a device, a pipe),
 /// are refused with [`ExportError::Io`] before they are read.
+///
+/// # Errors
+/// [`super::ExportError::Io`] naming the file when it cannot be read (missing, too large, not a
+/// regular file); [`super::ExportError::Format`] or [`super::ExportError::Inconsistent`] when
+/// its contents are not what the writer above writes.
 pub fn read_mesh_vtk(path: impl AsRef<Path>) -> Result<TriangleMesh, ExportError> {
     let path = path.as_ref();
     let piece = import(path)?;

@@ -80,6 +80,19 @@ pub trait Kernel: Copy + Send + Sync + 'static {
 }
 
 /// Which kernel a stage uses. Chosen per fluid in [`crate::FluidParams`].
+///
+/// # Examples
+/// ```
+/// use rapier_sph::{FluidParamsBuilder, KernelKind};
+/// let params = FluidParamsBuilder::water(0.05)
+///     .density_kernel(KernelKind::WendlandC2)
+///     .build()?;
+/// assert_eq!(params.density_kernel, KernelKind::WendlandC2);
+/// // Every kernel vanishes at its support radius h.
+/// let h = params.smoothing_length;
+/// assert!(KernelKind::ALL.iter().all(|k| k.w(h, h).abs() < 1e-6));
+/// # Ok::<(), rapier_sph::SphError>(())
+/// ```
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub enum KernelKind {

@@ -45,6 +45,18 @@ pub struct WaterSurface {
 }
 
 /// The fluid's column at a horizontal point (see [`WaterSurface::column`]).
+///
+/// # Examples
+/// ```
+/// use rapier_sph::{Fluid, FluidParamsBuilder, WaterSurface, math::Vector};
+/// let mut pool = Fluid::new(FluidParamsBuilder::water(0.05))?;
+/// pool.add_block(Vector::ZERO, Vector::new(1.0, 0.3, 1.0))?; // 6 layers, 0.3 m deep
+/// let column = WaterSurface::new(&pool).column(0.5, 0.5)?.expect("water there");
+/// // A splash or a boat reads the surface and the depth under it.
+/// assert!((column.surface - 0.3).abs() < 1e-4);
+/// assert!((column.depth() - 0.3).abs() < 1e-4);
+/// # Ok::<(), rapier_sph::SphError>(())
+/// ```
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct WaterColumn {
     /// Height of the water's surface (m).

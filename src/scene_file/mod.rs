@@ -20,6 +20,10 @@
 //!             preset: Water(spacing: 0.05),   // or Paper
 //!             viscosity: 0.2,                 // any parameter of FluidParams may be overridden
 //!             blocks: [Block(min: (-0.25, 0.1, -0.25), size: (0.5, 0.5, 0.5))],
+//!             fill: [                         // any shape, filled on the fluid's lattice
+//!                 Collider(name: "pool"),     // a named collider's volume (a sensor, say)
+//!                 Shape(shape: Cylinder(half_height: 0.2, radius: 0.1), position: (0.6, 0.3, 0.0)),
+//!             ],
 //!             emitters: [
 //!                 Emitter(
 //!                     nozzle: Disk(radius: 0.08),     // or Square(half_width: ..), Sphere(radius: ..)
@@ -31,6 +35,11 @@
 //!                     start: 0.0, stop: 5.0,          // s on the emitter's clock (default 0, never)
 //!                     budget: 2000,                   // particles in all (default: no limit)
 //!                 ),
+//!                 // A hose carried by the body of the collider "nozzle": position and
+//!                 // direction in the body's frame, particles leave with its velocity.
+//!                 // (`attached_to: Collider(name: "nozzle")` follows the collider itself.)
+//!                 Emitter(nozzle: Disk(radius: 0.03), position: (0.0, -0.1, 0.0), speed: 1.0,
+//!                         rate: 300.0, attached_to: Body(collider: "nozzle")),
 //!             ],
 //!             sinks: [
 //!                 Sink(region: Collider(name: "drain")),  // reach: 0.05 (default: one spacing)
@@ -45,10 +54,14 @@
 //!             Collider(shape: Cuboid(half_extents: (1.0, 0.1, 1.0))),
 //!             Collider(shape: TriMeshFile(path: "bowl.obj", scale: (1.0, 1.0, 1.0)), position: (0.0, 0.5, 0.0)),
 //!             Collider(name: "drain", shape: Ball(radius: 0.1), position: (0.8, 0.2, 0.0), sensor: true),
+//!             Collider(name: "pool", shape: Cuboid(half_extents: (0.3, 0.05, 0.3)), position: (0.0, 0.15, 0.0), sensor: true),
 //!         ]),
 //!         // A kinematic paddle wheel turning at 4 rad/s about z.
 //!         Body(kind: KinematicVelocityBased, position: (0.5, 0.4, 0.0), angvel: (0.0, 0.0, 4.0),
 //!              colliders: [Collider(shape: Cuboid(half_extents: (0.12, 0.01, 0.2)))]),
+//!         // A pipe moving at 0.2 m/s, carrying the hose above.
+//!         Body(kind: KinematicVelocityBased, position: (-0.5, 1.0, 0.0), linvel: (0.2, 0.0, 0.0),
+//!              colliders: [Collider(name: "nozzle", shape: Cuboid(half_extents: (0.05, 0.05, 0.05)))]),
 //!     ],
 //!     camera: Orbit(target: (0.0, 0.3, 0.0), distance: 3.0, azimuth: 30.0, elevation: 25.0),
 //! )
@@ -60,8 +73,9 @@
 //! validated as a whole when its entry ends; so are emitters, sinks, bodies and shapes (an
 //! emitter whose `stop` is before its `start`, a sink box with `max` below `min`, a velocity
 //! on a body that cannot keep one, a mesh index past its vertices, a degenerate hull).
-//! Collider names are checked once the whole file is read: a sink that names no collider, or
-//! two colliders with one name, is reported at the name's line. So are the bounds on the work
+//! Collider names are checked once the whole file is read: a sink, a fill or an emitter's
+//! `attached_to` that names no collider, or two colliders with one name, is reported at the
+//! name's line. So are the bounds on the work
 //! a scene asks for ([`MAX_STEPS_PER_FRAME`], [`MAX_FRAMES`]) and on its particles (a fluid's
 //! count and memory, nozzles, capacities: see [`crate::fluid::MAX_PARTICLES`]), each at its
 //! field's line; [`SceneFile::load_and_build`] reports what fails when the scene is built (a
@@ -81,7 +95,10 @@ mod sources;
 mod values;
 
 pub use shapes::{CompoundPart, ShapeDesc};
-pub use sources::{ColliderName, ColliderRef, EmitterDesc, NozzleDesc, SinkDesc, SinkRegionDesc};
+pub use sources::{
+    AttachmentDesc, ColliderName, ColliderRef, EmitterDesc, FillDesc, NozzleDesc, SinkDesc,
+    SinkRegionDesc,
+};
 pub use values::{Finite, NonNegative, Positive, PositiveVec3, Vec3};
 
 use crate::error::SphError;
@@ -444,6 +461,10 @@ pub struct FluidDesc {
     /// Single particles (positions, m), at rest.
     #[serde(default)]
     pub particles: Vec<Vec3>,
+    /// Volumes filled with particles at rest on the fluid's lattice: a named collider's
+    /// ([`Fluid::fill_collider`]) or a shape's ([`Fluid::fill_shape`]).
+    #[serde(default)]
+    pub fill: Vec<FillDesc>,
     /// Nozzles that add particles while the scene runs ([`crate::Emitter`]).
     #[serde(default, deserialize_with = "values::checked_vec")]
     pub emitters: Vec<EmitterDesc>,
@@ -458,6 +479,9 @@ pub struct FluidDesc {
 
 impl FluidDesc {
     /// The validated parameters: the preset with the overrides applied.
+    ///
+    /// # Errors
+    /// [`FluidParamsBuilder::build`]'s errors, naming the parameter.
     pub fn params(&self) -> Result<FluidParams, SphError> {
         let mut b = match &self.preset {
             Preset::Water { spacing } => FluidParamsBuilder::water(spacing.0),
@@ -903,14 +927,9 @@ impl SceneFile {
             }
         }
         for (fi, f) in self.fluids.iter().enumerate() {
-            for (si, s) in f.sinks.iter().enumerate() {
-                if let SinkRegionDesc::Collider { name, .. } = &s.region
-                    && !names.contains(&name.0)
-                {
-                    return Err((
-                        format!("fluids[{fi}].sinks[{si}].region.Collider.name"),
-                        sources::unknown_name(&name.0, &names),
-                    ));
+            for (field, name) in fluid_names(fi, f) {
+                if !names.contains(name) {
+                    return Err((field, sources::unknown_name(name, &names)));
                 }
             }
         }
@@ -970,6 +989,11 @@ impl SceneFile {
 
     /// Builds the world. Relative mesh paths are resolved against `base_dir` (the scene
     /// file's folder); `path` names the scene in errors.
+    ///
+    /// # Errors
+    /// [`SceneError::Invalid`] naming the field: a collider name no collider has, a mesh file
+    /// that cannot be read, a fill or a fluid the crate refuses (too many particles for
+    /// memory, an unbounded shape).
     pub fn build(&self, path: &Path, base_dir: &Path) -> Result<BuiltScene, SceneError> {
         self.check_names().map_err(|(f, m)| invalid(path, f, m))?;
         let mut world = FluidWorld::new();
@@ -1025,6 +1049,38 @@ impl SceneFile {
             Err(e) => Err(e),
         }
     }
+}
+
+/// The collider names fluid `fi` refers to (its sinks, fills and emitters' carriers), each
+/// with its field.
+fn fluid_names(fi: usize, f: &FluidDesc) -> Vec<(String, &str)> {
+    let mut out = Vec::new();
+    for (k, s) in f.sinks.iter().enumerate() {
+        if let SinkRegionDesc::Collider { name, .. } = &s.region {
+            out.push((
+                format!("fluids[{fi}].sinks[{k}].region.Collider.name"),
+                &*name.0,
+            ));
+        }
+    }
+    for (k, fill) in f.fill.iter().enumerate() {
+        if let FillDesc::Collider { name } = fill {
+            out.push((format!("fluids[{fi}].fill[{k}].Collider.name"), &*name.0));
+        }
+    }
+    for (k, e) in f.emitters.iter().enumerate() {
+        let field = match &e.attached_to {
+            Some(AttachmentDesc::Collider { .. }) => "Collider.name",
+            Some(AttachmentDesc::Body { .. }) => "Body.collider",
+            None => continue,
+        };
+        let name = e.attached_to.as_ref().map_or("", |a| a.collider_name());
+        out.push((
+            format!("fluids[{fi}].emitters[{k}].attached_to.{field}"),
+            name,
+        ));
+    }
+    out
 }
 
 /// A [`SceneError::Parse`] at the place `field` is written in `text`.
@@ -1208,6 +1264,10 @@ impl WorldBuilder<'_> {
         fluid
             .add_particles(&points)
             .map_err(|e| self.invalid(field(".particles"), e.to_string()))?;
+        for (k, fill) in f.fill.iter().enumerate() {
+            self.add_fill(&mut fluid, fill)
+                .map_err(|m| self.invalid(field(&format!(".fill[{k}]")), m))?;
+        }
         self.add_sources(fi, f, &mut fluid)?;
         if f.capacity.is_some() {
             fluid
@@ -1217,28 +1277,67 @@ impl WorldBuilder<'_> {
         Ok(self.world.fluids.insert(fluid))
     }
 
-    /// Adds fluid `fi`'s emitters (at the fluid's spacing) and sinks (their collider names
-    /// resolved against the colliders inserted so far) to `fluid`.
+    /// The collider named `name`, among those inserted so far.
+    fn collider(&self, name: &str) -> Option<ColliderHandle> {
+        self.named_colliders
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, h)| *h)
+    }
+
+    /// Fills `fluid` with the particles of `fill`; the error is the message.
+    fn add_fill(&self, fluid: &mut Fluid, fill: &FillDesc) -> Result<(), String> {
+        match fill {
+            FillDesc::Collider { name } => {
+                let handle = self
+                    .collider(&name.0)
+                    .ok_or_else(|| format!("no collider is named `{}`", name.0))?;
+                fluid.fill_collider(handle, &self.world.physics.colliders)
+            }
+            FillDesc::Shape {
+                shape,
+                position,
+                rotation,
+            } => {
+                let shape = shape.build(self.base_dir)?;
+                let pose = crate::math::Pose::from_parts(
+                    position.vector(),
+                    Rotation::from_scaled_axis(rotation.vector()),
+                );
+                fluid.fill_shape(&*shape, &pose)
+            }
+        }
+        .map(|_| ())
+        .map_err(|e| e.to_string())
+    }
+
+    /// Adds fluid `fi`'s emitters (at the fluid's spacing, attached to their carriers) and
+    /// sinks (their collider names resolved against the colliders inserted so far) to `fluid`.
     fn add_sources(&self, fi: usize, f: &FluidDesc, fluid: &mut Fluid) -> Result<(), SceneError> {
         let spacing = fluid.params().particle_spacing;
+        let physics = &self.world.physics;
         for (k, e) in f.emitters.iter().enumerate() {
             let field = format!("fluids[{fi}].emitters[{k}]");
             let emitter = e
                 .emitter(spacing)
                 .map_err(|m| self.invalid(field.clone(), m))?;
-            fluid
+            let handle = fluid
                 .add_emitter(emitter)
-                .map_err(|e| self.invalid(field, e.to_string()))?;
+                .map_err(|e| self.invalid(field.clone(), e.to_string()))?;
+            if let Some(a) = &e.attached_to {
+                let field = format!("{field}.attached_to");
+                let to = a
+                    .attachment(|n| self.collider(n), &physics.colliders)
+                    .map_err(|m| self.invalid(field.clone(), m))?;
+                fluid
+                    .attach_emitter(handle, to, &physics.bodies, &physics.colliders)
+                    .map_err(|e| self.invalid(field, e.to_string()))?;
+            }
         }
         for (k, s) in f.sinks.iter().enumerate() {
             let field = format!("fluids[{fi}].sinks[{k}]");
             let sink = s
-                .sink(|name| {
-                    self.named_colliders
-                        .iter()
-                        .find(|(n, _)| n == name)
-                        .map(|(_, h)| *h)
-                })
+                .sink(|name| self.collider(name))
                 .map_err(|m| self.invalid(field.clone(), m))?;
             fluid
                 .add_sink(sink)

@@ -222,6 +222,10 @@ impl super::values::Validate for ShapeDesc {
 
 impl ShapeDesc {
     /// Builds the parry shape; relative file paths are resolved against `base_dir`.
+    ///
+    /// # Errors
+    /// A message when a mesh file cannot be read or a shape is degenerate (a hull of
+    /// collinear points, an index past the vertices).
     pub fn build(&self, base_dir: &Path) -> Result<SharedShape, String> {
         Ok(match self {
             ShapeDesc::Ball { radius } => SharedShape::ball(radius.0),

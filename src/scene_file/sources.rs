@@ -1,9 +1,10 @@
-//! Emitters, sinks and collider names, as written in a scene file.
+//! Emitters, sinks, fills and collider names, as written in a scene file.
 
+use super::shapes::ShapeDesc;
 use super::values::{NonNegative, Positive, Vec3};
-use crate::emitter::{Emitter, Nozzle, Region, Sink};
+use crate::emitter::{Attachment, Emitter, Nozzle, Region, Sink};
 use crate::math::Real;
-use rapier3d::geometry::ColliderHandle;
+use rapier3d::geometry::{ColliderHandle, ColliderSet};
 use serde::{Deserialize, Serialize};
 use std::cell::RefCell;
 use std::collections::BTreeSet;
@@ -75,6 +76,83 @@ pub struct EmitterDesc {
     /// Off: its clock runs, nothing is emitted. Default `true`.
     #[serde(default = "yes")]
     pub enabled: bool,
+    /// What carries the emitter ([`crate::Fluid::attach_emitter`]): its `position` and
+    /// `direction` are then in the carrier's frame, and its particles leave with the
+    /// carrier's velocity. Default: nothing (a fixed nozzle in the world's frame).
+    #[serde(default)]
+    pub attached_to: Option<AttachmentDesc>,
+}
+
+/// What carries an emitter ([`Attachment`]), named through a collider of the file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum AttachmentDesc {
+    /// The collider named `name` ([`Attachment::Collider`]).
+    Collider {
+        /// The collider's name.
+        name: ColliderRef,
+    },
+    /// The body that carries the collider named `collider` ([`Attachment::Body`]).
+    Body {
+        /// The name of one of the body's colliders.
+        collider: ColliderRef,
+    },
+}
+
+impl AttachmentDesc {
+    /// The name of the collider it refers to.
+    pub fn collider_name(&self) -> &str {
+        match self {
+            AttachmentDesc::Collider { name } => &name.0,
+            AttachmentDesc::Body { collider } => &collider.0,
+        }
+    }
+
+    /// The attachment, `collider` resolving the name to a collider of `colliders`.
+    ///
+    /// # Errors
+    /// A message when the name is unknown or the collider has no body (for `Body`).
+    pub fn attachment(
+        &self,
+        collider: impl Fn(&str) -> Option<ColliderHandle>,
+        colliders: &ColliderSet,
+    ) -> Result<Attachment, String> {
+        let name = self.collider_name();
+        let handle = collider(name).ok_or_else(|| format!("no collider is named `{name}`"))?;
+        match self {
+            AttachmentDesc::Collider { .. } => Ok(Attachment::Collider(handle)),
+            AttachmentDesc::Body { .. } => colliders
+                .get(handle)
+                .and_then(|c| c.parent())
+                .map(Attachment::Body)
+                .ok_or_else(|| format!("the collider `{name}` is on no body")),
+        }
+    }
+}
+
+/// A volume filled with particles at rest on the fluid's lattice ([`crate::Fluid::fill_shape`]):
+/// a named collider of the file (typically a sensor marking a pool's water) or a shape
+/// given here.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum FillDesc {
+    /// The shape and pose of the collider named `name` ([`crate::Fluid::fill_collider`]).
+    Collider {
+        /// The collider's name.
+        name: ColliderRef,
+    },
+    /// A shape at a pose: the volume to fill, not a collider.
+    Shape {
+        /// The shape (bounded: not a half-space), checked as it is read.
+        #[serde(deserialize_with = "super::values::checked")]
+        shape: ShapeDesc,
+        /// Position (m).
+        #[serde(default)]
+        position: Vec3,
+        /// Rotation (rotation vector, rad).
+        #[serde(default)]
+        rotation: Vec3,
+    },
 }
 
 fn default_direction() -> Vec3 {
@@ -85,7 +163,12 @@ fn yes() -> bool {
 }
 
 impl EmitterDesc {
-    /// The emitter for a fluid of particle spacing `spacing` (m), validated.
+    /// The emitter for a fluid of particle spacing `spacing` (m), validated (not yet
+    /// attached: see [`AttachmentDesc::attachment`]).
+    ///
+    /// # Errors
+    /// A message naming what is wrong: both or neither of `rate` and `rate_fraction`, or
+    /// what [`Emitter::validate`] refuses.
     pub fn emitter(&self, spacing: Real) -> Result<Emitter, String> {
         let mut e = Emitter::new(
             (&self.nozzle).into(),
@@ -167,6 +250,9 @@ pub struct SinkDesc {
 
 impl SinkDesc {
     /// The sink, validated; `collider` resolves a collider name to its handle.
+    ///
+    /// # Errors
+    /// A message when a collider name is unknown or [`Sink::validate`] refuses the sink.
     pub fn sink(&self, collider: impl Fn(&str) -> Option<ColliderHandle>) -> Result<Sink, String> {
         let region = match &self.region {
             SinkRegionDesc::Aabb { min, max } => Region::Aabb {

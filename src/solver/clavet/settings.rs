@@ -4,6 +4,19 @@
 use crate::math::Real;
 
 /// Settings of the double-density relaxation.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::{Clavet, Fluid, FluidParamsBuilder, Solver, math::Vector};
+/// // A stiffer relaxation (1.5 × the default stiffness) for a splashy, cheap liquid.
+/// let solver = Solver::Clavet(Clavet { stiffness: 1.5, ..Clavet::default() });
+/// let mut goo = Fluid::new(FluidParamsBuilder::water(0.05).solver(solver))?;
+/// goo.add_block(Vector::ZERO, Vector::splat(0.2))?;
+/// assert!(!goo.params().wall_density); // Clavet's default: walls by contact only
+/// let bad = Solver::Clavet(Clavet { stiffness: -1.0, ..Clavet::default() });
+/// assert!(Fluid::new(FluidParamsBuilder::water(0.05).solver(bad)).is_err());
+/// # Ok::<(), rapier_sph::SphError>(())
+/// ```
 #[derive(Copy, Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub struct Clavet {
@@ -75,6 +88,24 @@ fn default_cohesion() -> Real {
 }
 
 /// Settings of the viscoelastic springs ([`super::Clavet::springs`]).
+///
+/// # Examples
+/// ```
+/// use rapier_sph::{Clavet, FluidParamsBuilder, Solver, Springs};
+/// // Slime: Clavet's relaxation with springs that forget a deformation in about 0.5 s.
+/// let slime = Solver::Clavet(Clavet {
+///     springs: Some(Springs { plasticity: 2.0, ..Springs::default() }),
+///     ..Clavet::default()
+/// });
+/// let params = FluidParamsBuilder::water(0.05).solver(slime).build()?;
+/// assert!(matches!(params.solver, Solver::Clavet(c) if c.springs.is_some()));
+/// let bad = Solver::Clavet(Clavet {
+///     springs: Some(Springs { yield_ratio: -0.1, ..Springs::default() }),
+///     ..Clavet::default()
+/// });
+/// assert!(FluidParamsBuilder::water(0.05).solver(bad).build().is_err());
+/// # Ok::<(), rapier_sph::SphError>(())
+/// ```
 #[derive(Copy, Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub struct Springs {

@@ -5,6 +5,25 @@ use crate::math::Real;
 
 /// Settings of the DFSPH solver. Defaults follow Bender & Koschier (2017): 0.1 % average
 /// density error, 1 % divergence error.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::{Dfsph, FluidParamsBuilder, Solver};
+/// // The water preset's solver, with a looser target and cheaper walls for a game's
+/// // background water (pressures next to walls are then about 15 % high).
+/// let params = FluidParamsBuilder::water(0.05)
+///     .solver(Solver::Dfsph(Dfsph {
+///         max_density_error: 0.005,
+///         hydrostatic_walls: false,
+///         ..Dfsph::default()
+///     }))
+///     .build()?;
+/// assert!(matches!(params.solver, Solver::Dfsph(d) if d.max_density_error == 0.005));
+/// // Bad settings are refused when the parameters are built, naming the field.
+/// let bad = Solver::Dfsph(Dfsph { max_iterations: 0, ..Dfsph::default() });
+/// assert!(FluidParamsBuilder::water(0.05).solver(bad).build().is_err());
+/// # Ok::<(), rapier_sph::SphError>(())
+/// ```
 #[derive(Copy, Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub struct Dfsph {

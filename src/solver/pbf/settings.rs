@@ -4,6 +4,20 @@
 use crate::math::Real;
 
 /// Settings of the PBF solver (defaults from Macklin & Müller 2013).
+///
+/// # Examples
+/// ```
+/// use rapier_sph::{FluidParamsBuilder, Pbf, Solver};
+/// // PBF with two more iterations than its default 4: stiffer water at a fixed cost.
+/// let params = FluidParamsBuilder::water(0.05)
+///     .solver(Solver::Pbf(Pbf { iterations: 6, ..Pbf::default() }))
+///     .build()?;
+/// assert_eq!(params.solver, Solver::Pbf(Pbf { iterations: 6, ..Pbf::default() }));
+/// // Zero iterations would solve nothing: refused, naming the field.
+/// let none = Solver::Pbf(Pbf { iterations: 0, ..Pbf::default() });
+/// assert!(FluidParamsBuilder::water(0.05).solver(none).build().is_err());
+/// # Ok::<(), rapier_sph::SphError>(())
+/// ```
 #[derive(Copy, Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub struct Pbf {
