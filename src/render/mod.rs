@@ -48,7 +48,7 @@ use raster::{Target, lerp3};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-/// A pinhole camera looking from `eye` at `target`.
+/// A pinhole camera looking from `eye` at `target`. See [`Renderer`]'s example.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct Camera {
     /// Camera position (m).
@@ -119,7 +119,7 @@ pub enum FluidStyle {
     Spheres,
 }
 
-/// What to draw and how.
+/// What to draw and how. See [`Renderer`]'s example.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderOptions {
     /// How the liquid is drawn. Default [`FluidStyle::ScreenSpace`].
@@ -218,7 +218,7 @@ impl Default for RenderOptions {
     }
 }
 
-/// An 8-bit RGB image.
+/// An 8-bit RGB image: what [`Renderer`] draws (see its example).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
     /// Width (pixels).
@@ -376,6 +376,24 @@ pub struct ScreenSpaceTimings {
 }
 
 /// Draws frames. Holds its buffers between frames, so rendering a sequence allocates once.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::prelude::*;
+/// use rapier_sph::render::{Camera, FluidStyle, RenderOptions, Renderer};
+/// let mut world = FluidWorld::new();
+/// let mut water = Fluid::new(FluidParamsBuilder::water(0.05))?;
+/// water.add_block(Vector::ZERO, Vector::splat(0.3))?;
+/// world.fluids.insert(water);
+/// world.step()?;
+/// // A small picture of the water from a camera that frames the block.
+/// let options = RenderOptions { width: 64, height: 36, style: FluidStyle::Spheres, ..Default::default() };
+/// let camera = Camera::framing(Vector::ZERO, Vector::splat(0.3), 30.0, 25.0);
+/// let image = Renderer::new(options).render_world(&camera, &world, None);
+/// assert_eq!((image.width, image.height, image.rgb.len()), (64, 36, 64 * 36 * 3));
+/// // image.save_png("water.png")?; writes it
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct Renderer {
     timings: ScreenSpaceTimings,
     options: RenderOptions,
