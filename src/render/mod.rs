@@ -1050,6 +1050,9 @@ impl WorldDiffuse {
 /// What an example's `--render DIR` writes: numbered PNG frames `frame_0000.png`, … and one
 /// animated GIF `<name>.gif` in `DIR`, each frame drawn by a [`Renderer`] from a camera that
 /// may orbit a fixed number of degrees per frame.
+///
+/// # Examples
+/// See [`Recorder::create`]; `examples/boat.rs` and `examples/dam_break.rs` use it.
 pub struct Recorder {
     dir: PathBuf,
     renderer: Renderer,
