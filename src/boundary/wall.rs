@@ -274,7 +274,11 @@ impl WallWorkspace {
             return;
         }
         let h = query.params.smoothing_length;
-        if self.adhesion_table.as_ref().is_none_or(|t| t.support() != h) {
+        if self
+            .adhesion_table
+            .as_ref()
+            .is_none_or(|t| t.support() != h)
+        {
             self.adhesion_table = Some(crate::forces::surface_tension::AdhesionTable::new(h));
         }
         let Some(table) = &self.adhesion_table else {

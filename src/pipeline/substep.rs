@@ -289,8 +289,7 @@ fn walls(
     });
     if query.params.adhesion > 0.0 {
         report.timed(Stage::SurfaceTension, || {
-            ws.wall
-                .update_adhesion(&ws.search.grid, positions, query)
+            ws.wall.update_adhesion(&ws.search.grid, positions, query)
         });
     }
     if *double_density {
