@@ -1,8 +1,11 @@
 //! Surface tension and adhesion (Akinci et al. 2013; `src/forces/surface_tension.rs`),
-//! measured against physics: a cube of liquid in zero gravity becomes a sphere; the
-//! effective surface tension `σ` from the Laplace pressure of two droplets predicts the
-//! period of a droplet's lowest (l = 2) oscillation by Rayleigh's formula; a droplet on a
-//! plate takes a contact angle that the adhesion controls; small droplets hold together.
+//! measured against physics: a cube of liquid in zero gravity becomes a sphere; a droplet's
+//! lowest (l = 2) oscillation follows Rayleigh's law `ω² = 8σ/(ρR³)` in its dependence on
+//! the radius, which gives the effective `σ` of Akinci's `γ` (the Laplace pressure is printed
+//! beside it: at these sizes the core pressure does not resolve `2σ/R`); a droplet on a plate
+//! takes a contact angle that the adhesion controls; small droplets hold together.
+//!
+//! `cargo test --release --test surface_tension -- --nocapture` prints the figures.
 //!
 //! Water at 1 cm spacing (h = 2 cm), DFSPH unless said, frames of 1 ms.
 
