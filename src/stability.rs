@@ -340,7 +340,7 @@ fn surface_tension_cases() -> Vec<Case> {
         Case {
             name: "16 surface tension x10^4",
             description: "surface tension 10^4x water's (730 N/m), adhesion 16x it (WCSPH, DFSPH, PBF)",
-            quick: false,
+            quick: true,
             build: |s, z| surface_tension(s, z, 1e4),
         },
     ]
