@@ -1,4 +1,4 @@
-//! The walls' adhesion term (Akinci et al. 2013, eq. 7, over the solid's volume instead of
+//! The walls' adhesion term (Akinci et al. 2013, over the solid's volume instead of
 //! boundary particles; see the `forces::surface_tension` module): for each particle,
 //! `Σ_walls G(d) n_w`, `d` its signed distance to the collider's surface and `n_w` the
 //! surface's normal there (pointing to the fluid), from the same point projection as the

@@ -6,22 +6,23 @@
 //!       └──────── cohesion ───────┘   └ curvature ┘        └── adhesion ──┘
 //! ```
 //!
-//! with `x_ij = x_i − x_j`, the correction `K_ij = 2ρ0/(ρ_i + ρ_j)` (eq. 6: it strengthens the
-//! pull on particles short of neighbours, the surface's), the cohesion spline (eq. 2)
+//! with `x_ij = x_i − x_j`, the correction `K_ij = 2ρ0/(ρ_i + ρ_j)` (it strengthens the pull
+//! on particles short of neighbours, the surface's), the cohesion spline
 //!
 //! ```text
 //! C(r) = 32/(π h⁹) · { (h − r)³ r³                 h/2 < r ≤ h
 //!                      2(h − r)³ r³ − h⁶/64        0 < r ≤ h/2 }
 //! ```
 //!
-//! (repulsive below `h/2`, attractive beyond, zero at `h`) and the surface normals (eq. 4)
-//! `n_i = h Σ_j m/ρ_j ∇W_ij` (density kernel), which vanish inside the fluid and point out of
-//! it at the surface: `n_i − n_j` pulls surface particles towards where the surface is
-//! curved outwards, the paper's curvature minimisation.
+//! (repulsive below `h/2`, attractive beyond, zero at `h`) and the surface normals
+//! `n_i = h Σ_j m/ρ_j ∇W_ij` (density kernel, `∇W_ij` the gradient at `x_i` of `W(x_i − x_j)`),
+//! which vanish inside the fluid: the `n_i − n_j` term is the paper's curvature
+//! minimisation. Signs and factors are the paper's, as its authors' group implements them
+//! (SPlisHSPlasH's `SurfaceTension_Akinci2013`).
 //!
-//! **Adhesion to colliders.** Akinci's adhesion (eq. 7) sums over boundary particles `k` of
+//! **Adhesion to colliders.** Akinci's adhesion sums over boundary particles `k` of
 //! volume-weighted mass `Ψ_k = ρ0 V_k`: `a_i = −β Σ_k Ψ_k A(|x_ik|) x_ik/|x_ik|`, with the
-//! adhesion spline (eq. 8) `A(r) = 0.007/h^3.25 · (−4r²/h + 6r − 2h)^¼` on `h/2 < r ≤ h`. Our
+//! adhesion spline `A(r) = 0.007/h^3.25 · (−4r²/h + 6r − 2h)^¼` on `h/2 < r ≤ h`. Our
 //! colliders have no boundary particles: as the walls' density does (`ρ0·Φ`, the sum
 //! `Σ_k Ψ_k W_ik` read as the integral over the solid's volume,
 //! [`crate::boundary::wall`]), the sum becomes `ρ0 ∫_solid A(|x − y|) (x − y)/|x − y| dV_y`,
@@ -32,7 +33,10 @@
 //! ([`AdhesionTable`]); several colliders add their terms (Akinci sums the boundary particles
 //! of every solid alike). So this is Akinci's form with the boundary sampled infinitely
 //! finely and `Ψ` the solid's density: no sampling ripples along a wall, and the same
-//! strength per `β` whatever the boundary's sampling.
+//! strength per `β` whatever the boundary's sampling. It is of the same order as, not equal
+//! to, the single layer of boundary particles Akinci uses (`V_k = 1/Σ W`), which puts the
+//! solid's whole mass at its surface where this spreads it through the solid's depth
+//! within `h`: a `β` tuned for one does not give the same contact angle in the other.
 //!
 //! **Units.** `γ` and `β` are the paper's constants, not SI surface energies. The cohesion term
 //! reads `γ` in m⁴ kg⁻¹ s⁻² (`γ·m·C` is an acceleration), the curvature term in m/s² (`n` is
