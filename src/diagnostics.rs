@@ -49,13 +49,15 @@ pub enum Stage {
     DensitySolve,
     /// Symplectic Euler: velocity, then position.
     ParticleUpdate,
+    /// Surface tension and adhesion (Akinci et al. 2013; skipped when both are 0).
+    SurfaceTension,
     /// Collider contact (skipped when no collider is near the fluid).
     Contact,
 }
 
 impl Stage {
     /// All stages in step order.
-    pub const ALL: [Stage; 12] = [
+    pub const ALL: [Stage; 13] = [
         Stage::Relaxation,
         Stage::NeighbourSearch,
         Stage::WallDensity,
@@ -67,6 +69,7 @@ impl Stage {
         Stage::ExternalForces,
         Stage::DensitySolve,
         Stage::ParticleUpdate,
+        Stage::SurfaceTension,
         Stage::Contact,
     ];
 
@@ -84,6 +87,7 @@ impl Stage {
             Stage::ExternalForces => "external forces",
             Stage::DensitySolve => "density solve",
             Stage::ParticleUpdate => "particle update",
+            Stage::SurfaceTension => "surface tension",
             Stage::Contact => "collider contact",
         }
     }

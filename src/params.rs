@@ -130,6 +130,21 @@ pub struct FluidParams {
     /// Both presets: 0 (free-slip walls; the stage is skipped).
     #[cfg_attr(feature = "snapshot", serde(default))]
     pub wall_viscosity: Real,
+    /// Surface tension `γ` of Akinci et al. (2013)'s cohesion and curvature terms (the
+    /// paper's constant: m⁴ kg⁻¹ s⁻² in the cohesion term; not the SI surface tension `σ`,
+    /// which it gives in proportion: `src/forces/surface_tension.rs` has the model, the
+    /// README the measured `σ` per `γ`). Pulls the fluid into droplets. Not available with
+    /// the Clavet solver, whose cohesion (the attraction below rest density) already acts as
+    /// surface tension. Both presets: 0 (the stage is skipped).
+    #[cfg_attr(feature = "snapshot", serde(default))]
+    pub surface_tension: Real,
+    /// Adhesion `β` of Akinci et al. (2013) to colliders (m⁴ kg⁻¹ s⁻², as `γ`'s cohesion
+    /// term): particles within `h` of a collider are pulled towards its surface, which sets
+    /// the contact angle a droplet takes on it (larger `β`: smaller angle, more wetting).
+    /// Needs [`Self::wall_density`] (the walls' distance field); not available with Clavet.
+    /// Both presets: 0.
+    #[cfg_attr(feature = "snapshot", serde(default))]
+    pub adhesion: Real,
     /// Kernel for density. Water preset: cubic spline. Paper preset: the paper's tuned poly6.
     pub density_kernel: KernelKind,
     /// Kernel whose gradient drives the pressure force. Water preset: cubic spline.
@@ -192,7 +207,8 @@ impl FluidParams {
     ///
     /// [`SphError::InvalidParameter`] naming the first field out of its range: a non-finite
     /// or non-positive size, mass or density, a smoothing length below the spacing, a solver
-    /// setting out of range, wall viscosity without wall density, a periodic box smaller than
+    /// setting out of range, wall viscosity or adhesion without wall density, negative
+    /// surface tension or adhesion (or either with Clavet), a periodic box smaller than
     /// three supports.
     pub fn validate(&self) -> SphResult<()> {
         self.validate_sizes()?;
@@ -273,6 +289,7 @@ impl FluidParams {
                  does not conserve momentum yet)",
             );
         }
+        self.validate_surface_tension()?;
         non_negative("restitution", self.restitution)?;
         if self.restitution > 1.0 {
             return invalid(
@@ -282,6 +299,35 @@ impl FluidParams {
             );
         }
         non_negative("friction", self.friction)
+    }
+
+    /// Surface tension and adhesion: non-negative; adhesion needs the walls' distance field;
+    /// neither with Clavet (its cohesion is its surface tension).
+    fn validate_surface_tension(&self) -> SphResult<()> {
+        non_negative("surface_tension", self.surface_tension)?;
+        non_negative("adhesion", self.adhesion)?;
+        if self.adhesion > 0.0 && !self.wall_density {
+            return invalid(
+                "adhesion",
+                self.adhesion,
+                "needs wall_density (adhesion uses the walls' distance field)",
+            );
+        }
+        let clavet = matches!(self.solver, Solver::Clavet(_));
+        for (field, v) in [
+            ("surface_tension", self.surface_tension),
+            ("adhesion", self.adhesion),
+        ] {
+            if clavet && v > 0.0 {
+                return invalid(
+                    field,
+                    v,
+                    "not available with the Clavet solver (its cohesion, the attraction \
+                     below rest density, is its surface tension)",
+                );
+            }
+        }
+        Ok(())
     }
 
     /// Upper bound of the memory a particle of this fluid needs in a step (bytes): its
@@ -351,6 +397,8 @@ impl FluidParamsBuilder {
                 clamp_negative_pressure: true,
                 viscosity: 0.5,
                 wall_viscosity: 0.0,
+                surface_tension: 0.0,
+                adhesion: 0.0,
                 density_kernel: KernelKind::CubicSpline,
                 pressure_kernel: KernelKind::CubicSpline,
                 restitution: 0.0,
@@ -382,6 +430,8 @@ impl FluidParamsBuilder {
                 clamp_negative_pressure: false,
                 viscosity: 0.02,
                 wall_viscosity: 0.0,
+                surface_tension: 0.0,
+                adhesion: 0.0,
                 density_kernel: KernelKind::PaperPoly6,
                 pressure_kernel: KernelKind::Spiky,
                 restitution: 0.5,
@@ -486,6 +536,28 @@ impl FluidParamsBuilder {
     /// [`FluidParams::wall_viscosity`]); 0 (the default) keeps walls free-slip.
     pub fn wall_viscosity(mut self, v: Real) -> Self {
         self.params.wall_viscosity = v;
+        self
+    }
+    /// Surface tension `γ` of Akinci et al. 2013 (see [`FluidParams::surface_tension`]); 0
+    /// (the default) skips the stage.
+    ///
+    /// # Examples
+    ///
+    /// ```
+    /// use rapier_sph::{FluidParamsBuilder, SphError};
+    /// let p = FluidParamsBuilder::water(0.01).surface_tension(2.0).adhesion(1.0).build()?;
+    /// assert_eq!((p.surface_tension, p.adhesion), (2.0, 1.0));
+    /// let bad = FluidParamsBuilder::water(0.01).surface_tension(-1.0).build();
+    /// assert!(matches!(bad, Err(SphError::InvalidParameter { field: "surface_tension", .. })));
+    /// # Ok::<(), SphError>(())
+    /// ```
+    pub fn surface_tension(mut self, gamma: Real) -> Self {
+        self.params.surface_tension = gamma;
+        self
+    }
+    /// Adhesion `β` to colliders (see [`FluidParams::adhesion`]); 0 (the default): none.
+    pub fn adhesion(mut self, beta: Real) -> Self {
+        self.params.adhesion = beta;
         self
     }
     /// Density kernel.

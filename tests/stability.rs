@@ -10,9 +10,18 @@
 use rapier_sph::stability::{self, SuiteSize};
 
 /// (case, solver): runs whose verdict is FAIL today, and why (measured with
-/// `cargo run --release --example stability -- --quick`). None since case 1 runs with one
-/// kernel and counts the equation of state's internal energy (docs/stability.md).
-const KNOWN_FAILURES: &[(&str, &str, &str)] = &[];
+/// `cargo run --release --example stability -- --quick`). Case 1 has none since it runs with
+/// one kernel and counts the equation of state's internal energy (docs/stability.md).
+const KNOWN_FAILURES: &[(&str, &str, &str)] = &[
+    // Explicit surface tension beyond its stable substep (about sqrt(h/(γ·ρ0)), which the
+    // adaptive step does not bound yet): KE 3.7x (WCSPH), 4.5x (DFSPH), 148x (PBF) the
+    // initial energy; no NaN, nothing escaped. (The verdict does not count the surface
+    // energy the column releases as it balls up: by σ·ΔA, of the order of its potential
+    // energy at this tension, so some of WCSPH's and DFSPH's excess may be physical.)
+    ("16 surface tension x10^4", "WCSPH", "energy grows"),
+    ("16 surface tension x10^4", "DFSPH", "energy grows"),
+    ("16 surface tension x10^4", "PBF", "energy grows"),
+];
 
 /// Runs that take 10–30 s each: left to the example (their verdicts are in docs/stability.md).
 const SLOW: &[(&str, &str)] = &[("4 frame 1/30 stiffest", "WCSPH")];

@@ -15,6 +15,7 @@
 //! triangle mesh (open or closed, either face), heightfield and compound. Sensors are
 //! ignored; the fluid's collision groups are respected.
 
+pub(crate) mod adhesion;
 pub mod bodies;
 pub mod candidates;
 pub mod contact;

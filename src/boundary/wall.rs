@@ -184,6 +184,10 @@ pub struct WallWorkspace {
     /// Per chunk of particles, the watched colliders' shares of their wall terms (in particle
     /// order; empty unless [`WallQuery::watch`]; see `boundary::forces`).
     pub(crate) share_chunks: Vec<Vec<Share>>,
+    /// Per particle `Σ_walls G(d) n_w`, the walls' adhesion term (see
+    /// `boundary::adhesion`); empty unless the fluid has adhesion and a wall is near.
+    pub(crate) adhesion: Vec<Vector>,
+    adhesion_table: Option<crate::forces::surface_tension::AdhesionTable>,
     near: usize,
     /// See [`Self::pinch_fraction`].
     pinch_fraction: Real,
@@ -253,6 +257,41 @@ impl WallWorkspace {
         self.viscous_velocity.clear();
         self.clavet.clear();
         self.clavet_gradient.clear();
+        self.adhesion.clear();
+    }
+
+    /// The walls' adhesion term ([`Self::adhesion`]) of every particle of `grid`, at the
+    /// positions and with the colliders of the last [`Self::update`]; empty when no wall is
+    /// near.
+    pub(crate) fn update_adhesion(
+        &mut self,
+        grid: &NeighborGrid,
+        positions: &[Vector],
+        query: &WallQuery<'_>,
+    ) {
+        if !self.candidates.any() {
+            self.adhesion.clear();
+            return;
+        }
+        let h = query.params.smoothing_length;
+        if self
+            .adhesion_table
+            .as_ref()
+            .is_none_or(|t| t.support() != h)
+        {
+            self.adhesion_table = Some(crate::forces::surface_tension::AdhesionTable::new(h));
+        }
+        let Some(table) = &self.adhesion_table else {
+            unreachable!("made above")
+        };
+        super::adhesion::update(
+            &self.candidates,
+            grid,
+            positions,
+            query,
+            table,
+            &mut self.adhesion,
+        );
     }
 
     fn tables(&mut self, density: KernelKind, force: KernelKind, h: Real, spacing: Real) {
@@ -512,6 +551,7 @@ impl WallWorkspace {
             + self.coupled.capacity() * std::mem::size_of::<Coupled>()
             + self.clavet.capacity() * std::mem::size_of::<[Real; 2]>()
             + self.clavet_gradient.capacity() * std::mem::size_of::<[Vector; 2]>()
+            + self.adhesion.capacity() * std::mem::size_of::<Vector>()
             + self
                 .share_chunks
                 .iter()
@@ -863,7 +903,7 @@ fn clavet_walls(
 /// point (negative inside the solid), the normal there pointing to the fluid side, and the
 /// point. `None` beyond `h`, or on the surface of a shape without a normal there.
 #[inline]
-fn surface_near(
+pub(crate) fn surface_near(
     co: &rapier3d::geometry::Collider,
     pose: &crate::math::Pose,
     x: Vector,

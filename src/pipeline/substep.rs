@@ -287,6 +287,11 @@ fn walls(
     let near = report.timed(Stage::WallDensity, || {
         ws.wall.update(&ws.search, positions, query)
     });
+    if query.params.adhesion > 0.0 {
+        report.timed(Stage::SurfaceTension, || {
+            ws.wall.update_adhesion(&ws.search.grid, positions, query)
+        });
+    }
     if *double_density {
         report.timed(Stage::WallDensity, || {
             ws.wall.update_clavet(&ws.search.grid, positions, query)
@@ -350,6 +355,7 @@ fn solve(
     let mut viscous = std::mem::take(&mut ws.wall_viscous_impulses);
     viscous.clear();
     wall_viscosity(&mut ctx, &mut viscous);
+    surface_tension(&mut ctx, &mut ws.surface_normals);
     if let Some(c) = coupling {
         let watch = watch.filter(|w| w.any_dynamic_forces);
         if let Some(w) = watch {
@@ -421,6 +427,41 @@ fn wall_viscosity(ctx: &mut StepContext<'_>, records: &mut Vec<ImpulseRecord>) {
             ctx.velocities,
             records,
         )
+    });
+}
+
+/// Surface tension and adhesion (`forces::surface_tension`), after the solver and the walls'
+/// viscosity, on the velocities they left; skipped when the fluid has neither (adhesion
+/// counts only with a wall near).
+fn surface_tension(ctx: &mut StepContext<'_>, normals: &mut Vec<Vector>) {
+    let p = ctx.params;
+    let adhesion = ctx.wall.map_or(&[][..], |w| &w.adhesion[..]);
+    if p.surface_tension <= 0.0 && adhesion.is_empty() {
+        return;
+    }
+    let st = forces::surface_tension::SurfaceTension {
+        gamma: p.surface_tension,
+        beta_rest: p.adhesion * p.rest_density,
+        rest_density: p.rest_density,
+        dt: ctx.dt,
+        adhesion,
+    };
+    let (positions, neighbors) = (&*ctx.positions, ctx.neighbors);
+    let (densities, inv) = (&*ctx.densities, &*ctx.inv_densities);
+    let velocities = &mut *ctx.velocities;
+    ctx.report.timed(Stage::SurfaceTension, || {
+        crate::with_separation!(p.domain, S, sep => {
+            let pairs = crate::neighbors::Pairs {
+                positions,
+                neighbors,
+                mass: p.particle_mass,
+                h: p.smoothing_length,
+                sep,
+            };
+            crate::with_kernel!(p.density_kernel, K =>
+                forces::surface_tension::apply::<K, S>(
+                    &st, &pairs, (densities, inv), normals, velocities))
+        })
     });
 }
 

@@ -33,6 +33,8 @@ pub(crate) struct Workspace {
     pub previous_positions: Vec<Vector>,
     /// `1/ρ` of every particle, written by the density stage.
     pub inv_densities: Vec<Real>,
+    /// The surface normals of the surface-tension stage (`forces::surface_tension`).
+    pub surface_normals: Vec<Vector>,
     /// Per-chunk partial sums for diagnostics (summed serially, so results are deterministic).
     pub partials: Vec<(f64, Real)>,
     /// Largest speed after the last substep (the adaptive time step's input).
@@ -78,6 +80,7 @@ impl Workspace {
             + self.wall_viscous_impulses.capacity() * std::mem::size_of::<ImpulseRecord>()
             + self.previous_positions.capacity() * v
             + self.inv_densities.capacity() * 4
+            + self.surface_normals.capacity() * v
             + self.partials.capacity() * std::mem::size_of::<(f64, Real)>()
             + self.forces.heap_bytes()
     }

@@ -436,6 +436,12 @@ pub struct FluidDesc {
     /// Viscosity ε_w between particles and walls (Pa·s; needs `wall_density`).
     #[serde(default)]
     pub wall_viscosity: Option<NonNegative>,
+    /// Surface tension γ of Akinci et al. 2013 ([`FluidParamsBuilder::surface_tension`]).
+    #[serde(default)]
+    pub surface_tension: Option<NonNegative>,
+    /// Adhesion β to colliders ([`FluidParamsBuilder::adhesion`]; needs `wall_density`).
+    #[serde(default)]
+    pub adhesion: Option<NonNegative>,
     /// Density kernel.
     #[serde(default)]
     pub density_kernel: Option<KernelDesc>,
@@ -524,6 +530,12 @@ impl FluidDesc {
         }
         if let Some(v) = self.wall_viscosity {
             b = b.wall_viscosity(v.0);
+        }
+        if let Some(v) = self.surface_tension {
+            b = b.surface_tension(v.0);
+        }
+        if let Some(v) = self.adhesion {
+            b = b.adhesion(v.0);
         }
         if let Some(k) = self.density_kernel {
             b = b.density_kernel(k.into());

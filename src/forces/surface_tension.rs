@@ -1,0 +1,296 @@
+//! Surface tension and adhesion of Akinci, Akinci & Teschner (2013), "Versatile surface
+//! tension and adhesion for SPH fluids" (ACM TOG 32(6), 182), as accelerations:
+//!
+//! ```text
+//! a_i = −γ Σ_j K_ij [ m C(|x_ij|) x_ij/|x_ij| + (n_i − n_j) ]   −   β ρ0 G(d_i) n_w,i
+//!       └──────── cohesion ───────┘   └ curvature ┘        └── adhesion ──┘
+//! ```
+//!
+//! with `x_ij = x_i − x_j`, the correction `K_ij = 2ρ0/(ρ_i + ρ_j)` (it strengthens the pull
+//! on particles short of neighbours, the surface's), the cohesion spline
+//!
+//! ```text
+//! C(r) = 32/(π h⁹) · { (h − r)³ r³                 h/2 < r ≤ h
+//!                      2(h − r)³ r³ − h⁶/64        0 < r ≤ h/2 }
+//! ```
+//!
+//! (repulsive below `h/2`, attractive beyond, zero at `h`) and the surface normals
+//! `n_i = h Σ_j m/ρ_j ∇W_ij` (density kernel, `∇W_ij` the gradient at `x_i` of `W(x_i − x_j)`),
+//! which vanish inside the fluid: the `n_i − n_j` term is the paper's curvature
+//! minimisation. Signs and factors are the paper's, as its authors' group implements them
+//! (SPlisHSPlasH's `SurfaceTension_Akinci2013`).
+//!
+//! **Adhesion to colliders.** Akinci's adhesion sums over boundary particles `k` of
+//! volume-weighted mass `Ψ_k = ρ0 V_k`: `a_i = −β Σ_k Ψ_k A(|x_ik|) x_ik/|x_ik|`, with the
+//! adhesion spline `A(r) = 0.007/h^3.25 · (−4r²/h + 6r − 2h)^¼` on `h/2 < r ≤ h`. Our
+//! colliders have no boundary particles: as the walls' density does (`ρ0·Φ`, the sum
+//! `Σ_k Ψ_k W_ik` read as the integral over the solid's volume,
+//! [`crate::boundary::wall`]), the sum becomes `ρ0 ∫_solid A(|x − y|) (x − y)/|x − y| dV_y`,
+//! which for the half-space behind the collider's surface at distance `d` along the normal
+//! `n_w` (pointing to the fluid) is `−ρ0 G(d) n_w` with
+//! `G(d) = 2π ∫_d^h z ∫_max(z, h/2)^h A(r) dr dz` (the tangential parts cancel; the inner
+//! integral follows from `ρ dρ = r dr` on each plane `z`). `G` is tabulated once per `h`
+//! ([`AdhesionTable`]); several colliders add their terms (Akinci sums the boundary particles
+//! of every solid alike). So this is Akinci's form with the boundary sampled infinitely
+//! finely and `Ψ` the solid's density: no sampling ripples along a wall, and the same
+//! strength per `β` whatever the boundary's sampling. It is of the same order as, not equal
+//! to, the single layer of boundary particles Akinci uses (`V_k = 1/Σ W`), which puts the
+//! solid's whole mass at its surface where this spreads it through the solid's depth
+//! within `h`: a `β` tuned for one does not give the same contact angle in the other.
+//!
+//! **Units.** `γ` and `β` are the paper's constants, not SI surface energies. The cohesion term
+//! reads `γ` in m⁴ kg⁻¹ s⁻² (`γ·m·C` is an acceleration), the curvature term in m/s² (`n` is
+//! dimensionless): the paper's two terms do not share units, and the effective surface
+//! tension `σ` (N/m) a setting gives depends on the resolution. `tests/surface_tension.rs`
+//! measures it from the Laplace pressure of droplets (the figures are in the README).
+//!
+//! **Where it runs.** After the solver, as a velocity change `v_i += dt·a_i` with the
+//! substep's densities and neighbour lists at the particles' current positions (a kick the
+//! next substep's pressure solve sees, like an external force; for WCSPH and DFSPH the
+//! positions have moved by `dt·v` since the search, so a pair that came within `h` during
+//! the substep is counted from the next one). The pair loops gather per particle in chunks,
+//! so the sums, and the results, do not depend on the thread count.
+
+use crate::domain::Separation;
+use crate::kernel::Kernel;
+use crate::math::{Real, Vector};
+use crate::neighbors::Pairs;
+use crate::par::CHUNK;
+#[cfg(feature = "parallel")]
+use rayon::prelude::*;
+
+/// Akinci's cohesion spline `C(r)` (1/m³) for support `h`.
+#[inline(always)]
+pub(crate) fn cohesion(r: Real, h: Real) -> Real {
+    if r >= h || r <= 0.0 {
+        return 0.0;
+    }
+    // 32/(π h⁹)·(h − r)³r³ = 32/(π h³)·((h − r)/h)³(r/h)³: no h⁹ underflow at small h.
+    let (a, b) = ((h - r) / h, r / h);
+    let ab3 = (a * b).powi(3);
+    let scale = 32.0 / (std::f32::consts::PI * h * h * h);
+    if 2.0 * r > h {
+        scale * ab3
+    } else {
+        scale * (2.0 * ab3 - 1.0 / 64.0)
+    }
+}
+
+/// Akinci's adhesion spline `A(r)` (1/m³) for support `h`.
+#[inline(always)]
+pub(crate) fn adhesion_spline(r: Real, h: Real) -> Real {
+    if r >= h || 2.0 * r <= h {
+        return 0.0;
+    }
+    let q = (-4.0 * r * r / h + 6.0 * r - 2.0 * h) / h;
+    0.007 / (h * h * h) * q.max(0.0).powf(0.25)
+}
+
+/// `G(d)` of the module docs, tabulated on `[0, h]` (dimensionless: `ρ0·β·G` is the
+/// adhesion's acceleration at distance `d` from a flat wall).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct AdhesionTable {
+    h: Real,
+    values: Vec<Real>,
+}
+
+impl AdhesionTable {
+    const SAMPLES: usize = 128;
+
+    /// The table for support `h` (midpoint sums over 2048 steps per integral, in `f64`).
+    pub fn new(h: Real) -> Self {
+        let n = 2048;
+        let hf = h as f64;
+        let dr = hf / n as f64;
+        let spline = |r: f64| adhesion_spline(r as Real, h) as f64;
+        // inner[k] = ∫_{z_k}^h A(r) dr at z_k = k·dr (A vanishes below h/2 by itself).
+        let mut inner = vec![0.0f64; n + 1];
+        for k in (0..n).rev() {
+            inner[k] = inner[k + 1] + spline((k as f64 + 0.5) * dr) * dr;
+        }
+        // outer[k] = 2π ∫_{z_k}^h z·inner(z) dz.
+        let mut outer = vec![0.0f64; n + 1];
+        for k in (0..n).rev() {
+            let z = (k as f64 + 0.5) * dr;
+            let mid = 0.5 * (inner[k] + inner[k + 1]);
+            outer[k] = outer[k + 1] + 2.0 * std::f64::consts::PI * z * mid * dr;
+        }
+        let values = (0..=Self::SAMPLES)
+            .map(|s| outer[s * n / Self::SAMPLES] as Real)
+            .collect();
+        Self { h, values }
+    }
+
+    /// The support the table is for.
+    pub fn support(&self) -> Real {
+        self.h
+    }
+
+    /// `G(|d|)` (the half-space from `−|d|` to `|d|` cancels for a particle inside the
+    /// solid), linear between samples; 0 at and beyond `h`.
+    pub fn eval(&self, d: Real) -> Real {
+        let x = d.abs() / self.h * Self::SAMPLES as Real;
+        if !(x < Self::SAMPLES as Real) {
+            return 0.0;
+        }
+        let k = x as usize;
+        let t = x - k as Real;
+        self.values[k] * (1.0 - t) + self.values[k + 1] * t
+    }
+}
+
+/// The settings of one application.
+#[derive(Copy, Clone)]
+pub(crate) struct SurfaceTension<'a> {
+    /// Akinci's `γ`.
+    pub gamma: Real,
+    /// Akinci's `β` times `ρ0` (m/s²): the adhesion per unit `G`.
+    pub beta_rest: Real,
+    /// Rest density `ρ0` (for `K_ij`).
+    pub rest_density: Real,
+    /// The substep (s).
+    pub dt: Real,
+    /// Per particle `Σ_walls G(d) n_w` (empty: no adhesion this substep).
+    pub adhesion: &'a [Vector],
+}
+
+/// Adds the substep's surface tension and adhesion to `velocities` (`normals`: scratch, one
+/// per particle). `K` is the density kernel (for the normals).
+pub(crate) fn apply<K: Kernel, S: Separation>(
+    c: &SurfaceTension<'_>,
+    pairs: &Pairs<'_, S>,
+    (densities, inv_densities): (&[Real], &[Real]),
+    normals: &mut Vec<Vector>,
+    velocities: &mut [Vector],
+) {
+    let n = velocities.len();
+    normals.resize(n, Vector::ZERO);
+    if c.gamma > 0.0 {
+        let kernel = K::new(pairs.h);
+        let scale = pairs.h * pairs.mass;
+        crate::par_chunks_mut!(normals[..], CHUNK)
+            .enumerate()
+            .for_each(|(k, out)| {
+                for (l, ni) in out.iter_mut().enumerate() {
+                    *ni = normal(pairs, &kernel, inv_densities, k * CHUNK + l) * scale;
+                }
+            });
+    }
+    let normals = &normals[..];
+    crate::par_chunks_mut!(velocities, CHUNK)
+        .enumerate()
+        .for_each(|(k, out)| {
+            for (l, v) in out.iter_mut().enumerate() {
+                let i = k * CHUNK + l;
+                let mut a = Vector::ZERO;
+                if c.gamma > 0.0 {
+                    a -= cohesion_curvature(c, pairs, densities, normals, i) * c.gamma;
+                }
+                if let Some(w) = c.adhesion.get(i) {
+                    a -= *w * c.beta_rest;
+                }
+                *v += a * c.dt;
+            }
+        });
+}
+
+/// `Σ_j ∇W_ij/ρ_j` of particle `i`.
+#[inline(always)]
+fn normal<K: Kernel, S: Separation>(
+    pairs: &Pairs<'_, S>,
+    kernel: &K,
+    inv_densities: &[Real],
+    i: usize,
+) -> Vector {
+    let (x, sep) = (pairs.positions, &pairs.sep);
+    let mut sum = Vector::ZERO;
+    for &j in pairs.neighbors.of(i) {
+        let ju = j as usize;
+        let r = sep.sep(x[i], x[ju]);
+        let d = r.length();
+        if d > 0.0 && d < pairs.h {
+            sum += r * (kernel.dw(d) / d * inv_densities[ju]);
+        }
+    }
+    sum
+}
+
+/// `Σ_j K_ij [m C(|x_ij|) x̂_ij + (n_i − n_j)]` of particle `i`.
+#[inline(always)]
+fn cohesion_curvature<S: Separation>(
+    c: &SurfaceTension<'_>,
+    pairs: &Pairs<'_, S>,
+    densities: &[Real],
+    normals: &[Vector],
+    i: usize,
+) -> Vector {
+    let (x, sep, h) = (pairs.positions, &pairs.sep, pairs.h);
+    let two_rest = 2.0 * c.rest_density;
+    let mut sum = Vector::ZERO;
+    for &j in pairs.neighbors.of(i) {
+        let ju = j as usize;
+        let r = sep.sep(x[i], x[ju]);
+        let d = r.length();
+        if d >= h {
+            continue;
+        }
+        let k = two_rest / (densities[i] + densities[ju]);
+        let mut f = normals[i] - normals[ju];
+        if d > 0.0 {
+            f += r * (pairs.mass * cohesion(d, h) / d);
+        }
+        sum += f * k;
+    }
+    sum
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The cohesion spline is continuous at `h/2`, zero at `h`, repulsive below `h/2` and
+    /// attractive above it; the adhesion spline is zero at `h/2` and `h` and positive
+    /// between.
+    #[test]
+    fn splines_have_the_papers_shape() {
+        let h = 0.04;
+        let lo = cohesion(0.5 * h - 1e-6, h);
+        let hi = cohesion(0.5 * h + 1e-6, h);
+        assert!((lo - hi).abs() <= 1e-3 * hi.abs(), "{lo} vs {hi}");
+        assert_eq!(cohesion(h, h), 0.0);
+        assert!(cohesion(0.1 * h, h) < 0.0);
+        assert!(cohesion(0.7 * h, h) > 0.0);
+        assert!(adhesion_spline(0.5 * h, h) == 0.0 && adhesion_spline(h, h) == 0.0);
+        assert!(adhesion_spline(0.75 * h, h) > 0.0);
+    }
+
+    /// `G` decreases from its value at the wall to 0 at `h`, and its value at 0 matches a
+    /// direct 3-D sum of `A(r)·z/r` over a fine lattice filling the half-space (to the
+    /// lattice's quadrature error, 1 %).
+    #[test]
+    fn adhesion_table_matches_a_direct_sum_over_the_half_space() {
+        let h = 1.0;
+        let t = AdhesionTable::new(h);
+        let mut last = Real::INFINITY;
+        for k in 0..=20 {
+            let g = t.eval(k as Real * 0.05 * h);
+            assert!(g <= last && g >= 0.0);
+            last = g;
+        }
+        assert_eq!(t.eval(h), 0.0);
+        let s = 0.02f64;
+        let n = (1.0 / s) as i32;
+        let mut sum = 0.0f64;
+        for a in -n..=n {
+            for b in -n..=n {
+                for c in 0..n {
+                    let (x, y, z) = (a as f64 * s, b as f64 * s, (c as f64 + 0.5) * s);
+                    let r = (x * x + y * y + z * z).sqrt();
+                    sum += adhesion_spline(r as Real, h) as f64 * z / r * s * s * s;
+                }
+            }
+        }
+        let g0 = t.eval(0.0) as f64;
+        assert!((g0 - sum).abs() <= 0.01 * sum, "table {g0} vs sum {sum}");
+    }
+}
