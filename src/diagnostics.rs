@@ -53,11 +53,14 @@ pub enum Stage {
     SurfaceTension,
     /// Collider contact (skipped when no collider is near the fluid).
     Contact,
+    /// Diffusion of the scalars the particles carry (a dye, a temperature; see
+    /// [`crate::scalars`]); runs only for a fluid that has scalars with a diffusivity.
+    ScalarDiffusion,
 }
 
 impl Stage {
     /// All stages in step order.
-    pub const ALL: [Stage; 13] = [
+    pub const ALL: [Stage; 14] = [
         Stage::Relaxation,
         Stage::NeighbourSearch,
         Stage::WallDensity,
@@ -71,6 +74,7 @@ impl Stage {
         Stage::ParticleUpdate,
         Stage::SurfaceTension,
         Stage::Contact,
+        Stage::ScalarDiffusion,
     ];
 
     /// The stage's name as printed in reports.
@@ -89,6 +93,7 @@ impl Stage {
             Stage::ParticleUpdate => "particle update",
             Stage::SurfaceTension => "surface tension",
             Stage::Contact => "collider contact",
+            Stage::ScalarDiffusion => "scalar diffusion",
         }
     }
 }
@@ -236,6 +241,11 @@ pub struct StepReport {
     /// `src/forces/viscosity.rs`; the substep cap bound, or a particle had almost no
     /// neighbours), and brought them at most half way to their common velocity.
     pub viscosity_limited: usize,
+    /// Particles whose scalar diffusion was limited, summed over substeps and scalars: the
+    /// diffusivity asked for more than the explicit update holds in the substep (`D·dt >
+    /// h²/30` on a resting lattice; see [`crate::scalars`]), and the scalar diffused at the
+    /// bound's rate there instead.
+    pub scalar_limited: usize,
     /// Particles removed because their position or velocity was no longer finite (they are
     /// taken out before they can poison their neighbours; see [`crate::Fluid::quarantined`]).
     pub quarantined: usize,

@@ -137,6 +137,7 @@ pub mod query;
 pub(crate) mod region;
 #[cfg(feature = "render")]
 pub mod render;
+pub mod scalars;
 #[cfg(feature = "scene")]
 pub mod scene_file;
 #[cfg(feature = "validation")]

@@ -61,8 +61,9 @@ const MAGIC: &[u8; 16] = b"rapier-sph snap\0";
 /// The snapshot format's version, stored in every file (3: fluids carry their emitters,
 /// sinks, emitted/drained counters and capacity; 4: the coupling's memory of the velocity
 /// each dynamic body was left with; 5: per-particle attributes, and the solvers' memory
-/// beside the fluids; 6: the payload's length and CRC-32 in the header).
-pub const FORMAT_VERSION: u32 = 6;
+/// beside the fluids; 6: the payload's length and CRC-32 in the header; 7: the scalars the
+/// particles carry).
+pub const FORMAT_VERSION: u32 = 7;
 
 /// Bytes before the payload: tag, version, length, checksum.
 const HEADER: usize = 16 + 4 + 8 + 4;

@@ -50,6 +50,16 @@ impl Attributes {
         &self.entries[k].1
     }
 
+    /// The values of attribute `k`, writable.
+    pub fn get_mut(&mut self, k: usize) -> &mut [Real] {
+        &mut self.entries[k].1
+    }
+
+    /// The values of attribute `k` as their vector (a stage that swaps in new values).
+    pub fn vec_mut(&mut self, k: usize) -> &mut Vec<Real> {
+        &mut self.entries[k].1
+    }
+
     /// Every attribute's values.
     pub fn values_mut(&mut self) -> impl Iterator<Item = &mut Vec<Real>> {
         self.entries.iter_mut().map(|(_, v)| v)

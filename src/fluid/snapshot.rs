@@ -18,6 +18,7 @@ pub(crate) struct FluidState {
     pressures: Vec<Real>,
     ids: Vec<u32>,
     attributes: Attributes,
+    scalars: Vec<crate::scalars::ScalarSpec>,
     next_id: u32,
     quarantined: usize,
     #[serde(default)]
@@ -42,6 +43,7 @@ impl FluidState {
             pressures: f.pressures.clone(),
             ids: f.ids.clone(),
             attributes: f.attributes.clone(),
+            scalars: f.scalars.clone(),
             next_id: f.next_id,
             quarantined: f.quarantined,
             removed: f.removed,
@@ -112,7 +114,18 @@ impl FluidState {
         f.densities = self.densities;
         f.pressures = self.pressures;
         f.ids = self.ids;
+        if let Some(k) = self.scalars.iter().position(|s| {
+            s.name.is_empty()
+                || !(s.diffusivity.is_finite() && s.diffusivity >= 0.0)
+                || attributes.find(&s.attribute(), n).is_none()
+        }) {
+            return invalid(
+                k,
+                "snapshot scalar is unnamed, has a bad diffusivity or no values",
+            );
+        }
         f.attributes = attributes;
+        f.scalars = self.scalars;
         f.next_id = self.next_id;
         f.quarantined = self.quarantined;
         f.removed = self.removed;

@@ -92,6 +92,7 @@ pub(crate) fn substep(
         report,
     );
     let max_speed = limit_near_kinematic(fluid, &rt.ws, outcome.max_speed, report);
+    diffuse_scalars(fluid, &mut rt.ws, input.dt, report);
     // Particles pushed out of a solid land on its surface, on top of each other: the next
     // substep relaxes them (and checks for more) before giving them dynamics.
     fluid.needs_depenetration = depenetrated > 0;
@@ -139,6 +140,42 @@ fn search_neighbours(
         )
     });
     report.neighbour_pairs += ws.search.lists.total_pairs();
+}
+
+/// The scalars the particles carry diffuse over the substep (`crate::scalars`), on the
+/// substep's neighbour lists; nothing runs for a fluid without a diffusing scalar.
+fn diffuse_scalars(fluid: &mut Fluid, ws: &mut Workspace, dt: Real, report: &mut StepReport) {
+    if fluid.scalars.iter().all(|s| s.diffusivity <= 0.0) {
+        return;
+    }
+    let p = fluid.params();
+    let (mass, h, rho0, domain) = (
+        p.particle_mass,
+        p.smoothing_length,
+        p.rest_density,
+        p.domain,
+    );
+    let n = fluid.len();
+    let limited = report.timed(Stage::ScalarDiffusion, || {
+        let mut limited = 0;
+        for spec in &fluid.scalars {
+            let k = fluid.attributes.ensure(&spec.attribute(), n);
+            let values = fluid.attributes.vec_mut(k);
+            let scratch = (&mut ws.scalar_scratch.0, &mut ws.scalar_scratch.1);
+            limited += crate::with_separation!(domain, S, sep => {
+                let pairs = crate::neighbors::Pairs {
+                    positions: &fluid.positions,
+                    neighbors: &ws.search.lists,
+                    mass,
+                    h,
+                    sep,
+                };
+                crate::scalars::diffuse(&pairs, rho0, (spec.diffusivity, dt), values, scratch)
+            });
+        }
+        limited
+    });
+    report.scalar_limited += limited;
 }
 
 /// Near a kinematic body, the speed limit of [`limit_near_bodies`]; returns the fluid's

@@ -48,6 +48,9 @@ pub(crate) struct Workspace {
     pub frame_speed: Real,
     /// What the fluid did to the watched colliders this frame (`boundary::forces`).
     pub forces: FluidForces,
+    /// The scalar diffusion's new values and row sums (`crate::scalars`; empty for a fluid
+    /// without scalars).
+    pub scalar_scratch: (Vec<Real>, Vec<Real>),
 }
 
 impl Workspace {
@@ -83,6 +86,7 @@ impl Workspace {
             + self.surface_normals.capacity() * v
             + self.partials.capacity() * std::mem::size_of::<(f64, Real)>()
             + self.forces.heap_bytes()
+            + (self.scalar_scratch.0.capacity() + self.scalar_scratch.1.capacity()) * 4
     }
 }
 
