@@ -1,14 +1,20 @@
 //! Game benchmark: a pool of water in 1/60 s frames, as a game steps it (rapier's step and
 //! the fluid's adaptive substeps in each frame), at 2,500, 10,000 and 40,000 particles, on 1
 //! and 2 threads. Reports the milliseconds per frame (wall and CPU), the substeps per frame,
-//! the solver's iterations per substep, the per-stage breakdown, the density error, the particles that left the pool and how deep
+//! the solver's iterations per substep, the most halvings of its relaxation (see
+//! `StepReport::solver_relaxation_halvings`), the per-stage breakdown, the density error, the particles that left the pool and how deep
 //! the hull floats.
 //!
 //! ```text
 //! cargo bench --bench game                  # all cases
 //! cargo bench --bench game -- --quick       # 2,500 and 10,000 only, fewer frames
 //! cargo bench --bench game -- --particles 10000 --threads 2
+//! cargo bench --bench game -- --warm-start 0.9 --min-iterations 1 --hydrostatic-walls false
+//! cargo bench --bench game -- --full-warm-start true
 //! ```
+//!
+//! The last four flags change DFSPH's settings from their defaults (`Dfsph`'s fields of
+//! the same names).
 //!
 //! The scene (`rapier_sph::scenes::WavePool`): a closed pool 2.0 × 0.8 × 0.7 m (inside),
 //! water 0.45 m deep (the water preset, its default solver DFSPH; the spacing chosen for the
@@ -42,13 +48,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!();
     print!(
         "| particles | spacing (mm) | paddle | threads | ms/frame [p10–p90] | CPU ms/frame | \
-         substeps/frame | iterations/substep (density, divergence) | mean density error | left the pool | hull draft / expected | rapier (ms) |"
+         substeps/frame | iterations/substep (density, divergence) | relaxation halvings | mean density error | left the pool | hull draft / expected | rapier (ms) |"
     );
     for s in Stage::ALL {
         print!(" {} |", s.name());
     }
     println!();
-    print!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    print!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for _ in Stage::ALL {
         print!("---|");
     }
@@ -67,6 +73,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     Ok(())
 }
 
+/// The DFSPH settings every case runs with (the defaults unless the command line changes them).
+static DFSPH: std::sync::OnceLock<Dfsph> = std::sync::OnceLock::new();
+
 struct Args {
     particles: Vec<usize>,
     threads: Vec<usize>,
@@ -80,6 +89,20 @@ impl Args {
         let value = |name: &str| argv.windows(2).find(|w| w[0] == name).map(|w| w[1].clone());
         let list =
             |s: String| -> Vec<usize> { s.split(',').filter_map(|x| x.parse().ok()).collect() };
+        let mut dfsph = Dfsph::default();
+        if let Some(w) = value("--warm-start").and_then(|s| s.parse().ok()) {
+            dfsph.warm_start = w;
+        }
+        if let Some(m) = value("--min-iterations").and_then(|s| s.parse().ok()) {
+            dfsph.min_iterations = m;
+        }
+        if let Some(h) = value("--hydrostatic-walls").and_then(|s| s.parse().ok()) {
+            dfsph.hydrostatic_walls = h;
+        }
+        if let Some(f) = value("--full-warm-start").and_then(|s| s.parse().ok()) {
+            dfsph.full_warm_start = f;
+        }
+        let _ = DFSPH.set(dfsph);
         Self {
             particles: value("--particles").map(list).unwrap_or(if quick {
                 vec![2_500, 10_000]
@@ -102,6 +125,7 @@ struct Row {
     cpu_ms: f64,
     substeps: f64,
     iterations: (f64, f64),
+    halvings: u32,
     density_error: f64,
     outside: usize,
     draft: Real,
@@ -113,6 +137,12 @@ struct Row {
 fn run(n: usize, paddle: bool, seconds: Real) -> SphResult<Row> {
     let mut config = WavePoolConfig {
         particles: n,
+        params: |s| {
+            let dfsph = DFSPH.get().copied().unwrap_or_default();
+            FluidParamsBuilder::water(s)
+                .solver(Solver::Dfsph(dfsph))
+                .build()
+        },
         ..Default::default()
     };
     if !paddle {
@@ -126,6 +156,7 @@ fn run(n: usize, paddle: bool, seconds: Real) -> SphResult<Row> {
     let (mut times, mut rapier) = (Vec::with_capacity(frames), Duration::ZERO);
     let (mut stages, mut substeps, mut error) = (StageTimings::default(), 0u64, 0.0f64);
     let mut iterations = (0u64, 0u64);
+    let mut halvings = 0;
     let mut draft = 0.0;
     let cpu0 = cpu_seconds();
     for _ in 0..frames {
@@ -138,6 +169,7 @@ fn run(n: usize, paddle: bool, seconds: Real) -> SphResult<Row> {
         iterations.0 += report.solver_iterations as u64;
         iterations.1 += report.divergence_iterations as u64;
         error += report.mean_density_error as f64;
+        halvings = halvings.max(report.solver_relaxation_halvings);
         draft += pool.draft_ratio();
     }
     let cpu = cpu_seconds() - cpu0;
@@ -154,6 +186,7 @@ fn run(n: usize, paddle: bool, seconds: Real) -> SphResult<Row> {
             iterations.0 as f64 / substeps.max(1) as f64,
             iterations.1 as f64 / substeps.max(1) as f64,
         ),
+        halvings,
         density_error: error / frames as f64,
         outside: pool.outside(),
         draft: draft / frames as Real,
@@ -167,7 +200,7 @@ impl Row {
     fn print(&self, threads: usize) {
         let (p10, p50, p90) = self.frame_ms;
         print!(
-            "| {} | {:.1} | {} | {threads} | {p50:.2} [{p10:.2}–{p90:.2}] | {:.1} | {:.2} | {:.1}, {:.1} | {:.3} % | {} | {:.2} | {:.2} |",
+            "| {} | {:.1} | {} | {threads} | {p50:.2} [{p10:.2}–{p90:.2}] | {:.1} | {:.2} | {:.1}, {:.1} | {} | {:.3} % | {} | {:.2} | {:.2} |",
             self.particles,
             self.spacing * 1e3,
             if self.paddle { "moving" } else { "still" },
@@ -175,6 +208,7 @@ impl Row {
             self.substeps,
             self.iterations.0,
             self.iterations.1,
+            self.halvings,
             100.0 * self.density_error,
             self.outside,
             self.draft,

@@ -225,6 +225,10 @@ pub enum SolverDesc {
         /// Walls with hydrostatic pressure ([`crate::solver::Dfsph::hydrostatic_walls`]).
         #[serde(default)]
         hydrostatic_walls: Option<bool>,
+        /// The whole warm start, taken back where under-dense
+        /// ([`crate::solver::Dfsph::full_warm_start`]).
+        #[serde(default)]
+        full_warm_start: Option<bool>,
     },
     /// Position-based fluids ([`crate::solver::Pbf`]).
     Pbf {
@@ -297,6 +301,7 @@ impl SolverDesc {
                 divergence_solve,
                 warm_start,
                 hydrostatic_walls,
+                full_warm_start,
             } => {
                 let d = Dfsph::default();
                 Solver::Dfsph(Dfsph {
@@ -310,6 +315,7 @@ impl SolverDesc {
                     divergence_solve: divergence_solve.unwrap_or(d.divergence_solve),
                     warm_start: warm_start.map_or(d.warm_start, |v| v.0),
                     hydrostatic_walls: hydrostatic_walls.unwrap_or(d.hydrostatic_walls),
+                    full_warm_start: full_warm_start.unwrap_or(d.full_warm_start),
                 })
             }
             SolverDesc::Pbf {

@@ -692,6 +692,9 @@ enum WarmStart {
     /// This fraction of the values of particles that compress without pressure, zero for
     /// the others ([`Dfsph::warm_start`]).
     WhereCompressing(Real),
+    /// Every particle's whole value ([`Dfsph::full_warm_start`]); what over-corrects is taken
+    /// back by the iterations ([`Solve::projected`]). Pinched particles start from zero.
+    Full,
 }
 
 /// What a solve asks of [`jacobi`].
@@ -707,6 +710,9 @@ struct Solve {
     /// `1/dt²` (density) or `1/dt` (divergence): a closed box's increments
     /// ([`closed_increments`]).
     gain: Real,
+    /// Signed increments, each clamped so that the particle's summed value stays `≥ 0`
+    /// (projected Jacobi, [`Dfsph::full_warm_start`]); `false`: `finish` decides.
+    projected: bool,
 }
 
 /// The Jacobi loop both solves share: warm start from the previous pressure values (section
@@ -807,6 +813,24 @@ impl<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync> Jacobi<'_, F> {
                     self.apply_warm(warm);
                 }
             }
+            WarmStart::Full if self.ctx.closed => {
+                self.warm_start(WarmStart::WhereCompressing(1.0), warm)
+            }
+            WarmStart::Full => {
+                if let Some(wall) = self.ctx.wall {
+                    // Left out of the solve (see `WallWorkspace::pinched`): nothing would
+                    // take their value back.
+                    let (s, rho0) = (self.ctx.self_density, self.ctx.rest_density);
+                    for (i, w) in warm.iter_mut().enumerate() {
+                        if wall.pinched(i, s, rho0) {
+                            *w = 0.0;
+                        }
+                    }
+                }
+                if warm.iter().any(|&w| w != 0.0) {
+                    self.apply_warm(warm);
+                }
+            }
             WarmStart::WhereCompressing(fraction) => {
                 if warm.iter().any(|&w| w != 0.0) {
                     // One rate pass without any pressure: which particles still compress.
@@ -855,6 +879,11 @@ impl<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync> Jacobi<'_, F> {
             if (done && stats.iterations >= min_iterations) || stats.iterations >= max_iterations {
                 stats.capped = !done;
                 break;
+            }
+            if solve.projected {
+                for (p, &w) in self.pi.iter_mut().zip(warm.iter()) {
+                    *p = p.max(-w);
+                }
             }
             apply_pressure(ctx, neighbour, self.pi, self.wide);
             for (w, p) in warm.iter_mut().zip(self.pi.iter()) {
@@ -925,6 +954,7 @@ pub(crate) fn divergence_solve(
         target: settings.max_divergence_error,
         error_scale: dt / ctx.rest_density,
         gain: 1.0 / dt,
+        projected: false,
     };
     jacobi(ctx, solve, buffers, warm, velocities, |alpha, i, rate| {
         if ctx.closed {
@@ -948,8 +978,15 @@ pub(crate) fn divergence_solve(
 
 /// Constant-density solve (Alg. 3): corrects the predicted `velocities` until the density they
 /// lead to after `dt` is `ρ0` on average to within `max_density_error`. `warm` holds the
-/// previous step's pressure values on entry (used at half weight) and this step's sum on exit
-/// (the pressure).
+/// previous step's pressure values on entry (applied as [`Dfsph::warm_start`] and
+/// [`Dfsph::full_warm_start`] say) and this step's sum on exit (the pressure).
+///
+/// With `full_warm_start` the iteration is projected Jacobi on the free surface's
+/// complementarity condition (pressure `π_i ≥ 0`, and `ρ_i = ρ0` where `π_i > 0`), as IISPH
+/// clamps its pressure (Ihmsen et al. 2014): a particle predicted under-dense gets a negative
+/// increment, clamped so that its summed value stays `≥ 0`; the error counted is compression
+/// only. Without it (Bender & Koschier's form) the source is clamped instead, increments are
+/// never negative, and a warm start cannot be taken back: hence the partial, masked one.
 pub(crate) fn density_solve(
     ctx: &SolveContext<'_>,
     settings: &Dfsph,
@@ -959,12 +996,18 @@ pub(crate) fn density_solve(
 ) -> SolveStats {
     let (dt, rho0, densities) = (ctx.dt, ctx.rest_density, ctx.densities);
     let inv_dt2 = 1.0 / (dt * dt);
+    let projected = settings.full_warm_start && !ctx.closed;
     let solve = Solve {
-        warm_start: WarmStart::WhereCompressing(settings.warm_start),
+        warm_start: if settings.full_warm_start {
+            WarmStart::Full
+        } else {
+            WarmStart::WhereCompressing(settings.warm_start)
+        },
         iterations: (settings.min_iterations, settings.max_iterations),
         target: settings.max_density_error,
         error_scale: 1.0 / rho0,
         gain: inv_dt2,
+        projected,
     };
     jacobi(ctx, solve, buffers, warm, velocities, |alpha, i, rate| {
         if ctx.closed {
@@ -978,9 +1021,14 @@ pub(crate) fn density_solve(
         {
             return (0.0, 0.0);
         }
-        // Predicted density, clamped below at ρ0: only compression is corrected (a free
-        // surface is allowed to be under-dense).
-        let excess = (densities[i] + dt * rate - rho0).max(0.0);
+        // Predicted density. Only compression is an error (a free surface is allowed to be
+        // under-dense); projected, under-density lowers the pressure (not below zero, see
+        // `Solve::projected`), else only compression is corrected.
+        let predicted = densities[i] + dt * rate - rho0;
+        if projected {
+            return (predicted * alpha[i] * inv_dt2, predicted.max(0.0));
+        }
+        let excess = predicted.max(0.0);
         (excess * alpha[i] * inv_dt2, excess)
     })
 }
