@@ -716,9 +716,9 @@ struct Solve {
 }
 
 /// The Jacobi loop both solves share: warm start from the previous pressure values (section
-/// 4.4) as `solve.warm_start` says (never all of them: the increments are never negative,
-/// so the whole value could only grow; a closed box carries all of them, see
-/// [`SolveContext::closed`]), then rate pass → error check → velocity update until the
+/// 4.4) as `solve.warm_start` says (never all of them while the increments are never
+/// negative, since the whole value could then only grow; a closed box and a projected solve
+/// carry all of them, see [`SolveContext::closed`] and `Solve::projected`), then rate pass → error check → velocity update until the
 /// average error, `Σ error_i / n` times `error_scale`, is at most `target` (after the least
 /// number of iterations), or the cap binds. `finish(α, i, Dρ_i/Dt) = (π increment,
 /// error_i)`. `warm` ends as this step's summed pressure.
