@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Builds the kiss3d viewer and checks that it starts and draws under Xvfb with Mesa's
-# software drivers (no GPU, no display), saving a screenshot. Not part of the default CI run
+# software drivers (no GPU, no display), saving screenshots: the screen-space water (its own
+# wgpu passes, run by Mesa's lavapipe) and the points. Not part of the default CI run
 # (kiss3d/wgpu add a long build: ~13 min on 2 cores); .ci/run calls it when
 # RAPIER_SPH_CI_VIEWER=1. Run by hand: bash .ci/viewer_check.sh [OUT.png]
 set -euo pipefail
@@ -21,3 +22,9 @@ xvfb-run -a -s "-screen 0 1280x800x24" "${CARGO_TARGET_DIR:-target}/release/exam
   --frames 30 --screenshot "$course"
 test -s "$course"
 echo "viewer drew 30 frames of the obstacle course under Xvfb; screenshot: $course"
+# The older drawing (speed-coloured points) still works.
+points="${out%.png}_points.png"
+xvfb-run -a -s "-screen 0 1280x800x24" "${CARGO_TARGET_DIR:-target}/release/examples/viewer" scenes/dam_break.ron \
+  --frames 10 --points --screenshot "$points"
+test -s "$points"
+echo "viewer drew 10 frames of points under Xvfb; screenshot: $points"

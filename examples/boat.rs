@@ -8,11 +8,16 @@
 //! cargo run --release --example boat                          # 10,000 particles, 6 s, headless
 //! cargo run --release --example boat -- --particles 2500 --seconds 3
 //! cargo run --release --example boat -- --render out/boat     # also PNG frames and a GIF
+//! cargo run --release --example boat -- --render out/boat --spheres   # the same frames, spheres
 //! ```
+//!
+//! The pictures draw screen-space water with foam (`FluidStyle::ScreenSpace`); `--spheres`
+//! draws the particles as speed-coloured spheres instead.
 
 use rapier_sph::math::{Real, Vector};
-use rapier_sph::render::{Camera, Recorder, RenderOptions};
+use rapier_sph::render::{Camera, FluidStyle, Recorder, RenderOptions};
 use rapier_sph::scenes::{WavePool, WavePoolConfig};
+use rapier_sph::visual::DiffuseSettings;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -43,7 +48,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut pictures = args
         .render
         .as_ref()
-        .map(|dir| pictures(dir, "boat"))
+        .map(|dir| pictures(dir, "boat", args.spheres))
         .transpose()?;
     let frames = (args.seconds * 60.0).round() as usize;
     let weight = {
@@ -55,6 +60,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for frame in 1..=frames {
         pool.frame()?;
         if let Some(p) = pictures.as_mut() {
+            p.step(&pool.world)?;
             if frame % 6 == 0 {
                 p.frame(&pool.world)?;
             }
@@ -98,6 +104,7 @@ struct Args {
     particles: usize,
     seconds: Real,
     render: Option<PathBuf>,
+    spheres: bool,
 }
 
 impl Args {
@@ -106,6 +113,7 @@ impl Args {
             particles: 10_000,
             seconds: 6.0,
             render: None,
+            spheres: false,
         };
         let mut it = std::env::args().skip(1);
         while let Some(a) = it.next() {
@@ -122,6 +130,7 @@ impl Args {
                         .map_err(|_| "--seconds needs a number")?
                 }
                 "--render" => args.render = Some(PathBuf::from(value("--render")?)),
+                "--spheres" => args.spheres = true,
                 other => return Err(format!("unknown argument {other}")),
             }
         }
@@ -129,13 +138,28 @@ impl Args {
     }
 }
 
-/// Pictures of every sixth frame (10 a second): `DIR/frame_*.png` and `DIR/boat.gif`.
-fn pictures(dir: &PathBuf, name: &str) -> Result<Recorder, Box<dyn std::error::Error>> {
+/// Pictures of every sixth frame (10 a second): `DIR/frame_*.png` and `DIR/boat.gif`;
+/// screen-space water with foam, or speed-coloured spheres.
+fn pictures(
+    dir: &PathBuf,
+    name: &str,
+    spheres: bool,
+) -> Result<Recorder, Box<dyn std::error::Error>> {
     let options = RenderOptions {
         width: 480,
         height: 270,
+        style: if spheres {
+            FluidStyle::Spheres
+        } else {
+            FluidStyle::ScreenSpace
+        },
         ..RenderOptions::default()
     };
     let camera = Camera::framing(Vector::ZERO, Vector::new(2.0, 0.6, 0.7), 25.0, 32.0);
-    Ok(Recorder::create(dir, name, options, camera, 0.0, 10)?)
+    let recorder = Recorder::create(dir, name, options, camera, 0.0, 10)?;
+    Ok(if spheres {
+        recorder
+    } else {
+        recorder.with_diffuse(DiffuseSettings::default())?
+    })
 }
