@@ -19,7 +19,8 @@
 //! with the points. `--spacing S` overrides every fluid's particle spacing (m) and
 //! `--sim-frames N` stops the simulation after N frames and keeps drawing, so that the
 //! drawing's cost can be timed alone: the viewer prints the median frame time of the frames
-//! after the N-th.
+//! after the N-th. `--water-repeat K` runs the water's passes K times a frame (the same
+//! image), to time them: the frame grows by (K − 1) times their cost.
 
 #[path = "viewer_gpu/colliders.rs"]
 mod colliders;
@@ -36,7 +37,7 @@ use std::path::Path;
 use std::time::Instant;
 
 const USAGE: &str = "usage: viewer SCENE.ron [--frames N] [--screenshot FILE.png] [--points] \
-                     [--spacing S] [--sim-frames N]";
+                     [--spacing S] [--sim-frames N] [--water-repeat K]";
 
 struct Args {
     scene: String,
@@ -45,6 +46,7 @@ struct Args {
     points: bool,
     spacing: Option<f32>,
     sim_frames: Option<usize>,
+    water_repeat: usize,
 }
 
 fn number<T: std::str::FromStr>(v: Option<String>, flag: &str) -> Result<T, String> {
@@ -61,6 +63,7 @@ fn parse_args() -> Result<Args, String> {
         points: false,
         spacing: None,
         sim_frames: None,
+        water_repeat: 1,
     };
     while let Some(a) = it.next() {
         match a.as_str() {
@@ -69,6 +72,7 @@ fn parse_args() -> Result<Args, String> {
             "--points" => args.points = true,
             "--spacing" => args.spacing = Some(number(it.next(), "--spacing")?),
             "--sim-frames" => args.sim_frames = Some(number(it.next(), "--sim-frames")?),
+            "--water-repeat" => args.water_repeat = number(it.next(), "--water-repeat")?,
             "-h" | "--help" => return Err(USAGE.into()),
             s if args.scene.is_empty() && !s.starts_with('-') => args.scene = s.to_string(),
             s => return Err(format!("unexpected argument {s}")),
@@ -328,6 +332,7 @@ async fn main() {
         light,
         spacing: input.spacing,
     });
+    gpu.repeat = args.water_repeat;
     gpu.set_splats(&input.splats);
     gpu.set_foam(&input.dots);
     let mut app = App {

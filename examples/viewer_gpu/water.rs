@@ -340,6 +340,9 @@ pub struct GpuWater {
     /// cap in pixels.
     pub filter_spacings: f32,
     pub filter_max_px: f32,
+    /// Times the passes run per frame (1; more only to time them: the frame time grows by
+    /// their cost per extra run).
+    pub repeat: usize,
     pipelines: Pipelines,
     tex_layout: wgpu::BindGroupLayout,
     uniform: wgpu::Buffer,
@@ -372,6 +375,7 @@ impl GpuWater {
             view,
             filter_spacings: 2.5,
             filter_max_px: 24.0,
+            repeat: 1,
             pipelines,
             tex_layout,
             uniform,
@@ -571,12 +575,14 @@ impl PostProcessingEffect for GpuWater {
         self.ensure_targets(&ctxt, size);
         self.write_frame(&ctxt, size);
         let t = self.targets.as_ref().expect("just sized");
-        self.geometry(context.encoder, t);
-        self.screen(
-            &ctxt,
-            context.encoder,
-            t,
-            (&o.color_view, context.output_view),
-        );
+        for _ in 0..self.repeat.max(1) {
+            self.geometry(context.encoder, t);
+            self.screen(
+                &ctxt,
+                context.encoder,
+                t,
+                (&o.color_view, context.output_view),
+            );
+        }
     }
 }
