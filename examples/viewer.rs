@@ -372,10 +372,8 @@ impl App {
             input,
             gpu,
         } = self;
-        if simulate_now {
-            if let Err(e) = simulate(built, input, stats) {
-                stats.error = Some(e);
-            }
+        if simulate_now && let Err(e) = simulate(built, input, stats) {
+            stats.error = Some(e);
         }
         stats.frame += 1;
         input.stale |= simulate_now;
