@@ -35,7 +35,9 @@ pub enum TimeStepping {
     /// - WCSPH also the acoustic limit `dt ≤ courant · h / (c + v_max)`, Clavet the same with
     ///   `c·√k` (its stiffness `k` is in units of `c²/(h·ρ0)`, its springs' in `c²/(h²·N)`);
     /// - DFSPH under gravity also `g·dt² ≤ 5·max_density_error·spacing`: gravity's
-    ///   compression within one substep stays a few times the solve's error target.
+    ///   compression within one substep stays a few times the solve's error target;
+    /// - with surface tension (`γ > 0`) the capillary limit `dt ≤ courant · 2√(ρ0Δx³/(π³σ))`,
+    ///   `σ` the cohesion's mean-field surface tension (`forces::surface_tension`).
     ///
     /// The frame is split into equal substeps that meet the limits; at most `max_substeps`
     /// of them. When the cap binds the substeps are longer than the limits ask and the report
@@ -190,5 +192,14 @@ fn stable_time_step(
         limit = limit.min(p.rest_density * h * h / (30.0 * p.viscosity));
     }
     limit = limit.min(rt.solver.time_step_limit(p, v, gravity, courant));
+    if p.surface_tension > 0.0 {
+        limit = limit.min(crate::forces::surface_tension::capillary_time_step(
+            p.surface_tension,
+            p.rest_density,
+            p.smoothing_length,
+            p.particle_spacing,
+            courant,
+        ));
+    }
     limit.min(remaining)
 }
