@@ -79,6 +79,9 @@ struct Args {
     /// `--hydrostatic-walls false` turns them off (default: DFSPH's, on).
     #[arg(long, num_args = 0..=1, default_missing_value = "true")]
     hydrostatic_walls: Option<bool>,
+    /// Akinci's surface tension `γ` (`FluidParamsBuilder::surface_tension`; default 0, off).
+    #[arg(long)]
+    surface_tension: Option<f32>,
     /// One substep per frame of exactly --dt (default: adaptive CFL substeps within each frame).
     #[arg(long)]
     fixed: bool,
@@ -213,6 +216,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(eps) = args.viscosity {
         builder = builder.viscosity(eps);
+    }
+    if let Some(gamma) = args.surface_tension {
+        builder = builder.surface_tension(gamma);
     }
     let params = builder.build()?;
     let scale = args
