@@ -8,8 +8,8 @@
 //!   `C_i = Σ w_ij (x_j − x̄ʷ_i)(x_j − x̄ʷ_i)ᵀ / Σ w_ij` (eqs. 9, 10),
 //! - its eigen decomposition `C = R diag(σ1, σ2, σ3) Rᵀ` (`σ1 ≥ σ2 ≥ σ3`), the small axes
 //!   clamped to `σ̃k = max(σk, σ1 / k_r)` (eq. 15) so no ellipsoid degenerates, and a
-//!   sphere for particles with fewer than `N_ε` neighbours (eq. 15's second case: lone
-//!   droplets stay round),
+//!   sphere of `k_n·r0` for particles with fewer than `N_ε` neighbours (eq. 15's second
+//!   case, `k_n` = 0.5: lone droplets stay round and small, so spray does not read as beads),
 //! - the smoothed center `x̃_i = (1 − λ) x_i + λ x̄ʷ_i` (eq. 6, one step of Laplacian
 //!   smoothing, which pulls the surface layer in by the bias of the particles' lattice).
 //!
@@ -49,6 +49,10 @@ pub struct AnisotropySettings {
     /// radius of 2.5 spacings it is `25 · (2.5/4)³ ≈ 6`. A single layer of particles (21 within
     /// 2.5 spacings on a square lattice) is then still drawn as a sheet.
     pub min_neighbors: usize,
+    /// Scale of an isolated particle's sphere (fewer than `min_neighbors` around it), `k_n`
+    /// in `(0, 1]`. Default 0.5 (Yu & Turk's `k_n`): spray and lone droplets are drawn at
+    /// half a bulk particle's radius, so a splash reads as spray instead of beads.
+    pub isolated_scale: Real,
     /// Radius `r0` of a particle in a uniform bulk, in particle spacings. Default 0.5 (the
     /// water preset's particle radius).
     pub particle_radius: Real,
@@ -61,6 +65,7 @@ impl Default for AnisotropySettings {
             smoothing: 0.9,
             max_ratio: 4.0,
             min_neighbors: 6,
+            isolated_scale: 0.5,
             particle_radius: 0.5,
         }
     }
@@ -79,6 +84,13 @@ impl AnisotropySettings {
                 field: "smoothing",
                 value: self.smoothing as f64,
                 reason: "must be in [0, 1]",
+            });
+        }
+        if !(self.isolated_scale > 0.0 && self.isolated_scale <= 1.0) {
+            return Err(SphError::InvalidParameter {
+                field: "isolated_scale",
+                value: self.isolated_scale as f64,
+                reason: "must be in (0, 1]",
             });
         }
         if !(self.max_ratio.is_finite() && self.max_ratio >= 1.0) {
@@ -247,7 +259,7 @@ fn ellipsoid(
     let m = sx * inv;
     let center = xi + m * s.smoothing;
     if neighbors.len() + 1 < s.min_neighbors {
-        return Ellipsoid::sphere(center, r0);
+        return Ellipsoid::sphere(center, r0 * s.isolated_scale);
     }
     let c = nalgebra::Matrix3::new(
         sxx * inv - m.x * m.x,
@@ -398,11 +410,11 @@ mod tests {
     #[test]
     fn isolated_particles_are_spheres_and_bad_settings_are_refused() {
         let s = 0.1;
-        // Fewer than 6 together: a pair and a lone particle.
+        // Fewer than 6 together: a pair and a lone particle, drawn at k_n = 0.5 of r0.
         let points = vec![Vector::ZERO, Vector::new(0.1, 0.0, 0.0), Vector::splat(5.0)];
         let mut a = Anisotropy::new(AnisotropySettings::default()).unwrap();
         for e in a.compute_points(&points, s) {
-            assert_eq!(e.radii, [0.5 * s; 3]);
+            assert_eq!(e.radii, [0.25 * s; 3]);
         }
         let bad = AnisotropySettings {
             smoothing: 1.5,
