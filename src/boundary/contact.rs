@@ -727,6 +727,7 @@ impl Kicks<'_> {
                 normal: n,
                 impulse: dv * -self.mass,
                 point: p,
+                moment: Vector::ZERO,
             });
         }
     }
@@ -840,7 +841,29 @@ fn moving_particle(
         return;
     }
     let fallback = verify_moving(m, &mut p, cands, v_orig, &mut kicks);
+    let integrated = *x;
     p.finish(fallback, counts, x, v);
+    settle_records(&mut kicks, integrated, *x, v_orig);
+}
+
+/// The angular momentum bookkeeping of one particle's contact records: the particle's
+/// momentum changed by `Δp` where it ended (`x`), so each impulse is taken on the body on
+/// that line (see `bodies::on_line`); and moving it out of the body (from `integrated`, at
+/// momentum `m·v`) gave it `(x − integrated) × m·v` of angular momentum with no impulse,
+/// which the last body it touched gives up (`ImpulseRecord::moment`). With both, the water
+/// and the bodies exchange angular momentum exactly.
+#[inline(always)]
+fn settle_records(kicks: &mut Kicks<'_>, integrated: Vector, x: Vector, v: Vector) {
+    let first = kicks.first;
+    if kicks.records.len() <= first {
+        return;
+    }
+    for rec in &mut kicks.records[first..] {
+        rec.point = super::bodies::on_line(x, rec.point, rec.impulse);
+    }
+    if let Some(last) = kicks.records.last_mut() {
+        last.moment = (x - integrated).cross(v * kicks.mass);
+    }
 }
 
 /// Step 3 of the moving path: the corrected motion must cross no surface in the moving

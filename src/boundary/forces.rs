@@ -480,6 +480,10 @@ impl FluidForces {
                 last = r.particle;
             }
             self.add(watch, k, impulse, r.point);
+            // The moment the body gave up with no impulse (see `ImpulseRecord::moment`).
+            for c in 0..3 {
+                self.acc[k][3 + c] -= r.moment[c] as f64;
+            }
         }
         if from_mid {
             self.mid = base;

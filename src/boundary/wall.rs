@@ -506,12 +506,15 @@ impl WallWorkspace {
     /// h_c·m·dt`, `g_c` the dynamic bodies' share of the wall density's gradient, `scale` the
     /// solver's share (see `PressureSolver::wall_impulse_scale`), `h_c` their share of the
     /// hydrostatic wall acceleration. With `added_mass` the particle moves with the body along
-    /// the gradient's direction in the exchange (as for contact).
+    /// the gradient's direction in the exchange (as for contact). `at` holds the positions the
+    /// wall terms acted at (the substep's start: the particle then moved on with the velocity
+    /// they gave it, so its angular momentum changed by `at × Δp`): each impulse is taken on
+    /// the body on that line (see `bodies::on_line`).
     pub(crate) fn reaction(
         &self,
         scale: impl Fn(usize) -> Real,
-        added_mass: bool,
-        mass_dt: Real,
+        (added_mass, mass_dt): (bool, Real),
+        at: &[Vector],
         records: &mut Vec<super::bodies::ImpulseRecord>,
     ) {
         for (i, cw) in self.coupled.iter().enumerate() {
@@ -530,7 +533,8 @@ impl WallWorkspace {
                         Vector::ZERO
                     },
                     impulse,
-                    point: cw.point,
+                    point: super::bodies::on_line(at[i], cw.point, impulse),
+                    moment: Vector::ZERO,
                 });
             }
         }

@@ -54,6 +54,7 @@ pub(crate) fn apply(
                 normal: Vector::ZERO,
                 impulse: -dv * c.mass,
                 point: positions[i],
+                moment: Vector::ZERO,
             });
         }
     }

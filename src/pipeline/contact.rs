@@ -99,7 +99,7 @@ pub(super) fn collider_contact(
         && !c.table().is_empty()
     {
         report.timed(Stage::Contact, || {
-            c.exchange(impulses, velocities, p.particle_mass)
+            c.exchange(impulses, positions, velocities, p.particle_mass)
         });
         let m = (p.particle_mass, true);
         forces.after_exchange(scene.watch, c.table(), impulses, velocities, m);

@@ -524,9 +524,14 @@ fn wall_reaction(
     records.resize_with(1, Vec::new);
     records[0].clear();
     let scale = |i| solver.wall_impulse_scale(ctx, i);
-    w.reaction(scale, added_mass, m * dt, &mut records[0]);
+    w.reaction(
+        scale,
+        (added_mass, m * dt),
+        ctx.previous_positions,
+        &mut records[0],
+    );
     records[0].append(viscous);
-    coupling.exchange(records, ctx.velocities, m);
+    coupling.exchange(records, ctx.positions, ctx.velocities, m);
     ctx.report.timings.add(Stage::Contact, t0.elapsed());
     true
 }
