@@ -10,6 +10,27 @@ use rapier3d::geometry::{ColliderHandle, ColliderSet};
 
 /// An indexed triangle mesh (counter-clockwise triangles seen from outside, for closed
 /// meshes).
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::math::Vector;
+/// use rapier_sph::mesh::{TessellationOptions, TriangleMesh};
+/// use rapier_sph::rapier3d::prelude::{ColliderBuilder, ColliderSet};
+///
+/// // The meshes of a scene's colliders, in world space (e.g. to draw or export them).
+/// let mut colliders = ColliderSet::new();
+/// colliders.insert(ColliderBuilder::cuboid(0.5, 0.25, 0.1).translation(Vector::Y));
+/// let meshes = TriangleMesh::from_colliders(&colliders, &TessellationOptions::default());
+/// let (_, box_mesh) = &meshes[0];
+/// assert!(box_mesh.is_closed());
+/// assert!((box_mesh.signed_volume() - 0.1).abs() < 1e-6); // 1 m × 0.5 m × 0.2 m
+/// // Or one built by hand: an open triangle of 0.5 m².
+/// let corners = vec![Vector::ZERO, Vector::X, Vector::Y];
+/// let triangle = TriangleMesh::from_parts(corners, vec![[0, 1, 2]]);
+/// assert_eq!(triangle.area(), 0.5);
+/// assert!(!triangle.is_closed());
+/// ```
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TriangleMesh {
     /// Vertex positions (m).
@@ -19,6 +40,22 @@ pub struct TriangleMesh {
 }
 
 /// How finely curved shapes are tessellated, and how far infinite ones are drawn.
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::mesh::{TessellationOptions, TriangleMesh};
+/// use rapier_sph::rapier3d::parry::shape::Ball;
+///
+/// let ball = Ball::new(0.5);
+/// let coarse = TessellationOptions { subdivisions: 8, ..Default::default() };
+/// let coarse = TriangleMesh::from_shape(&ball, &coarse).expect("a ball has an area");
+/// let fine = TriangleMesh::from_shape(&ball, &TessellationOptions::default()).unwrap();
+/// assert!(coarse.triangles.len() < fine.triangles.len());
+/// // The finer mesh encloses more of the ball's 4/3·π·0.5³ m³.
+/// let exact = 4.0 / 3.0 * std::f64::consts::PI * 0.125;
+/// assert!(coarse.signed_volume() < fine.signed_volume() && fine.signed_volume() < exact);
+/// ```
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct TessellationOptions {
     /// Subdivisions around balls, capsules, cylinders and cones. Default 24.

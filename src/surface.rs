@@ -17,6 +17,25 @@ use std::borrow::Cow;
 use std::fmt;
 
 /// Reconstruction settings, relative to each fluid's particle spacing.
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::math::Vector;
+/// use rapier_sph::surface::{SurfaceOptions, reconstruct};
+/// use rapier_sph::{Fluid, FluidParamsBuilder};
+///
+/// let mut fluid = Fluid::new(FluidParamsBuilder::water(0.05).build()?)?;
+/// fluid.add_block(Vector::ZERO, Vector::splat(0.3))?;
+/// // The smooth preset, on the calling thread only (the other cores keep stepping).
+/// let options = SurfaceOptions {
+///     multi_threading: false,
+///     ..SurfaceOptions::smooth()
+/// };
+/// let mesh = reconstruct(&fluid, &options)?;
+/// assert!(!mesh.is_empty() && mesh.signed_volume() > 0.0);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceOptions {
     /// Kernel support radius of the reconstruction as a multiple of the spacing. Default 2.5

@@ -43,6 +43,29 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 /// The particles of one frame, all fluids together, one `Vec` per attribute.
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::io::{ParticleData, read_particles_vtk, write_particles_vtk};
+/// use rapier_sph::math::Vector;
+/// use rapier_sph::{Fluid, FluidParamsBuilder, FluidSet};
+///
+/// let mut fluids = FluidSet::new();
+/// let mut water = Fluid::new(FluidParamsBuilder::water(0.05).build()?)?;
+/// water.add_block(Vector::ZERO, Vector::splat(0.2))?;
+/// let n = water.len();
+/// fluids.insert(water);
+/// // One frame of every fluid, e.g. each frame a game records for ParaView.
+/// let data = ParticleData::from_fluids(&fluids);
+/// assert_eq!(data.len(), n);
+/// assert!(data.fluid_ids.iter().all(|&id| id == 0));
+/// let path = std::env::temp_dir().join(format!("rapier_sph_doc_{}.vtk", std::process::id()));
+/// write_particles_vtk(&path, &data)?;
+/// assert_eq!(read_particles_vtk(&path)?, data); // bitwise the same values
+/// std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ParticleData {
     /// Positions (m).

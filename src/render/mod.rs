@@ -890,6 +890,32 @@ impl RenderOptions {
 
 /// Writes an animated GIF frame by frame (each frame is quantised to its own 256-colour
 /// palette by the `gif` crate's NeuQuant).
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::prelude::*;
+/// use rapier_sph::render::{Camera, FluidStyle, GifWriter, RenderOptions, Renderer};
+///
+/// let mut world = FluidWorld::new();
+/// let mut water = Fluid::new(FluidParamsBuilder::water(0.05))?;
+/// water.add_block(Vector::ZERO, Vector::splat(0.3))?;
+/// world.fluids.insert(water);
+/// let options = RenderOptions { width: 48, height: 27, ..Default::default() };
+/// let mut renderer = Renderer::new(RenderOptions { style: FluidStyle::Spheres, ..options });
+/// let camera = Camera::framing(Vector::ZERO, Vector::splat(0.3), 30.0, 25.0);
+/// let path = std::env::temp_dir().join(format!("rapier_sph_doc_{}.gif", std::process::id()));
+/// // Frames of the renderer's size, 4 hundredths of a second each (25 frames per second).
+/// let mut gif = GifWriter::create(&path, 48, 27, 4)?;
+/// for _ in 0..3 {
+///     world.step()?;
+///     gif.add_frame(&renderer.render_world(&camera, &world, None))?;
+/// }
+/// gif.finish()?;
+/// assert!(std::fs::metadata(&path)?.len() > 0);
+/// std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct GifWriter {
     encoder: gif::Encoder<std::io::BufWriter<std::fs::File>>,
     path: PathBuf,
@@ -974,10 +1000,12 @@ impl GifWriter {
 /// [`DiffuseParticles`] per fluid, stepped after each world step, drawn by
 /// [`Renderer::render_world_with`].
 ///
+/// # Examples
+///
 /// ```
-/// # use rapier_sph::render::{Camera, RenderOptions, Renderer, WorldDiffuse};
+/// use rapier_sph::render::{Camera, RenderOptions, Renderer, WorldDiffuse};
+/// use rapier_sph::visual::DiffuseSettings;
 /// # use rapier_sph::scenes::{dam_break, DamBreakConfig};
-/// # use rapier_sph::visual::DiffuseSettings;
 /// # let params = rapier_sph::FluidParamsBuilder::water(0.05).build()?;
 /// # let mut scene = dam_break(&DamBreakConfig::tower(params, 0.4))?;
 /// let mut foam = WorldDiffuse::new(DiffuseSettings::default())?;
@@ -1073,23 +1101,29 @@ impl Recorder {
     ///
     /// # Examples
     ///
-    /// ```no_run
-    /// use rapier_sph::FluidWorld;
+    /// ```
     /// use rapier_sph::math::Vector;
     /// use rapier_sph::render::{Camera, Recorder, RenderOptions};
+    /// use rapier_sph::{Fluid, FluidParamsBuilder, FluidWorld};
     ///
     /// # fn main() -> Result<(), Box<dyn std::error::Error>> {
     /// let mut world = FluidWorld::new();
-    /// // ... colliders and fluids ...
-    /// let camera = Camera::framing(Vector::ZERO, Vector::new(2.0, 1.0, 1.0), 30.0, 25.0);
-    /// let mut pictures = Recorder::create("out", "splash", RenderOptions::default(), camera, 0.0, 4)?;
-    /// for frame in 0..240 {
+    /// let mut water = Fluid::new(FluidParamsBuilder::water(0.05))?;
+    /// water.add_block(Vector::ZERO, Vector::splat(0.3))?;
+    /// world.fluids.insert(water);
+    /// let camera = Camera::framing(Vector::ZERO, Vector::splat(0.3), 30.0, 25.0);
+    /// let options = RenderOptions { width: 48, height: 27, ..Default::default() };
+    /// let out = std::env::temp_dir().join(format!("rapier_sph_doc_rec_{}", std::process::id()));
+    /// let mut pictures = Recorder::create(&out, "splash", options, camera, 0.0, 4)?;
+    /// for step in 0..4 {
     ///     world.step()?;
-    ///     if frame % 4 == 0 {
+    ///     if step % 2 == 0 {
     ///         pictures.frame(&world)?; // out/frame_0000.png, ... and a frame of out/splash.gif
     ///     }
     /// }
     /// pictures.finish()?;
+    /// assert!(out.join("frame_0001.png").exists() && out.join("splash.gif").exists());
+    /// std::fs::remove_dir_all(&out)?;
     /// # Ok(())
     /// # }
     /// ```

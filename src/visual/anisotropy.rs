@@ -31,6 +31,25 @@ use crate::{SphError, SphResult};
 use rayon::prelude::*;
 
 /// Settings of [`Anisotropy`].
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::SphError;
+/// use rapier_sph::visual::{Anisotropy, AnisotropySettings};
+///
+/// // Yu & Turk's neighbourhood of 4 spacings: smoother, about 4 times the cost.
+/// let settings = AnisotropySettings { radius: 4.0, ..Default::default() };
+/// let anisotropy = Anisotropy::new(settings)?;
+/// assert_eq!(anisotropy.settings().radius, 4.0);
+/// // A setting out of range is refused, naming the field.
+/// let bad = AnisotropySettings { smoothing: 1.5, ..Default::default() };
+/// assert!(matches!(
+///     Anisotropy::new(bad),
+///     Err(SphError::InvalidParameter { field: "smoothing", .. })
+/// ));
+/// # Ok::<(), SphError>(())
+/// ```
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct AnisotropySettings {
     /// Neighbourhood radius `R` in particle spacings. Default 2.5 (about 65 neighbours in

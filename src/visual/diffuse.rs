@@ -43,6 +43,31 @@ use crate::{SphError, SphResult};
 use rayon::prelude::*;
 
 /// Settings of [`DiffuseParticles`].
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::SphError;
+/// use rapier_sph::visual::{DiffuseParticles, DiffuseSettings};
+///
+/// // Less foam than the default, dissolving sooner, at most 5,000 particles.
+/// let settings = DiffuseSettings {
+///     max_particles: 5_000,
+///     trapped_air_rate: 20.0,
+///     wave_crest_rate: 20.0,
+///     lifetime: 1.0,
+///     ..Default::default()
+/// };
+/// let foam = DiffuseParticles::new(settings)?;
+/// assert_eq!(foam.settings().max_particles, 5_000);
+/// // A setting out of range is refused, naming the field.
+/// let bad = DiffuseSettings { drag: 2.0, ..Default::default() };
+/// assert!(matches!(
+///     DiffuseParticles::new(bad),
+///     Err(SphError::InvalidParameter { field: "drag", .. })
+/// ));
+/// # Ok::<(), SphError>(())
+/// ```
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct DiffuseSettings {
     /// The most diffuse particles alive at once; generation stops at the cap (what was not
