@@ -48,7 +48,22 @@ use raster::{Target, lerp3};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-/// A pinhole camera looking from `eye` at `target`. See [`Renderer`]'s example.
+/// A pinhole camera looking from `eye` at `target`. See also [`Renderer`]'s example.
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::math::Vector;
+/// use rapier_sph::render::Camera;
+///
+/// // A tank of 2 × 1 × 1 m, seen from 30° to the side and 25° above, filling the view.
+/// let camera = Camera::framing(Vector::ZERO, Vector::new(2.0, 1.0, 1.0), 30.0, 25.0);
+/// assert_eq!(camera.target, Vector::new(1.0, 0.5, 0.5));
+/// // Turned a quarter about the vertical: same target, same distance.
+/// let turned = camera.rotated(90.0);
+/// let distance = |c: &Camera| (c.eye - c.target).length();
+/// assert!((distance(&turned) - distance(&camera)).abs() < 1e-5);
+/// ```
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct Camera {
     /// Camera position (m).
@@ -119,7 +134,20 @@ pub enum FluidStyle {
     Spheres,
 }
 
-/// What to draw and how. See [`Renderer`]'s example.
+/// What to draw and how. See also [`Renderer`]'s example.
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::render::{FluidStyle, RenderOptions, Renderer};
+///
+/// // Quick previews as spheres coloured by speed, the rest as default.
+/// let preview = RenderOptions { width: 320, height: 180, ..Default::default() };
+/// let mut renderer = Renderer::new(RenderOptions { style: FluidStyle::Spheres, ..preview });
+/// // The final frames as screen-space water, in the same buffers.
+/// renderer.options_mut().style = FluidStyle::ScreenSpace;
+/// assert_eq!(renderer.options().width, 320);
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderOptions {
     /// How the liquid is drawn. Default [`FluidStyle::ScreenSpace`].
@@ -219,6 +247,21 @@ impl Default for RenderOptions {
 }
 
 /// An 8-bit RGB image: what [`Renderer`] draws (see its example).
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::render::Image;
+///
+/// let mut image = Image { width: 4, height: 2, rgb: vec![0; 4 * 2 * 3] };
+/// image.rgb[3 * (4 + 2)] = 255; // row 1, column 2: red
+/// assert_eq!(image.pixel(2, 1), [255, 0, 0]);
+/// let path = std::env::temp_dir().join(format!("rapier_sph_doc_{}.png", std::process::id()));
+/// image.save_png(&path)?;
+/// assert_eq!(Image::load_png(&path)?, image);
+/// std::fs::remove_file(&path)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Image {
     /// Width (pixels).
