@@ -563,8 +563,13 @@ impl Sink {
 }
 
 macro_rules! handle_type {
-    ($name:ident, $what:literal) => {
-        #[doc = concat!("A generational handle naming one ", $what, " of a fluid.")]
+    ($name:ident, $what:literal, $example:literal) => {
+        #[doc = concat!("A generational handle naming one ", $what, " of a fluid: a removed ")]
+        #[doc = concat!($what, "'s handle never names another one added later.")]
+        #[doc = ""]
+        #[doc = "# Examples"]
+        #[doc = ""]
+        #[doc = $example]
         #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash)]
         #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
         pub struct $name {
@@ -573,8 +578,40 @@ macro_rules! handle_type {
         }
     };
 }
-handle_type!(EmitterHandle, "emitter");
-handle_type!(SinkHandle, "sink");
+handle_type!(
+    EmitterHandle,
+    "emitter",
+    "```
+use rapier_sph::{Emitter, Fluid, FluidParamsBuilder, Nozzle};
+use rapier_sph::math::Vector;
+
+let mut fluid = Fluid::new(FluidParamsBuilder::water(0.04))?;
+let tap = Emitter::new(Nozzle::Disk { radius: 0.03 }, Vector::Y, -Vector::Y, 1.0, 100.0);
+let handle = fluid.add_emitter(tap.clone())?;
+assert!(fluid.emitter(handle).is_some());
+fluid.remove_emitter(handle); // the tap is turned off for good
+assert!(fluid.emitter(handle).is_none());
+let again = fluid.add_emitter(tap)?; // reuses the slot, not the handle
+assert!(again != handle && fluid.emitter(handle).is_none());
+# Ok::<(), rapier_sph::SphError>(())
+```"
+);
+handle_type!(
+    SinkHandle,
+    "sink",
+    "```
+use rapier_sph::{Fluid, FluidParamsBuilder, Region, Sink};
+use rapier_sph::math::Vector;
+
+let mut fluid = Fluid::new(FluidParamsBuilder::water(0.04))?;
+let drain = Sink::new(Region::Ball { center: Vector::ZERO, radius: 0.1 });
+let handle = fluid.add_sink(drain)?;
+assert!(fluid.sink(handle).is_some());
+assert!(fluid.remove_sink(handle).is_some()); // the drain is plugged
+assert!(fluid.sink(handle).is_none());
+# Ok::<(), rapier_sph::SphError>(())
+```"
+);
 
 /// A small arena with generational handles (the `(index, generation)` pair of a handle).
 #[derive(Clone, Debug, PartialEq)]
