@@ -11,29 +11,6 @@ use rapier_sph::mesh::{TessellationOptions, TriangleMesh};
 use rapier3d::dynamics::RigidBodyType;
 use rapier3d::geometry::{ColliderHandle, ShapeType};
 
-/// The CPU renderer's palette (`rapier_sph::render`, `collider_palette`).
-fn palette(shape: ShapeType, body: Option<RigidBodyType>) -> [f32; 3] {
-    match body {
-        Some(RigidBodyType::Dynamic) => return [0.86, 0.48, 0.16],
-        Some(RigidBodyType::KinematicPositionBased | RigidBodyType::KinematicVelocityBased) => {
-            return [0.95, 0.80, 0.18];
-        }
-        _ => {}
-    }
-    match shape {
-        ShapeType::Ball
-        | ShapeType::Capsule
-        | ShapeType::Cylinder
-        | ShapeType::Cone
-        | ShapeType::RoundCylinder
-        | ShapeType::RoundCone => [0.85, 0.22, 0.20],
-        ShapeType::TriMesh | ShapeType::Polyline => [0.22, 0.66, 0.42],
-        ShapeType::HeightField => [0.78, 0.68, 0.46],
-        ShapeType::Compound => [0.58, 0.40, 0.78],
-        _ => [0.74, 0.73, 0.70],
-    }
-}
-
 /// One vertex per triangle corner, so kiss3d's computed normals give flat faces.
 fn unwelded(triangles: &[[Vec3; 3]]) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let v: Vec<Vec3> = triangles.iter().flatten().copied().collect();
@@ -89,7 +66,7 @@ impl Colliders {
             let moving = body.is_some_and(|b| b != RigidBodyType::Fixed);
             let shape = c.shape().shape_type();
             let wall = !moving && matches!(shape, ShapeType::Cuboid | ShapeType::RoundCuboid);
-            let rgb = palette(shape, body);
+            let rgb = rapier_sph::render::palette(shape, body);
             let triangles: Vec<[Vec3; 3]> = m
                 .triangles
                 .iter()

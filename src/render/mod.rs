@@ -446,8 +446,19 @@ pub struct Renderer {
     splats: Vec<ssf::Splat>,
 }
 
-/// The colour of a collider by its kind (see [`RenderOptions::collider_palette`]).
-fn palette(shape: ShapeType, body: Option<RigidBodyType>) -> Rgb {
+/// The colour of a collider by its kind (see [`RenderOptions::collider_palette`]): dynamic
+/// bodies orange, kinematic yellow, and fixed ones by shape (balls, capsules, cylinders and
+/// cones red, triangle meshes green, heightfields sand, compounds violet, the rest stone
+/// grey). The viewer draws its colliders with the same palette.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::rapier3d::prelude::{RigidBodyType, ShapeType};
+/// use rapier_sph::render::palette;
+/// assert_eq!(palette(ShapeType::Cuboid, Some(RigidBodyType::Dynamic)), [0.86, 0.48, 0.16]);
+/// assert_eq!(palette(ShapeType::Cuboid, None), [0.74, 0.73, 0.70]); // a fixed wall
+/// ```
+pub fn palette(shape: ShapeType, body: Option<RigidBodyType>) -> Rgb {
     match body {
         Some(RigidBodyType::Dynamic) => return [0.86, 0.48, 0.16],
         Some(RigidBodyType::KinematicPositionBased | RigidBodyType::KinematicVelocityBased) => {
