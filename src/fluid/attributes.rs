@@ -50,6 +50,14 @@ impl Attributes {
         &self.entries[k].1
     }
 
+    /// The index of the attribute named `prefix` followed by `name`, if it exists (no
+    /// allocation: the step looks its scalars up every substep).
+    pub fn index_of(&self, prefix: &str, name: &str) -> Option<usize> {
+        self.entries
+            .iter()
+            .position(|(a, _)| a.strip_prefix(prefix) == Some(name))
+    }
+
     /// The values of attribute `k`, writable.
     pub fn get_mut(&mut self, k: usize) -> &mut [Real] {
         &mut self.entries[k].1

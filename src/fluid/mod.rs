@@ -667,15 +667,16 @@ impl Fluid {
     /// The values of scalar `name`, one per particle in the order of [`Fluid::positions`];
     /// `None` when the fluid has no such scalar ([`Fluid::add_scalar`]).
     pub fn scalar(&self, name: &str) -> Option<&[Real]> {
-        let spec = self.scalars.iter().find(|s| s.name == name)?;
-        self.attributes.find(&spec.attribute(), self.len())
+        self.scalars.iter().find(|s| s.name == name)?;
+        let k = self.attributes.index_of(crate::scalars::PREFIX, name)?;
+        Some(self.attributes.get(k))
     }
 
     /// The values of scalar `name`, writable (to paint particles); `None` when the fluid has
     /// no such scalar.
     pub fn scalar_mut(&mut self, name: &str) -> Option<&mut [Real]> {
-        let spec = self.scalars.iter().find(|s| s.name == name)?;
-        let k = self.attributes.ensure(&spec.attribute(), self.len());
+        self.scalars.iter().find(|s| s.name == name)?;
+        let k = self.attributes.index_of(crate::scalars::PREFIX, name)?;
         Some(self.attributes.get_mut(k))
     }
 

@@ -159,8 +159,15 @@ fn diffuse_scalars(fluid: &mut Fluid, ws: &mut Workspace, dt: Real, report: &mut
     let limited = report.timed(Stage::ScalarDiffusion, || {
         let mut limited = 0;
         for spec in &fluid.scalars {
-            let k = fluid.attributes.ensure(&spec.attribute(), n);
+            // `Fluid::add_scalar` created the values; appends and removals keep them sized.
+            let Some(k) = fluid
+                .attributes
+                .index_of(crate::scalars::PREFIX, &spec.name)
+            else {
+                continue;
+            };
             let values = fluid.attributes.vec_mut(k);
+            debug_assert_eq!(values.len(), n);
             let scratch = (&mut ws.scalar_scratch.0, &mut ws.scalar_scratch.1);
             limited += crate::with_separation!(domain, S, sep => {
                 let pairs = crate::neighbors::Pairs {
