@@ -56,11 +56,14 @@ pub enum Stage {
     /// Diffusion of the scalars the particles carry (a dye, a temperature; see
     /// [`crate::scalars`]); runs only for a fluid that has scalars with a diffusivity.
     ScalarDiffusion,
+    /// The implicit viscosity solve (Weiler et al. 2018; runs only for a fluid that asks for
+    /// it, see [`crate::ViscositySolve`]), after the solver's substep.
+    ViscositySolve,
 }
 
 impl Stage {
     /// All stages in step order.
-    pub const ALL: [Stage; 14] = [
+    pub const ALL: [Stage; 15] = [
         Stage::Relaxation,
         Stage::NeighbourSearch,
         Stage::WallDensity,
@@ -75,6 +78,7 @@ impl Stage {
         Stage::SurfaceTension,
         Stage::Contact,
         Stage::ScalarDiffusion,
+        Stage::ViscositySolve,
     ];
 
     /// The stage's name as printed in reports.
@@ -94,6 +98,7 @@ impl Stage {
             Stage::SurfaceTension => "surface tension",
             Stage::Contact => "collider contact",
             Stage::ScalarDiffusion => "scalar diffusion",
+            Stage::ViscositySolve => "viscosity solve",
         }
     }
 }
@@ -241,6 +246,9 @@ pub struct StepReport {
     /// `src/forces/viscosity.rs`; the substep cap bound, or a particle had almost no
     /// neighbours), and brought them at most half way to their common velocity.
     pub viscosity_limited: usize,
+    /// Conjugate-gradient iterations of the implicit viscosity solve, summed over substeps
+    /// and fluids (0 when no fluid uses it; see [`crate::ViscositySolve`]).
+    pub viscosity_iterations: usize,
     /// Particles whose scalar diffusion was limited, summed over substeps and scalars: the
     /// diffusivity asked for more than the explicit update holds in the substep (`D·dt >
     /// h²/30` on a resting lattice; see [`crate::scalars`]), and the scalar diffused at the

@@ -164,7 +164,9 @@ pub use emitter::{Attachment, Emitter, EmitterHandle, Nozzle, Sink, SinkHandle};
 pub use error::{SphError, SphResult};
 pub use fluid::{Fluid, FluidHandle, FluidSet, IntoFluidParams};
 pub use kernel::KernelKind;
-pub use params::{EquationOfState, FluidParams, FluidParamsBuilder};
+pub use params::{
+    EquationOfState, FluidParams, FluidParamsBuilder, ImplicitViscosity, ViscositySolve,
+};
 pub use pipeline::{FluidPipeline, TimeStepping};
 pub use query::{FluidAmount, FluidSampler, Region, RegionTracker, WaterColumn, WaterSurface};
 pub use solver::{Clavet, Dfsph, Pbf, Solver, Springs};
@@ -185,4 +187,6 @@ pub mod prelude {
     };
     // Emitters carried by bodies, handles, and the one-call `Fluid::new(builder)`.
     pub use crate::{Attachment, EmitterHandle, IntoFluidParams, SinkHandle};
+    // The implicit viscosity solve's settings.
+    pub use crate::{ImplicitViscosity, ViscositySolve};
 }

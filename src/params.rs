@@ -25,6 +25,90 @@ use rapier3d::geometry::InteractionGroups;
 /// about 20 times DFSPH's default cap (100).
 pub const MAX_SOLVER_ITERATIONS: u32 = 2048;
 
+/// How the fluid's viscosity ([`FluidParams::viscosity`]) is integrated over a substep.
+///
+/// - [`ViscositySolve::Explicit`] (the default): Müller et al. (2003)'s pair force inside the
+///   solver's substep (`src/forces/viscosity.rs`). Its stable substep is `ρ0 h²/(30 ε)`, so a
+///   thick liquid asks for many substeps; beyond the substep cap its exchange is limited
+///   (it never adds energy, but it no longer holds the viscosity asked for).
+/// - [`ViscositySolve::Implicit`]: the implicit solve of Weiler, Koschier, Brand & Bender
+///   (2018), "A Physically Consistent Implicit Viscosity Solver for SPH Fluids" (Computer
+///   Graphics Forum 37(2)), after the solver's substep (`src/forces/viscosity_implicit.rs`):
+///   `ε` is the dynamic viscosity `μ` (Pa·s) of a consistent SPH Laplacian, any substep holds
+///   it, and the time step no longer depends on it. Honey: about 10 Pa·s at 1400 kg/m³.
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::prelude::*;
+/// use rapier_sph::{ImplicitViscosity, ViscositySolve};
+/// let honey = FluidParamsBuilder::water(0.02)
+///     .rest_density(1400.0)
+///     .viscosity(10.0)
+///     .viscosity_solve(ViscositySolve::Implicit(ImplicitViscosity::default()))
+///     .build()?;
+/// assert!(matches!(honey.viscosity_solve, ViscositySolve::Implicit(_)));
+/// # Ok::<(), SphError>(())
+/// ```
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub enum ViscositySolve {
+    /// Müller's explicit pair force in the solver's substep (the default).
+    #[default]
+    Explicit,
+    /// Weiler et al. (2018)'s implicit solve after the solver's substep.
+    Implicit(ImplicitViscosity),
+}
+
+/// Settings of the implicit viscosity solve ([`ViscositySolve::Implicit`]): a preconditioned
+/// conjugate gradient on `(I − dt ν L) v = v*`, stopped when the residual's norm is below
+/// `tolerance` times the right-hand side's, or after `max_iterations`.
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub struct ImplicitViscosity {
+    /// Relative residual the solve stops at, in `(0, 1)`. Default 1e-3.
+    pub tolerance: Real,
+    /// Most conjugate-gradient iterations per substep, in `1..=`[`MAX_SOLVER_ITERATIONS`].
+    /// Default 100.
+    pub max_iterations: u32,
+}
+
+impl Default for ImplicitViscosity {
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-3,
+            max_iterations: 100,
+        }
+    }
+}
+
+impl ImplicitViscosity {
+    /// Checks the settings.
+    ///
+    /// # Errors
+    ///
+    /// [`SphError::InvalidParameter`] naming `viscosity_solve.tolerance` (not in `(0, 1)`)
+    /// or `viscosity_solve.max_iterations` (0 or above [`MAX_SOLVER_ITERATIONS`]).
+    pub fn validate(&self) -> SphResult<()> {
+        let t = self.tolerance;
+        if !(t > 0.0 && t < 1.0) {
+            return invalid(
+                "viscosity_solve.tolerance",
+                t,
+                "must be finite and in (0, 1)",
+            );
+        }
+        if self.max_iterations == 0 || self.max_iterations > MAX_SOLVER_ITERATIONS {
+            return invalid(
+                "viscosity_solve.max_iterations",
+                self.max_iterations as Real,
+                "must be at least 1 and at most MAX_SOLVER_ITERATIONS (2048)",
+            );
+        }
+        Ok(())
+    }
+}
+
 /// The equation of state: how pressure follows from density (used by WCSPH, and for the
 /// speed of sound that bounds every solver's time step).
 ///
@@ -130,6 +214,11 @@ pub struct FluidParams {
     /// Both presets: 0 (free-slip walls; the stage is skipped).
     #[cfg_attr(feature = "snapshot", serde(default))]
     pub wall_viscosity: Real,
+    /// How [`Self::viscosity`] is integrated: Müller's explicit force (the default) or Weiler
+    /// et al. (2018)'s implicit solve, which holds thick liquids (honey and beyond) at any
+    /// substep (see [`ViscositySolve`]). Both presets: explicit.
+    #[cfg_attr(feature = "snapshot", serde(default))]
+    pub viscosity_solve: ViscositySolve,
     /// Surface tension `γ` of Akinci et al. (2013)'s cohesion and curvature terms (the
     /// paper's constant: m⁴ kg⁻¹ s⁻² in the cohesion term; not the SI surface tension `σ`,
     /// which it gives in proportion: `src/forces/surface_tension.rs` has the model, the
@@ -201,6 +290,15 @@ fn non_negative(field: &'static str, v: Real) -> SphResult<()> {
 }
 
 impl FluidParams {
+    /// The viscosity the solvers' explicit force applies: [`Self::viscosity`] with
+    /// [`ViscositySolve::Explicit`], 0 when the implicit solve takes it.
+    pub(crate) fn explicit_viscosity(&self) -> Real {
+        match self.viscosity_solve {
+            ViscositySolve::Explicit => self.viscosity,
+            ViscositySolve::Implicit(_) => 0.0,
+        }
+    }
+
     /// Checks every field; returns the first problem found.
     ///
     /// # Errors
@@ -271,6 +369,9 @@ impl FluidParams {
     fn validate_walls_and_contact(&self) -> SphResult<()> {
         non_negative("viscosity", self.viscosity)?;
         non_negative("wall_viscosity", self.wall_viscosity)?;
+        if let ViscositySolve::Implicit(settings) = &self.viscosity_solve {
+            settings.validate()?;
+        }
         if self.wall_viscosity > 0.0 && !self.wall_density {
             return invalid(
                 "wall_viscosity",
@@ -397,6 +498,7 @@ impl FluidParamsBuilder {
                 clamp_negative_pressure: true,
                 viscosity: 0.5,
                 wall_viscosity: 0.0,
+                viscosity_solve: ViscositySolve::Explicit,
                 surface_tension: 0.0,
                 adhesion: 0.0,
                 density_kernel: KernelKind::CubicSpline,
@@ -430,6 +532,7 @@ impl FluidParamsBuilder {
                 clamp_negative_pressure: false,
                 viscosity: 0.02,
                 wall_viscosity: 0.0,
+                viscosity_solve: ViscositySolve::Explicit,
                 surface_tension: 0.0,
                 adhesion: 0.0,
                 density_kernel: KernelKind::PaperPoly6,
@@ -530,6 +633,11 @@ impl FluidParamsBuilder {
     /// Viscosity constant ε (Pa·s); 0 switches the viscosity stage off.
     pub fn viscosity(mut self, v: Real) -> Self {
         self.params.viscosity = v;
+        self
+    }
+    /// How the viscosity is integrated (see [`FluidParams::viscosity_solve`]).
+    pub fn viscosity_solve(mut self, v: ViscositySolve) -> Self {
+        self.params.viscosity_solve = v;
         self
     }
     /// Viscosity `ε_w` (Pa·s) between particles and walls (see

@@ -5,4 +5,5 @@
 pub mod external;
 pub(crate) mod surface_tension;
 pub mod viscosity;
+pub(crate) mod viscosity_implicit;
 pub(crate) mod wall_viscosity;

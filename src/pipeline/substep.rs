@@ -392,6 +392,7 @@ fn solve(
         report,
     };
     let outcome = rt.solver.step(&mut ctx);
+    implicit_viscosity(&mut ctx, outcome.non_finite, &mut ws.viscosity);
     let watch = input.scene.map(|s| s.watch);
     if let Some(watch) = watch.filter(|_| !ws.forces.shares.is_empty()) {
         wall_impulses(&ctx, &rt.solver, &wall_ws, watch, &mut ws.forces);
@@ -447,6 +448,44 @@ fn wall_impulses(
         WallReaction::Impulse { .. } => solver.wall_impulse_scale(ctx, i),
     };
     forces.wall_impulses(watch, terms, scale);
+}
+
+/// The implicit viscosity solve (`forces::viscosity_implicit`), after the solver, on the
+/// velocities it left; skipped unless the fluid asks for it, and in a substep whose solver
+/// left a non-finite particle (the solve's dot products would spread it to every particle;
+/// the frame quarantines it first).
+fn implicit_viscosity(
+    ctx: &mut StepContext<'_>,
+    non_finite: usize,
+    scratch: &mut forces::viscosity_implicit::Scratch,
+) {
+    let p = ctx.params;
+    let crate::ViscositySolve::Implicit(settings) = p.viscosity_solve else {
+        return;
+    };
+    if p.viscosity <= 0.0 || non_finite > 0 {
+        return;
+    }
+    let c = forces::viscosity_implicit::Implicit {
+        viscosity: p.viscosity,
+        dt: ctx.dt,
+        settings,
+    };
+    let (positions, neighbors, inv) = (&*ctx.positions, ctx.neighbors, &*ctx.inv_densities);
+    let (attributes, velocities) = (&mut *ctx.attributes, &mut *ctx.velocities);
+    let stats = ctx.report.timed(Stage::ViscositySolve, || {
+        crate::with_separation!(p.domain, S, sep => {
+            let pairs = crate::neighbors::Pairs {
+                positions,
+                neighbors,
+                mass: p.particle_mass,
+                h: p.smoothing_length,
+                sep,
+            };
+            forces::viscosity_implicit::solve(c, &pairs, inv, attributes, velocities, scratch)
+        })
+    });
+    ctx.report.viscosity_iterations += stats.iterations;
 }
 
 /// The walls' viscosity (`wall_viscosity` > 0), after the solver, on the velocities it left.

@@ -187,9 +187,9 @@ fn stable_time_step(
     } else {
         remaining
     };
-    if p.viscosity > 0.0 {
+    if p.explicit_viscosity() > 0.0 {
         let h = p.smoothing_length;
-        limit = limit.min(p.rest_density * h * h / (30.0 * p.viscosity));
+        limit = limit.min(p.rest_density * h * h / (30.0 * p.explicit_viscosity()));
     }
     limit = limit.min(rt.solver.time_step_limit(p, v, gravity, courant));
     if p.surface_tension > 0.0 {

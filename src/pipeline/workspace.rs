@@ -51,6 +51,9 @@ pub(crate) struct Workspace {
     /// The scalar diffusion's new values and row sums (`crate::scalars`; empty for a fluid
     /// without scalars).
     pub scalar_scratch: (Vec<Real>, Vec<Real>),
+    /// The implicit viscosity solve's buffers (`forces::viscosity_implicit`; empty unless the
+    /// fluid uses it).
+    pub viscosity: crate::forces::viscosity_implicit::Scratch,
 }
 
 impl Workspace {
@@ -75,6 +78,7 @@ impl Workspace {
             r.iter().map(|c| c.capacity()).sum::<usize>() * std::mem::size_of::<ImpulseRecord>()
         };
         self.search.heap_bytes()
+            + self.viscosity.heap_bytes()
             + self.contact.heap_bytes()
             + self.wall.heap_bytes()
             + self.relax.heap_bytes()

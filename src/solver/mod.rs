@@ -320,7 +320,7 @@ pub(crate) fn finish_position_step<S: Separation>(ctx: &mut StepContext<'_>, sep
             )
         })
         .into();
-    if p.viscosity > 0.0 {
+    if p.explicit_viscosity() > 0.0 {
         let limited = ctx.report.timed(crate::Stage::ViscosityForce, || {
             ctx.accelerations.fill(Vector::ZERO);
             let pairs = crate::neighbors::Pairs {
@@ -334,7 +334,7 @@ pub(crate) fn finish_position_step<S: Separation>(ctx: &mut StepContext<'_>, sep
                 &pairs,
                 ctx.velocities,
                 ctx.inv_densities,
-                (p.viscosity, dt),
+                (p.explicit_viscosity(), dt),
                 ctx.accelerations,
             );
             crate::integrate::add_accelerations(dt, ctx.accelerations, ctx.velocities);

@@ -59,13 +59,13 @@ impl PressureSolver for WcsphState {
                 ctx.positions, ctx.inv_densities, ctx.pressures, ctx.neighbors, p.particle_mass,
                 p.smoothing_length, wall.map(|w| &w.gradient[..]), ctx.accelerations, sep));
         });
-        if p.viscosity > 0.0 {
+        if p.explicit_viscosity() > 0.0 {
             let limited = ctx.report.timed(Stage::ViscosityForce, || {
                 forces::viscosity::add_accelerations(
                     &pairs,
                     ctx.velocities,
                     ctx.inv_densities,
-                    (p.viscosity, ctx.dt),
+                    (p.explicit_viscosity(), ctx.dt),
                     ctx.accelerations,
                 )
             });

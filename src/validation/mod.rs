@@ -24,6 +24,7 @@ pub mod dam_break;
 pub mod data;
 pub mod hydrostatic;
 pub mod lobovsky;
+pub mod spreading;
 pub mod taylor_green;
 
 use crate::fluid::FluidHandle;

@@ -189,7 +189,7 @@ impl DfsphState {
         let velocities = &*ctx.velocities;
         let (buffers, gradients) = (&mut self.buffers, &mut self.gradients);
         ctx.report.timed(Stage::Density, || {
-            let viscosity = (p.viscosity > 0.0).then(|| ViscosityLaplacian::new(h));
+            let viscosity = (p.explicit_viscosity() > 0.0).then(|| ViscosityLaplacian::new(h));
             let push = pushed.then_some(WarmPush {
                 pi: warm_divergence,
                 velocities,
@@ -252,7 +252,7 @@ impl DfsphState {
     fn non_pressure_forces(&mut self, ctx: &mut StepContext<'_>) -> bool {
         let p = ctx.params;
         let mut forces = false;
-        if p.viscosity > 0.0 {
+        if p.explicit_viscosity() > 0.0 {
             forces = true;
             let (gradients, velocities) = (&self.gradients, &mut self.buffers.velocities);
             let dt = ctx.dt;
@@ -262,7 +262,7 @@ impl DfsphState {
                 super::viscosity(
                     (ctx.neighbors, gradients),
                     (ctx.velocities, ctx.inv_densities),
-                    (p.viscosity * p.particle_mass, dt),
+                    (p.explicit_viscosity() * p.particle_mass, dt),
                     velocities,
                     ctx.accelerations,
                 )
