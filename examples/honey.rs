@@ -53,6 +53,9 @@ struct Args {
     /// Seconds simulated.
     #[arg(long, default_value_t = 8.0)]
     seconds: f32,
+    /// DFSPH's density error target (its default: 1e-3).
+    #[arg(long, default_value_t = 1e-3)]
+    density_error: f32,
     /// Tolerance of the implicit solve.
     #[arg(long, default_value_t = 1e-3)]
     tolerance: f32,
@@ -62,7 +65,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let a = Args::parse();
     let solver = match a.solver {
         SolverArg::Wcsph => Solver::Wcsph,
-        SolverArg::Dfsph => Solver::dfsph(),
+        SolverArg::Dfsph => Solver::Dfsph(rapier_sph::Dfsph {
+            max_density_error: a.density_error,
+            ..Default::default()
+        }),
         SolverArg::Pbf => Solver::pbf(),
         SolverArg::Clavet => Solver::clavet(),
     };

@@ -29,8 +29,8 @@
 //! instead of 2 (full suite only), 13 a viscosity of 5,000 Pa·s (10^4 times the water
 //! preset's, beyond what the substep cap lets the explicit viscosity hold: it is limited), and
 //! 14 a block thrown apart at 20 to 50 m/s at 0.2 m spacing, 15 and 16 a dam break with
-//! surface tension and adhesion at 100 and 10^4 times water's. docs/stability.md has the
-//! results.
+//! surface tension and adhesion at 100 and 10^4 times water's, 17 case 13 with the implicit
+//! viscosity solve (held, not limited). docs/stability.md has the results.
 
 #![cfg_attr(docsrs, doc(cfg(feature = "validation")))]
 
@@ -147,6 +147,7 @@ pub fn cases() -> Vec<Case> {
         tank_cases(),
         abuse_cases(),
         surface_tension_cases(),
+        implicit_viscosity_cases(),
     ]
     .concat()
 }
@@ -325,6 +326,17 @@ fn abuse_cases() -> Vec<Case> {
             build: thrown,
         },
     ]
+}
+
+/// Case 17: the implicit viscosity solve (Weiler et al. 2018, [`crate::ViscositySolve`]) at
+/// case 13's 5,000 Pa·s, which it holds instead of limiting it.
+fn implicit_viscosity_cases() -> Vec<Case> {
+    vec![Case {
+        name: "17 implicit viscosity x10^4",
+        description: "case 13's dam break (5,000 Pa·s) with the implicit viscosity solve",
+        quick: true,
+        build: |s, z| implicit_viscosity(s, z, 5_000.0),
+    }]
 }
 
 /// Cases 15–16: surface tension and adhesion (Akinci et al. 2013) at 100 and 10^4 times
@@ -1036,6 +1048,23 @@ fn tank_length(solver: &Solver, size: SuiteSize, ratio: Real) -> Option<SphResul
 fn very_high_viscosity(solver: &Solver, size: SuiteSize, mu: Real) -> Option<SphResult<Setup>> {
     Some((|| {
         let params = water(solver, 0.05).viscosity(mu).build()?;
+        let n = if size == SuiteSize::Quick {
+            1_000
+        } else {
+            4_000
+        };
+        water_dam_break(params, n, seconds(size, 0.5, 2.0), 4.0)
+    })())
+}
+
+/// Case 17: case 13's dam break at viscosity `mu` (Pa·s) with the implicit solve at its
+/// default settings.
+fn implicit_viscosity(solver: &Solver, size: SuiteSize, mu: Real) -> Option<SphResult<Setup>> {
+    Some((|| {
+        let params = water(solver, 0.05)
+            .viscosity(mu)
+            .viscosity_solve(crate::ViscositySolve::Implicit(Default::default()))
+            .build()?;
         let n = if size == SuiteSize::Quick {
             1_000
         } else {
