@@ -77,6 +77,21 @@ fn restore_and_continue_with_dfsph_and_wall_density() {
     );
 }
 
+/// The implicit viscosity solve's warm start (the velocity change of its last solve) is
+/// kept in the particles' attributes: the restored run starts its solves from it too.
+#[test]
+fn restore_and_continue_with_implicit_viscosity() {
+    let solve = rapier_sph::ViscositySolve::Implicit(rapier_sph::ImplicitViscosity::default());
+    check_restore(
+        scene_with(
+            FluidParamsBuilder::water(0.05)
+                .viscosity(50.0)
+                .viscosity_solve(solve),
+        ),
+        "implicit-viscosity",
+    );
+}
+
 /// The Clavet solver's viscoelastic springs (rest lengths keyed by particle id) are state:
 /// without them the restored run would start every spring again at rest length h.
 #[test]
