@@ -203,7 +203,8 @@ pub struct FluidParams {
     /// Viscosity constant `ε` of the Müller/Unity viscosity force (Pa·s), 0 switches the
     /// viscosity stage off entirely. Water preset: 0.5 (a numerical viscosity that keeps
     /// weakly-compressible SPH calm at game resolutions, far above water's 0.001).
-    /// Paper preset: 0.02.
+    /// Paper preset: 0.02. With [`ViscositySolve::Implicit`] it is the dynamic viscosity `μ`
+    /// of Weiler et al. (2018)'s implicit solve (honey: about 10), held at any substep.
     pub viscosity: Real,
     /// Viscosity constant `ε_w` (Pa·s) between the particles and the walls: the walls'
     /// solid volume acts as fluid moving with the wall in the viscosity term, so a particle

@@ -191,6 +191,43 @@ pub enum Preset {
     Paper,
 }
 
+/// How the viscosity is integrated ([`crate::ViscositySolve`]); omitted settings take the
+/// implicit solve's defaults ([`crate::ImplicitViscosity`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum ViscositySolveDesc {
+    /// Müller's explicit force (the default).
+    Explicit,
+    /// Weiler et al. (2018)'s implicit solve.
+    Implicit {
+        /// Relative residual the solve stops at.
+        #[serde(default)]
+        tolerance: Option<Positive>,
+        /// Most iterations per substep.
+        #[serde(default)]
+        max_iterations: Option<u32>,
+    },
+}
+
+impl ViscositySolveDesc {
+    /// The setting (checked when the parameters are built).
+    pub fn solve(&self) -> crate::ViscositySolve {
+        match self {
+            ViscositySolveDesc::Explicit => crate::ViscositySolve::Explicit,
+            ViscositySolveDesc::Implicit {
+                tolerance,
+                max_iterations,
+            } => {
+                let d = crate::ImplicitViscosity::default();
+                crate::ViscositySolve::Implicit(crate::ImplicitViscosity {
+                    tolerance: tolerance.map_or(d.tolerance, |t| t.0),
+                    max_iterations: max_iterations.unwrap_or(d.max_iterations),
+                })
+            }
+        }
+    }
+}
+
 /// A pressure solver, as in [`crate::Solver`]: every field is optional and defaults to the
 /// solver's own default, e.g. `Dfsph()` or `Dfsph(max_density_error: 0.0005)`, `Pbf(iterations:
 /// 8)`, `Clavet(springs: Some(Springs()))`, `Wcsph`.
@@ -439,6 +476,10 @@ pub struct FluidDesc {
     /// Viscosity ε (Pa·s).
     #[serde(default)]
     pub viscosity: Option<NonNegative>,
+    /// How the viscosity is integrated ([`crate::ViscositySolve`]): `Explicit` (the default) or
+    /// `Implicit()`, `Implicit(tolerance: 1e-4, max_iterations: 200)`.
+    #[serde(default)]
+    pub viscosity_solve: Option<ViscositySolveDesc>,
     /// Viscosity ε_w between particles and walls (Pa·s; needs `wall_density`).
     #[serde(default)]
     pub wall_viscosity: Option<NonNegative>,
@@ -536,6 +577,9 @@ impl FluidDesc {
         }
         if let Some(v) = self.wall_viscosity {
             b = b.wall_viscosity(v.0);
+        }
+        if let Some(v) = &self.viscosity_solve {
+            b = b.viscosity_solve(v.solve());
         }
         if let Some(v) = self.surface_tension {
             b = b.surface_tension(v.0);
