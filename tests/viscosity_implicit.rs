@@ -338,3 +338,19 @@ fn a_viscous_column_spreads_as_huppert_says() {
     );
     assert!((eta / expected - 1.0).abs() < 0.08, "constant {eta}");
 }
+
+/// Any finite viscosity is accepted; one so large that the solve's pair weights overflow
+/// `f32` (10^30 Pa·s) leaves the velocities to the solver rather than making them NaN, and
+/// 10^6 Pa·s (10^9 times water's) is held.
+#[test]
+fn absurd_viscosities_stay_finite() {
+    for mu in [1e6, 1e30] {
+        let (d, _, ke, quarantined) =
+            thick_dam_break(Solver::dfsph(), mu, TimeStepping::default(), 20);
+        let f = &d.world.fluids[d.fluid];
+        assert_eq!(quarantined, 0, "{mu}");
+        assert_eq!(f.len(), 882);
+        assert_eq!(d.escaped(), 0);
+        assert!(ke < 1.0, "{mu}: KE/PE0 {ke}");
+    }
+}

@@ -131,6 +131,11 @@ pub(crate) fn solve<S: Separation>(
         *v += Vector::new(warm[0][i], warm[1][i], warm[2][i]);
     }
     let stats = conjugate_gradient(pairs.neighbors, c.settings, velocities, scratch);
+    if !stats.residual.is_finite() {
+        // A viscosity so large that the pair weights overflow `f32` (10^30 Pa·s): the solve
+        // is dropped for this substep rather than spreading the overflow.
+        velocities.copy_from_slice(&scratch.b);
+    }
     for (i, (v, b)) in velocities.iter().zip(&scratch.b).enumerate() {
         let d = *v - *b;
         (warm[0][i], warm[1][i], warm[2][i]) = (d.x, d.y, d.z);
@@ -191,8 +196,10 @@ fn conjugate_gradient(
     }
     stats.residual = if bb > 0.0 {
         (rr / bb).sqrt() as Real
-    } else {
+    } else if rr.is_finite() {
         0.0
+    } else {
+        Real::NAN
     };
     stats
 }
