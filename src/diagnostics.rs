@@ -269,6 +269,8 @@ pub struct StepReport {
     /// Dynamic bodies that received impulses from the fluid (applied through rapier at the
     /// end of the step; see `src/boundary/bodies.rs`).
     pub coupled_bodies: usize,
+    /// Fluids that slept through the step (not stepped; see [`crate::sleep`]).
+    pub sleeping: usize,
 }
 
 impl fmt::Display for StageTimings {

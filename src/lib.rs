@@ -142,6 +142,7 @@ pub mod scalars;
 pub mod scene_file;
 #[cfg(feature = "validation")]
 pub mod scenes;
+pub mod sleep;
 #[cfg(feature = "snapshot")]
 pub mod snapshot;
 pub mod solver;
@@ -169,6 +170,7 @@ pub use params::{
 };
 pub use pipeline::{FluidPipeline, TimeStepping};
 pub use query::{FluidAmount, FluidSampler, Region, RegionTracker, WaterColumn, WaterSurface};
+pub use sleep::{Sleep, SleepInfo};
 pub use solver::{Clavet, Dfsph, Pbf, Solver, Springs};
 pub use world::FluidWorld;
 
@@ -189,4 +191,6 @@ pub mod prelude {
     pub use crate::{Attachment, EmitterHandle, IntoFluidParams, SinkHandle};
     // The implicit viscosity solve's settings.
     pub use crate::{ImplicitViscosity, ViscositySolve};
+    // Sleeping water (off unless set in the parameters).
+    pub use crate::{Sleep, SleepInfo};
 }

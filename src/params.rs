@@ -262,6 +262,10 @@ pub struct FluidParams {
     /// Where the particles live: open space (default) or a periodic box (see
     /// [`crate::domain`]). Both presets: open.
     pub domain: crate::domain::Domain,
+    /// When the fluid may fall asleep when it is at rest, and stop costing a step (see
+    /// [`crate::sleep`]); `None` (both presets' default) never sleeps: exact results.
+    #[cfg_attr(feature = "snapshot", serde(default))]
+    pub sleep: Option<crate::sleep::Sleep>,
 }
 
 fn invalid(field: &'static str, value: Real, reason: &'static str) -> SphResult<()> {
@@ -319,6 +323,9 @@ impl FluidParams {
             Solver::Dfsph(d) => d.validate()?,
             Solver::Pbf(b) => b.validate()?,
             Solver::Clavet(c) => c.validate()?,
+        }
+        if let Some(sleep) = &self.sleep {
+            sleep.validate()?;
         }
         Ok(())
     }
@@ -510,6 +517,7 @@ impl FluidParamsBuilder {
                 solver: Solver::dfsph(),
                 wall_density: true,
                 domain: crate::domain::Domain::Open,
+                sleep: None,
             },
             mass_given: false,
             walls_given: false,
@@ -544,6 +552,7 @@ impl FluidParamsBuilder {
                 solver: Solver::Wcsph,
                 wall_density: false,
                 domain: crate::domain::Domain::Open,
+                sleep: None,
             },
             mass_given: true,
             walls_given: false,
@@ -555,6 +564,13 @@ impl FluidParamsBuilder {
     /// [`Self::build`]: finite corners, every edge at least 3 smoothing lengths.
     pub fn periodic(mut self, min: crate::math::Vector, max: crate::math::Vector) -> Self {
         self.params.domain = crate::domain::Domain::Periodic { min, max };
+        self
+    }
+
+    /// Lets the fluid fall asleep when it is at rest (see [`crate::sleep`]; `None`, the
+    /// default, never sleeps).
+    pub fn sleep(mut self, sleep: impl Into<Option<crate::sleep::Sleep>>) -> Self {
+        self.params.sleep = sleep.into();
         self
     }
 

@@ -279,6 +279,12 @@ impl FluidForces {
         self.shares.clear();
     }
 
+    /// The watched colliders' slots this fluid's records hold (those of the last frame it
+    /// was stepped in).
+    pub fn slots(&self) -> usize {
+        self.acc.len()
+    }
+
     /// Adds `impulse` at `point` to slot `k`.
     #[inline]
     fn add(&mut self, watch: &Watch, k: usize, impulse: Vector, point: Vector) {
@@ -627,14 +633,24 @@ impl Records {
     pub fn finish<'a>(
         &mut self,
         dt: Real,
-        fluids: impl Iterator<Item = (FluidHandle, &'a mut FluidForces)>,
+        fluids: impl Iterator<Item = (FluidHandle, &'a mut FluidForces, bool)>,
     ) {
         std::mem::swap(&mut self.previous, &mut self.touching);
         self.touching.clear();
         self.events.clear();
         let mut sums = vec![[0.0f64; 6]; self.watch.list.len()];
         let mut counts = vec![0usize; self.watch.list.len()];
-        for (fh, f) in fluids {
+        for (fh, f, asleep) in fluids {
+            if asleep {
+                // A sleeping fluid was not stepped: its forces and touches are those of the
+                // last frame it was (its `acc` was kept, its touches are last frame's).
+                for t in self.previous.iter().filter(|t| t.0 == fh) {
+                    if let Some(k) = self.watch.slot(t.1) {
+                        counts[k] += t.2.len();
+                    }
+                    self.touching.push(t.clone());
+                }
+            }
             for (s, a) in sums.iter_mut().zip(&f.acc) {
                 for c in 0..6 {
                     s[c] += a[c];

@@ -217,6 +217,7 @@ impl Fluid {
     /// ```
     pub fn add_sink(&mut self, sink: Sink) -> SphResult<SinkHandle> {
         sink.validate()?;
+        self.sleep.wake(); // a sink in still water drains it
         let (index, generation) = self.sources.sinks.insert(sink);
         Ok(SinkHandle { index, generation })
     }
@@ -241,6 +242,7 @@ impl Fluid {
 
     /// The sink named by `handle`, mutably.
     pub fn sink_mut(&mut self, handle: SinkHandle) -> Option<&mut Sink> {
+        self.sleep.wake();
         self.sources.sinks.get_mut(handle.index, handle.generation)
     }
 

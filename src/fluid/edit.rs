@@ -136,6 +136,7 @@ impl Fluid {
 
     /// Every per-particle array emptied (capacity kept).
     fn truncate_particles(&mut self) {
+        self.sleep = Default::default();
         self.positions.clear();
         self.velocities.clear();
         self.accelerations.clear();

@@ -140,6 +140,9 @@ pub struct Fluid {
     /// Set when an overlap relaxation was stopped by its round cap: the next substep goes on
     /// relaxing.
     pub(crate) relax_pending: bool,
+    /// Whether it sleeps, and since when it has been at rest (see [`crate::sleep`]); every
+    /// edit of the particles or parameters wakes it.
+    pub(crate) sleep: crate::sleep::SleepState,
 }
 
 impl Fluid {
@@ -182,6 +185,7 @@ impl Fluid {
             capacity: None,
             needs_depenetration: false,
             relax_pending: false,
+            sleep: Default::default(),
         })
     }
 
@@ -203,6 +207,7 @@ impl Fluid {
             e.check_slots(params.particle_spacing)?;
         }
         self.params = params;
+        self.sleep.wake();
         Ok(())
     }
 
@@ -323,6 +328,7 @@ impl Fluid {
     /// rest. Gives up silently only past 2^32 ids, which `add_particles_with_velocities`
     /// refuses first.
     pub(crate) fn append_unchecked(&mut self, positions: &[Vector], velocities: &[Vector]) {
+        self.sleep.wake();
         let count = positions.len() as u32;
         let start = self.next_id;
         let end = start.wrapping_add(count);
@@ -494,6 +500,7 @@ impl Fluid {
         else {
             return 0;
         };
+        self.sleep.wake();
         let mut w = first;
         for r in first + 1..n {
             if !remove(self.positions[r], self.velocities[r], self.ids[r]) {
@@ -579,6 +586,7 @@ impl Fluid {
 
     /// Mutable velocities, to kick particles from game code.
     pub fn velocities_mut(&mut self) -> &mut [Vector] {
+        self.sleep.wake();
         &mut self.velocities
     }
 
@@ -657,6 +665,7 @@ impl Fluid {
             diffusivity,
         };
         self.attributes.ensure(&spec.attribute(), self.len());
+        self.sleep.wake();
         match self.scalars.iter_mut().find(|s| s.name == name) {
             Some(s) => s.diffusivity = diffusivity,
             None => self.scalars.push(spec),
@@ -677,7 +686,45 @@ impl Fluid {
     pub fn scalar_mut(&mut self, name: &str) -> Option<&mut [Real]> {
         self.scalars.iter().find(|s| s.name == name)?;
         let k = self.attributes.index_of(crate::scalars::PREFIX, name)?;
+        self.sleep.wake();
         Some(self.attributes.get_mut(k))
+    }
+
+    /// Whether the fluid sleeps (see [`crate::sleep`]): it is then not stepped until
+    /// something wakes it.
+    pub fn is_sleeping(&self) -> bool {
+        self.sleep.asleep()
+    }
+
+    /// Wakes the fluid if it sleeps, and restarts the time it must stay at rest before it
+    /// falls asleep again (see [`crate::sleep`]). Every edit of its particles or parameters
+    /// does this too.
+    ///
+    /// # Examples
+    /// ```
+    /// use rapier_sph::prelude::*;
+    /// let mut world = FluidWorld::new(); // no gravity-free trick: an empty world, still water
+    /// world.physics.gravity = Vector::ZERO;
+    /// let sleep = Sleep { time: 0.05, ..Sleep::default() };
+    /// let mut water = Fluid::new(FluidParamsBuilder::water(0.05).sleep(sleep))?;
+    /// water.add_block(Vector::ZERO, Vector::splat(0.2))?;
+    /// let water = world.fluids.insert(water);
+    /// for _ in 0..10 {
+    ///     world.step()?;
+    /// }
+    /// assert!(world.fluids[water].is_sleeping());
+    /// world.fluids[water].wake_up();
+    /// assert!(!world.fluids[water].is_sleeping());
+    /// # Ok::<(), SphError>(())
+    /// ```
+    pub fn wake_up(&mut self) {
+        self.sleep.wake();
+    }
+
+    /// What the fluid's sleeping did: whether it sleeps, how long it has been at rest, and
+    /// what falling asleep last dropped (see [`crate::sleep`]).
+    pub fn sleep_info(&self) -> crate::sleep::SleepInfo {
+        self.sleep.public()
     }
 
     /// The names of the fluid's scalars and their diffusivities (m²/s), in the order they

@@ -30,6 +30,8 @@ pub(crate) struct FluidState {
     drained: usize,
     sources: crate::emitter::Sources,
     capacity: Option<usize>,
+    #[serde(default)]
+    sleep: crate::sleep::SleepState,
 }
 
 impl FluidState {
@@ -53,6 +55,7 @@ impl FluidState {
             drained: f.drained,
             sources: f.sources.clone(),
             capacity: f.capacity,
+            sleep: f.sleep.clone(),
         }
     }
 
@@ -145,6 +148,10 @@ impl FluidState {
         }
         f.sources = self.sources;
         f.set_capacity(self.capacity)?;
+        if !self.sleep.is_finite() {
+            return invalid(0, "snapshot sleep state is not finite");
+        }
+        f.sleep = self.sleep;
         Ok(f)
     }
 }

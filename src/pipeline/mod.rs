@@ -16,6 +16,7 @@
 mod contact;
 mod records;
 mod relax;
+mod sleep;
 mod substep;
 mod time_stepping;
 mod workspace;
@@ -218,7 +219,8 @@ impl FluidPipeline {
     ) -> SphResult<&StepReport> {
         self.validate(gravity, dt)?;
         let has_colliders = self.check_broad_phase(broad_phase, colliders)?;
-        self.begin_frame(dt, fluids, bodies, colliders, has_colliders);
+        let surroundings = (gravity, broad_phase);
+        self.begin_frame(dt, fluids, bodies, colliders, surroundings, has_colliders);
         // The BVH is the broad-phase's own tree; an empty body set keeps it from borrowing
         // `bodies`, which the coupling writes impulses into at the end of the step.
         let query = broad_phase.as_query_pipeline(
@@ -244,6 +246,8 @@ impl FluidPipeline {
             runtimes: &mut self.runtimes,
             coupling: &mut self.coupling,
             report: StepReport::default(),
+            watch: &self.records.watch,
+            fell_asleep: Vec::new(),
         };
         // Called from outside rayon's pool, every parallel stage would hand its work to the
         // pool and wait for a worker to wake up: tens of microseconds per stage, more than a
@@ -257,12 +261,17 @@ impl FluidPipeline {
         #[cfg(not(feature = "parallel"))]
         frame.run();
         let mut report = frame.report;
+        let fell_asleep = frame.fell_asleep;
         let forces = self
             .runtimes
             .iter_mut()
-            .map(|r| (r.handle, &mut r.ws.forces));
+            .zip(fluids.iter())
+            .map(|(r, (_, f))| (r.handle, &mut r.ws.forces, f.is_sleeping()));
         self.records.finish(dt, forces);
         report.coupled_bodies = self.coupling.apply(bodies);
+        for near in &fell_asleep {
+            sleep::sleep_bodies(near, &self.coupling, bodies);
+        }
         self.report = report;
         Ok(&self.report)
     }
@@ -292,13 +301,16 @@ impl FluidPipeline {
     }
 
     /// The frame's preparations before its substeps: the fluids' runtimes matched by handle,
-    /// the bodies that teleported, the watched colliders, the moving bodies' table.
+    /// the bodies that teleported, the watched colliders, the moving bodies' table, the
+    /// sleeping fluids woken by what changed around them (`surroundings`: gravity and the
+    /// broad-phase).
     fn begin_frame(
         &mut self,
         dt: Real,
-        fluids: &FluidSet,
+        fluids: &mut FluidSet,
         bodies: &RigidBodySet,
         colliders: &ColliderSet,
+        surroundings: (Vector, &BroadPhaseBvh),
         has_colliders: bool,
     ) {
         self.runtimes.sync(fluids);
@@ -314,9 +326,35 @@ impl FluidPipeline {
         self.coupling
             .detect_teleports(dt, self.rapier_substeps, 0.5 * radius, bodies, colliders);
         let scene_colliders = has_colliders.then_some((bodies, colliders));
-        begin_records(&mut self.records, &mut self.runtimes, scene_colliders);
+        match scene_colliders {
+            Some((bodies, colliders)) => self.records.watch.collect(colliders, bodies),
+            None => self.records.watch = Default::default(),
+        }
         self.coupling
             .begin_frame(dt, self.rapier_substeps, bodies, colliders);
+        let query = surroundings.1.as_query_pipeline(
+            &DefaultQueryDispatcher,
+            &self.no_bodies,
+            colliders,
+            QueryFilter::default(),
+        );
+        let around = sleep::Surroundings {
+            gravity: surroundings.0,
+            dt,
+            bvh: has_colliders.then_some(query.bvh),
+            colliders,
+            coupling: &self.coupling,
+            watch: &self.records.watch,
+        };
+        for ((_, fluid), rt) in fluids.iter_mut().zip(self.runtimes.iter_mut()) {
+            if fluid.is_sleeping() && sleep::disturbed(fluid, rt, &around) {
+                fluid.wake_up();
+            }
+            if !fluid.is_sleeping() {
+                // A sleeping fluid keeps the records of the last frame it was stepped in.
+                rt.ws.forces.begin_frame(&self.records.watch);
+            }
+        }
     }
 
     /// Advances every fluid by one frame of a rapier [`PhysicsWorld`] that has just stepped
@@ -423,22 +461,6 @@ impl FluidPipeline {
     }
 }
 
-/// Finds the watched colliders of the frame (none without colliders) and readies each
-/// fluid's records.
-fn begin_records(
-    records: &mut Records,
-    runtimes: &mut Runtimes,
-    scene: Option<(&RigidBodySet, &ColliderSet)>,
-) {
-    match scene {
-        Some((bodies, colliders)) => records.watch.collect(colliders, bodies),
-        None => records.watch = Default::default(),
-    }
-    for rt in runtimes.iter_mut() {
-        rt.ws.forces.begin_frame(&records.watch);
-    }
-}
-
 /// One frame in progress: what every substep shares.
 struct Frame<'a> {
     gravity: Vector,
@@ -452,6 +474,11 @@ struct Frame<'a> {
     runtimes: &'a mut Runtimes,
     coupling: &'a mut Coupling,
     report: StepReport,
+    /// The watched colliders (the sleep test keeps them in its fingerprint).
+    watch: &'a crate::boundary::forces::Watch,
+    /// The boxes of the fluids that fell asleep at this frame's end: the dynamic bodies in
+    /// them are put to sleep with them once the coupling's impulses are applied.
+    fell_asleep: Vec<parry3d::bounding_volume::Aabb>,
 }
 
 impl Frame<'_> {
@@ -483,7 +510,8 @@ impl Frame<'_> {
             }
         }
         self.end_relaxations();
-        self.emit();
+        let changed = self.emit();
+        self.sleep_tests(&changed);
         self.report.particles = self.fluids.num_particles();
         if counted > 0 {
             self.report.mean_density_error = (weighted_error / counted as f64) as Real;
@@ -510,6 +538,12 @@ impl Frame<'_> {
     /// `velocities_mut`), and measures the speeds the first substep starts from.
     fn quarantine(&mut self) {
         for ((_, fluid), rt) in self.fluids.iter_mut().zip(self.runtimes.iter_mut()) {
+            rt.ws.frame_error = 0.0;
+            if fluid.is_sleeping() {
+                self.report.sleeping += 1;
+                (rt.ws.max_speed, rt.ws.bodies_near) = (0.0, Default::default());
+                continue;
+            }
             // The scan (parallel) counts them and skips them in the maximum speed; the serial
             // removal runs only when there is something to remove.
             let (bad, vmax) = self.report.timed(Stage::ParticleUpdate, || {
@@ -550,8 +584,12 @@ impl Frame<'_> {
             back,
         };
         for ((_, fluid), rt) in self.fluids.iter_mut().zip(self.runtimes.iter_mut()) {
+            if fluid.is_sleeping() {
+                continue;
+            }
             let n = fluid.len();
             let result = substep::substep(fluid, rt, &input, self.coupling, &mut self.report);
+            rt.ws.frame_error = rt.ws.frame_error.max(result.mean_error);
             *error.0 += result.mean_error as f64 * n as f64;
             *error.1 += n;
             if result.non_finite > 0 {
@@ -564,6 +602,9 @@ impl Frame<'_> {
     /// What the frame's overlap relaxations left unfinished (see `relax::RelaxBudget`).
     fn end_relaxations(&mut self) {
         for ((_, fluid), rt) in self.fluids.iter_mut().zip(self.runtimes.iter_mut()) {
+            if fluid.is_sleeping() {
+                continue;
+            }
             if let Some(left) = rt.relax.end_frame(fluid.relax_pending) {
                 let r = &mut self.report;
                 r.relax_compression = r.relax_compression.max(left.compression);
@@ -572,18 +613,45 @@ impl Frame<'_> {
         }
     }
 
-    /// Emitters: the particles due during the frame, where they are at its end.
-    fn emit(&mut self) {
+    /// Emitters: the particles due during the frame, where they are at its end (into sleeping
+    /// fluids too, which wakes them). Returns per fluid whether particles came or went.
+    fn emit(&mut self) -> Vec<bool> {
         let world = crate::emitter::EmitWorld {
             bvh: self.scene.map(|s| s.bvh),
             colliders: self.colliders,
             bodies: self.bodies,
         };
+        let mut changed = Vec::with_capacity(self.fluids.len());
         for (_, fluid) in self.fluids.iter_mut() {
+            let before = (fluid.emitted(), fluid.drained());
             let e = fluid.run_emitters(self.dt, world);
             self.report.emitted += e.emitted;
             self.report.emitter_blocked += e.blocked;
             self.report.capacity_reached |= e.capacity_reached;
+            changed.push((fluid.emitted(), fluid.drained()) != before || e.blocked > 0);
+        }
+        changed
+    }
+
+    /// The sleep test of every awake fluid that may sleep (see [`crate::sleep`]); `changed`
+    /// says per fluid whether particles came or went during the frame.
+    fn sleep_tests(&mut self, changed: &[bool]) {
+        let around = sleep::Surroundings {
+            gravity: self.gravity,
+            dt: self.dt,
+            bvh: self.scene.map(|s| s.bvh),
+            colliders: self.colliders,
+            coupling: self.coupling,
+            watch: self.watch,
+        };
+        let fluids = self.fluids.iter_mut().zip(self.runtimes.iter_mut());
+        for (((_, fluid), rt), &changed) in fluids.zip(changed) {
+            if fluid.is_sleeping() || fluid.params().sleep.is_none() {
+                continue;
+            }
+            if let Some(near) = sleep::test(fluid, rt, &around, changed) {
+                self.fell_asleep.push(near);
+            }
         }
     }
 }

@@ -196,7 +196,8 @@ fn limit_near_kinematic(
     match ws.bodies_near.kinematic {
         Some(kinematic) => {
             let cap = ws.frame_speed + 2.0 * kinematic;
-            report.speed_limited += limit_near_bodies(fluid.velocities_mut(), cap, report);
+            let velocities = fluid.split_mut().1.velocities; // (not the game's edit: no wake)
+            report.speed_limited += limit_near_bodies(velocities, cap, report);
             max_speed.min(cap)
         }
         None => max_speed,

@@ -170,7 +170,7 @@ fn stable_time_step(
     courant: Real,
     remaining: Real,
 ) -> Real {
-    if fluid.is_empty() {
+    if fluid.is_empty() || fluid.is_sleeping() {
         return remaining;
     }
     let p = fluid.params();

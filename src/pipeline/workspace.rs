@@ -39,6 +39,8 @@ pub(crate) struct Workspace {
     pub partials: Vec<(f64, Real)>,
     /// Largest speed after the last substep (the adaptive time step's input).
     pub max_speed: Real,
+    /// Largest mean density error of the frame's substeps (the sleep test's input).
+    pub frame_error: Real,
     /// Fastest surface speeds of the non-fixed bodies near the fluid during the frame (the
     /// adaptive time step's input beside `max_speed`; the kinematic ones bound the speeds
     /// they can give, see `pipeline::substep`).

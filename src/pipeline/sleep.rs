@@ -1,0 +1,172 @@
+//! Sleeping fluids (see [`crate::sleep`]): the checks that wake a sleeping fluid before a
+//! frame, and the test that puts a fluid at rest to sleep after it.
+
+use super::workspace::FluidRuntime;
+use crate::boundary::Coupling;
+use crate::boundary::forces::Watch;
+use crate::fluid::Fluid;
+use crate::math::{Real, Vector};
+use parry3d::bounding_volume::{Aabb, BoundingVolume};
+use parry3d::partitioning::{Bvh, BvhNode};
+use rapier3d::dynamics::RigidBodySet;
+use rapier3d::geometry::ColliderSet;
+
+/// What the wake checks and the sleep test read of the frame.
+#[derive(Copy, Clone)]
+pub(super) struct Surroundings<'a> {
+    pub gravity: Vector,
+    pub dt: Real,
+    /// rapier's broad-phase tree (`None` without colliders).
+    pub bvh: Option<&'a Bvh>,
+    pub colliders: &'a ColliderSet,
+    pub coupling: &'a Coupling,
+    pub watch: &'a Watch,
+}
+
+/// How far from a sleeping fluid's particles a collider or body counts as near (m): a kernel
+/// support and a particle radius, plus how far a particle at the sleep speed and gravity would
+/// move in a frame (what an awake fluid's coupling table reaches, see `Frame::quarantine`).
+fn margin(fluid: &Fluid, s: &Surroundings<'_>) -> Real {
+    let p = fluid.params();
+    let speed = p.sleep.map_or(0.0, |z| z.speed);
+    p.smoothing_length + p.particle_radius + (speed + s.gravity.length() * s.dt) * s.dt
+}
+
+/// Whether something disturbs a sleeping `fluid` this frame (see [`crate::sleep`] for the
+/// list). Costs a few comparisons, a pass over the non-fixed bodies' boxes and a query of
+/// rapier's tree around the fluid.
+pub(super) fn disturbed(fluid: &Fluid, rt: &FluidRuntime, s: &Surroundings<'_>) -> bool {
+    let st = &fluid.sleep;
+    if fluid.params().sleep.is_none()
+        || st.gravity != s.gravity
+        || st.dt != s.dt
+        || st.watched != watched(s.watch)
+        || rt.ws.forces.slots() != s.watch.list.len()
+        || !s.coupling.teleports.frame().is_empty()
+    {
+        return true;
+    }
+    let (lo, hi) = st.bounds;
+    let fluid_box = Aabb::new(lo, hi);
+    let m = margin(fluid, s);
+    if s.coupling.surface_speeds_near(&fluid_box, m, s.dt).fastest > 0.0 {
+        return true;
+    }
+    colliders_near(&fluid_box, m, s) != st.colliders
+}
+
+/// Puts `fluid` to sleep if it has been at rest for long enough; returns the box (with the
+/// margin) in which dynamic bodies join it in sleep. `emitted` and `drained` are the frame's
+/// counts for this fluid.
+pub(super) fn test(
+    fluid: &mut Fluid,
+    rt: &FluidRuntime,
+    s: &Surroundings<'_>,
+    changed: bool,
+) -> Option<Aabb> {
+    let sleep = fluid.params().sleep?;
+    let at_rest = !changed
+        && !fluid.is_empty()
+        && rt.ws.max_speed <= sleep.speed
+        && rt.ws.frame_error <= sleep.density_error
+        && rt.ws.bodies_near.fastest <= sleep.speed;
+    if !at_rest {
+        fluid.sleep.info.quiet_time = 0.0;
+        return None;
+    }
+    fluid.sleep.info.quiet_time += s.dt;
+    if fluid.sleep.info.quiet_time < sleep.time {
+        return None;
+    }
+    let (lo, hi) = crate::integrate::bounds(fluid.positions());
+    let fluid_box = Aabb::new(lo, hi);
+    let m = margin(fluid, s);
+    let fingerprint = colliders_near(&fluid_box, m, s);
+    let mass = fluid.params().particle_mass as f64;
+    let (_, particles) = fluid.split_mut();
+    let (mut energy, mut fastest) = (0.0f64, 0.0 as Real);
+    for v in particles.velocities.iter_mut() {
+        energy += 0.5 * mass * v.length_squared() as f64;
+        fastest = fastest.max(v.length());
+        *v = Vector::ZERO;
+    }
+    let st = &mut fluid.sleep;
+    st.info.asleep = true;
+    st.info.quiet_time = 0.0;
+    st.info.dropped_kinetic_energy = energy;
+    st.info.dropped_max_speed = fastest;
+    st.info.density_error_at_sleep = rt.ws.frame_error;
+    st.info.times_asleep += 1;
+    st.gravity = s.gravity;
+    st.dt = s.dt;
+    st.bounds = (lo, hi);
+    st.colliders = fingerprint;
+    st.watched = watched(s.watch);
+    Some(fluid_box.loosened(m))
+}
+
+/// Puts the dynamic bodies whose colliders reach into `near` to sleep in rapier: they rest
+/// in the sleeping water (one island with it), and a floating body stays where its buoyancy
+/// held it.
+pub(super) fn sleep_bodies(near: &Aabb, coupling: &Coupling, bodies: &mut RigidBodySet) {
+    for body in coupling.dynamic_bodies_in(near) {
+        if let Some(b) = bodies.get_mut(body)
+            && !b.is_sleeping()
+        {
+            b.sleep();
+        }
+    }
+}
+
+/// An order-independent fingerprint of the colliders whose boxes come within `margin` of
+/// `fluid_box`: their handles, poses and boxes (a collider appearing, leaving, moving or
+/// changing shape near the fluid changes it).
+fn colliders_near(fluid_box: &Aabb, margin: Real, s: &Surroundings<'_>) -> u64 {
+    let Some(bvh) = s.bvh else {
+        return 0;
+    };
+    let area = fluid_box.loosened(margin);
+    let mut sum = 0u64;
+    for leaf in bvh.leaves(|node: &BvhNode| node.aabb().intersects(&area)) {
+        let Some((co, h)) = s.colliders.get_unknown_gen(leaf) else {
+            continue;
+        };
+        let (index, generation) = h.into_raw_parts();
+        let mut x = mix(((index as u64) << 32) | generation as u64);
+        let pose = co.position();
+        let aabb = co.compute_aabb();
+        let words = [
+            pose.translation.to_array(),
+            aabb.mins.to_array(),
+            aabb.maxs.to_array(),
+        ];
+        for w in words.iter().flatten() {
+            x = mix(x ^ w.to_bits() as u64);
+        }
+        for r in pose.rotation.to_array() {
+            x = mix(x ^ r.to_bits() as u64);
+        }
+        x = mix(x ^ (co.is_enabled() as u64) ^ ((co.is_sensor() as u64) << 1));
+        sum = sum.wrapping_add(x);
+    }
+    sum
+}
+
+/// A fingerprint of the watched colliders (their handles and flags).
+fn watched(watch: &Watch) -> u64 {
+    let mut x = mix(watch.list.len() as u64);
+    for w in &watch.list {
+        let (index, generation) = w.handle.into_raw_parts();
+        let flags = (w.forces as u64) | ((w.events as u64) << 1);
+        x = mix(x ^ ((index as u64) << 32) ^ generation as u64 ^ (flags << 62));
+    }
+    x
+}
+
+/// splitmix64's finaliser.
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}

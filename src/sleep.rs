@@ -1,0 +1,164 @@
+//! Sleeping fluids: water at rest costs (almost) nothing, as rapier's sleeping islands do
+//! for bodies (Box2D's and Jolt's sleeping, Bullet's deactivation).
+//!
+//! A fluid whose [`crate::FluidParams::sleep`] is set falls asleep once, for
+//! [`Sleep::time`] seconds of consecutive frames, its fastest particle stayed below
+//! [`Sleep::speed`], its mean density error below [`Sleep::density_error`], and every
+//! non-fixed body near it moved slower than [`Sleep::speed`]. Falling asleep sets its
+//! particles' velocities to zero (the kinetic energy dropped is recorded:
+//! [`SleepInfo::dropped_kinetic_energy`]) and puts the dynamic bodies near it to sleep in
+//! rapier (`RigidBody::sleep`): the fluid and the bodies floating in it form one island, and
+//! a floating hull stays where its buoyancy held it.
+//!
+//! A sleeping fluid is not stepped: no neighbour search, no solver, no contact; its
+//! particles stay bitwise where they are, its queries, its watched colliders' forces and its
+//! contact events stay those of the last frame it was awake (a resting pool keeps pressing
+//! on a pillar). Each frame costs a few checks of what could wake it, and it wakes (the
+//! frame's substeps then run as usual) on any of:
+//! - a non-fixed body near it moving (a kinematic paddle starting, a body falling in, a
+//!   sleeping body woken by the game or by rapier), or any body teleported;
+//! - a collider appearing, disappearing, moving or changing shape near it (a fixed gate
+//!   removed, a collider inserted), or the watched colliders changing;
+//! - gravity or the frame's length changing;
+//! - the game editing the fluid: [`crate::Fluid::set_params`], adding, removing or filling
+//!   particles, [`crate::Fluid::velocities_mut`], scalars, sinks, clearing, resetting, or
+//!   [`crate::Fluid::wake_up`];
+//! - an emitter emitting into it (its emitters run while it sleeps).
+//!
+//! A snapshot carries the sleep state: a restored sleeping pool sleeps on.
+//!
+//! What it approximates: the velocities dropped at sleep (at most [`Sleep::speed`] each)
+//! and the density error frozen at sleep (at most [`Sleep::density_error`] on average); the
+//! water does not creep further while asleep. Leave [`crate::FluidParams::sleep`] at `None`
+//! (the presets' default) for exact results. docs/performance.md has the measured costs and
+//! errors.
+
+use crate::error::{SphError, SphResult};
+use crate::math::{Real, Vector};
+
+/// When a fluid may fall asleep (see [`crate::sleep`]): every threshold must hold for
+/// [`Sleep::time`] seconds.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::prelude::*;
+/// let params = FluidParamsBuilder::water(0.04).sleep(Sleep::default()).build()?;
+/// assert_eq!(params.sleep, Some(Sleep::default()));
+/// let mut bad = Sleep::default();
+/// bad.time = -1.0;
+/// assert!(FluidParamsBuilder::water(0.04).sleep(bad).build().is_err()); // names `sleep.time`
+/// # Ok::<(), SphError>(())
+/// ```
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub struct Sleep {
+    /// Fastest particle, and fastest surface of a non-fixed body near the fluid, that still
+    /// counts as at rest (m/s). Default: 0.02.
+    pub speed: Real,
+    /// Mean density error `(ρ − ρ0)/ρ0` averaged over the particles that still counts as at
+    /// rest (a fraction). Default: 0.01.
+    pub density_error: Real,
+    /// Seconds the fluid must stay at rest before it falls asleep. Default: 0.5.
+    pub time: Real,
+}
+
+impl Default for Sleep {
+    fn default() -> Self {
+        Self {
+            speed: 0.02,
+            density_error: 0.01,
+            time: 0.5,
+        }
+    }
+}
+
+impl Sleep {
+    /// Checks the thresholds.
+    ///
+    /// # Errors
+    /// [`SphError::InvalidParameter`] naming `sleep.speed`, `sleep.density_error` or
+    /// `sleep.time` when one is negative or not finite.
+    pub fn validate(&self) -> SphResult<()> {
+        let fields = [
+            ("sleep.speed", self.speed),
+            ("sleep.density_error", self.density_error),
+            ("sleep.time", self.time),
+        ];
+        for (field, v) in fields {
+            if !v.is_finite() || v < 0.0 {
+                return Err(SphError::InvalidParameter {
+                    field,
+                    value: v as f64,
+                    reason: "must be finite and non-negative",
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What a fluid's sleeping did (see [`crate::Fluid::sleep_info`]).
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub struct SleepInfo {
+    /// Whether the fluid sleeps.
+    pub asleep: bool,
+    /// Seconds it has been at rest while awake (0 while it moves).
+    pub quiet_time: Real,
+    /// Kinetic energy (J) its particles had when they were stopped at its last falling
+    /// asleep.
+    pub dropped_kinetic_energy: f64,
+    /// The fastest of those particles (m/s).
+    pub dropped_max_speed: Real,
+    /// Its mean density error when it last fell asleep (a fraction).
+    pub density_error_at_sleep: Real,
+    /// Times it fell asleep.
+    pub times_asleep: u64,
+}
+
+/// A fluid's sleep state (on the fluid, saved in snapshots).
+#[derive(Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub(crate) struct SleepState {
+    pub info: SleepInfo,
+    /// Gravity and frame length it fell asleep under.
+    pub gravity: Vector,
+    pub dt: Real,
+    /// The particles' bounding box while asleep (they do not move).
+    pub bounds: (Vector, Vector),
+    /// Fingerprint of the colliders near the fluid when it fell asleep.
+    pub colliders: u64,
+    /// Watched colliders when it fell asleep.
+    pub watched: u64,
+}
+
+impl SleepState {
+    /// Wakes the fluid (and restarts its quiet time).
+    #[inline]
+    pub fn wake(&mut self) {
+        self.info.asleep = false;
+        self.info.quiet_time = 0.0;
+    }
+
+    pub fn asleep(&self) -> bool {
+        self.info.asleep
+    }
+
+    /// Every stored number finite (snapshots).
+    #[cfg_attr(not(feature = "snapshot"), allow(dead_code))]
+    pub fn is_finite(&self) -> bool {
+        let i = &self.info;
+        crate::math::is_finite(self.gravity)
+            && crate::math::is_finite(self.bounds.0)
+            && crate::math::is_finite(self.bounds.1)
+            && self.dt.is_finite()
+            && i.quiet_time.is_finite()
+            && i.dropped_kinetic_energy.is_finite()
+            && i.dropped_max_speed.is_finite()
+            && i.density_error_at_sleep.is_finite()
+    }
+
+    pub fn public(&self) -> SleepInfo {
+        self.info
+    }
+}

@@ -1,0 +1,299 @@
+//! Sleeping fluids (`rapier_sph::sleep`): still water falls asleep, stays bitwise still,
+//! and wakes on everything that can move it.
+
+use rapier_sph::prelude::*;
+use rapier_sph::rapier3d::prelude::{ActiveEvents, ColliderBuilder, RigidBodyBuilder};
+use rapier_sph::rapier3d::prelude::{ColliderHandle, RigidBodyHandle};
+
+const SPACING: Real = 0.05;
+
+/// A closed 0.6 × 0.5 × 0.6 m box (walls 5 cm thick) holding a 0.4 × 0.2 × 0.4 m block of
+/// water (256 particles), sleeping allowed after `time` s at rest, under `gravity`.
+fn tank(gravity: Vector, sleep: Option<Sleep>) -> (FluidWorld, FluidHandle, Vec<ColliderHandle>) {
+    let mut world = FluidWorld::new();
+    world.physics.gravity = gravity;
+    let ground = world.physics.insert_body(RigidBodyBuilder::fixed());
+    let (x, y, t) = (0.3, 0.25, 0.05);
+    let walls = [
+        (Vector::new(x, -t, x), Vector::new(x + t, t, x + t)),
+        (Vector::new(-t, y, x), Vector::new(t, y + t, x + t)),
+        (Vector::new(2.0 * x + t, y, x), Vector::new(t, y + t, x + t)),
+        (Vector::new(x, y, -t), Vector::new(x + t, y + t, t)),
+        (Vector::new(x, y, 2.0 * x + t), Vector::new(x + t, y + t, t)),
+        (Vector::new(x, 2.0 * y + t, x), Vector::new(x + t, t, x + t)),
+    ];
+    let handles = walls
+        .iter()
+        .map(|(c, h)| {
+            let co = ColliderBuilder::cuboid(h.x, h.y, h.z)
+                .translation(*c)
+                .active_events(ActiveEvents::CONTACT_FORCE_EVENTS);
+            world.physics.insert_collider(co, Some(ground))
+        })
+        .collect();
+    let params = FluidParamsBuilder::water(SPACING)
+        .sleep(sleep)
+        .build()
+        .unwrap();
+    let mut water = Fluid::new(params).unwrap();
+    let s = SPACING;
+    water
+        .add_block(
+            Vector::new(0.1 + 0.5 * s, 0.5 * s, 0.1 + 0.5 * s),
+            Vector::new(0.4, 0.2, 0.4),
+        )
+        .unwrap();
+    let water = world.fluids.insert(water);
+    (world, water, handles)
+}
+
+fn quick() -> Sleep {
+    Sleep {
+        time: 0.1,
+        ..Sleep::default()
+    }
+}
+
+/// Steps until the water sleeps; the frames it took.
+fn until_asleep(world: &mut FluidWorld, water: FluidHandle, limit: usize) -> usize {
+    for frame in 1..=limit {
+        world.step().unwrap();
+        if world.fluids[water].is_sleeping() {
+            return frame;
+        }
+    }
+    panic!("the water did not fall asleep in {limit} frames");
+}
+
+fn ball(world: &mut FluidWorld, at: Vector, velocity: Vector) -> RigidBodyHandle {
+    let b = world
+        .physics
+        .insert_body(RigidBodyBuilder::dynamic().translation(at).linvel(velocity));
+    world
+        .physics
+        .insert_collider(ColliderBuilder::ball(0.06).density(800.0), Some(b));
+    b
+}
+
+#[test]
+fn still_water_falls_asleep_and_stays_bitwise_still() {
+    let (mut world, water, _) = tank(Vector::ZERO, Some(quick()));
+    // 0.1 s at rest at 1/60 s: 6 frames, plus the first frame that measures the speeds.
+    let frames = until_asleep(&mut world, water, 8);
+    assert!(frames <= 8);
+    let n = world.fluids[water].len();
+    let hash = world.fluids[water].state_hash();
+    for _ in 0..60 {
+        let report = world.step().unwrap();
+        assert_eq!((report.sleeping, report.substeps), (1, 1));
+    }
+    assert_eq!(world.fluids[water].state_hash(), hash);
+    assert_eq!(world.fluids[water].len(), n);
+    let info = world.fluids[water].sleep_info();
+    assert!(info.asleep && info.times_asleep == 1);
+    // Nothing moved before: nothing was dropped.
+    assert_eq!(info.dropped_kinetic_energy, 0.0);
+}
+
+#[test]
+fn exact_results_without_sleep() {
+    let (mut a, wa, _) = tank(Vector::ZERO, None);
+    for _ in 0..30 {
+        assert_eq!(a.step().unwrap().sleeping, 0);
+    }
+    assert!(!a.fluids[wa].is_sleeping());
+}
+
+/// A ball thrown into sleeping water wakes it in the frame it comes near, and the splash is
+/// the splash into water that never slept: this water was exactly at rest when it fell
+/// asleep (no velocity dropped), so the two runs see the same particles.
+#[test]
+fn a_ball_wakes_the_water_and_splashes_as_into_awake_water() {
+    let run = |sleep: Option<Sleep>| {
+        let (mut world, water, _) = tank(Vector::ZERO, sleep);
+        for _ in 0..20 {
+            world.step().unwrap();
+        }
+        assert_eq!(world.fluids[water].is_sleeping(), sleep.is_some());
+        let b = ball(
+            &mut world,
+            Vector::new(0.3, 0.42, 0.3),
+            Vector::new(0.0, -1.5, 0.0),
+        );
+        let mut woke = None;
+        for frame in 0..40 {
+            world.step().unwrap();
+            if woke.is_none() && !world.fluids[water].is_sleeping() {
+                woke = Some(frame);
+            }
+        }
+        let f = &world.fluids[water];
+        (
+            f.kinetic_energy(),
+            world.physics.bodies[b].translation(),
+            woke,
+            f.len(),
+        )
+    };
+    let (e_slept, x_slept, woke, n) = run(Some(quick()));
+    let (e_awake, x_awake, _, n_awake) = run(None);
+    // The ball starts 0.12 m above the water's level (0.2 m + half a spacing), at 1.5 m/s:
+    // it reaches the margin (h + r = 0.125 m) at once.
+    assert_eq!(woke, Some(0));
+    assert!(e_slept > 1e-3, "the splash moved the water: {e_slept} J");
+    assert_eq!(n, n_awake);
+    let de = (e_slept - e_awake).abs() / e_awake;
+    let dx = (x_slept - x_awake).length();
+    println!("splash: {e_slept} J slept, {e_awake} J awake; ball {dx} m apart");
+    // Same particles, same ball: only the solvers' warm starts (kept from before the sleep
+    // in one run, carried through the quiet frames in the other) differ, which changes
+    // the result by the solvers' tolerance (0.1 % density error).
+    assert!(de < 1e-2, "kinetic energy {e_slept} vs {e_awake}");
+    assert!(dx < 1e-3, "ball {x_slept:?} vs {x_awake:?}");
+}
+
+#[test]
+fn a_paddle_that_starts_moving_wakes_the_water() {
+    let (mut world, water, _) = tank(Vector::ZERO, Some(quick()));
+    let paddle = world.physics.insert_body(
+        RigidBodyBuilder::kinematic_position_based().translation(Vector::new(0.08, 0.15, 0.3)),
+    );
+    world
+        .physics
+        .insert_collider(ColliderBuilder::cuboid(0.01, 0.1, 0.2), Some(paddle));
+    until_asleep(&mut world, water, 30);
+    for _ in 0..10 {
+        world.step().unwrap();
+        assert!(world.fluids[water].is_sleeping());
+    }
+    for k in 1..=5 {
+        let x = 0.08 + 0.01 * k as Real; // 0.6 m/s into the water
+        world.physics.bodies[paddle].set_next_kinematic_translation(Vector::new(x, 0.15, 0.3));
+        world.step().unwrap();
+        assert!(!world.fluids[water].is_sleeping());
+    }
+    assert!(world.fluids[water].kinetic_energy() > 0.0);
+}
+
+#[test]
+fn an_emitter_wakes_the_water() {
+    let (mut world, water, _) = tank(Vector::ZERO, Some(quick()));
+    until_asleep(&mut world, water, 30);
+    let n = world.fluids[water].len();
+    let nozzle = Nozzle::Disk { radius: 0.05 };
+    let down = Vector::new(0.0, -1.0, 0.0);
+    let emitter = Emitter::new(nozzle, Vector::new(0.3, 0.42, 0.3), down, 0.5, 200.0);
+    world.fluids[water].add_emitter(emitter).unwrap();
+    world.step().unwrap();
+    world.step().unwrap();
+    assert!(world.fluids[water].len() > n);
+    assert!(!world.fluids[water].is_sleeping());
+}
+
+#[test]
+fn edits_gravity_and_removed_walls_wake_the_water() {
+    type Edit = fn(&mut FluidWorld, FluidHandle, &[ColliderHandle]);
+    let edits: [(&str, Edit); 5] = [
+        ("velocities_mut", |w, f, _| {
+            w.fluids[f].velocities_mut()[0].y = 0.1;
+        }),
+        ("set_params", |w, f, _| {
+            let p = w.fluids[f].params().clone();
+            w.fluids[f].set_params(p).unwrap();
+        }),
+        ("wake_up", |w, f, _| w.fluids[f].wake_up()),
+        ("gravity", |w, _, _| {
+            w.physics.gravity = Vector::new(0.0, -1.0, 0.0)
+        }),
+        ("a wall removed", |w, _, walls| {
+            w.physics.remove_collider(walls[1]);
+        }),
+    ];
+    for (name, edit) in edits {
+        let (mut world, water, walls) = tank(Vector::ZERO, Some(quick()));
+        until_asleep(&mut world, water, 30);
+        world.step().unwrap();
+        edit(&mut world, water, &walls);
+        let report = world.step().unwrap();
+        assert_eq!(report.sleeping, 0, "{name} did not wake the water");
+    }
+}
+
+/// A sleeping fluid keeps pressing on the walls: the recorded forces stay those of the last
+/// frame it was awake (not zero). A loose speed threshold puts this water to sleep while it
+/// still sloshes a little.
+#[test]
+fn forces_on_watched_colliders_persist_while_asleep() {
+    let loose = Sleep {
+        speed: 10.0,
+        density_error: 1.0,
+        time: 0.2,
+    };
+    let (mut world, water, walls) = tank(Vector::new(0.0, -9.81, 0.0), Some(loose));
+    let mut last_awake = None;
+    for _ in 0..60 {
+        world.step().unwrap();
+        if world.fluids[water].is_sleeping() {
+            break;
+        }
+        last_awake = Some(world.pipeline.collider_force(walls[0]).unwrap().force);
+    }
+    assert!(world.fluids[water].is_sleeping());
+    let info = world.fluids[water].sleep_info();
+    assert!(info.dropped_kinetic_energy >= 0.0 && info.dropped_max_speed <= 10.0);
+    // The frame it fell asleep in was stepped: its force is that frame's.
+    let at_sleep = world.pipeline.collider_force(walls[0]).unwrap().force;
+    assert!(last_awake.is_some());
+    // Water of 0.4 × 0.2 × 0.4 m weighs 314 N: the floor carries it (more while the water
+    // still sloshes, as here after 0.2 s).
+    let weight = 1000.0 * 0.4 * 0.2 * 0.4 * 9.81;
+    assert!(at_sleep.y < -0.5 * weight, "{at_sleep:?}");
+    for _ in 0..20 {
+        world.step().unwrap();
+        assert!(world.fluids[water].is_sleeping());
+        assert_eq!(
+            world.pipeline.collider_force(walls[0]).unwrap().force,
+            at_sleep
+        );
+    }
+}
+
+#[test]
+fn sleeping_is_the_same_on_one_and_two_threads() {
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let (mut world, water, _) = tank(
+                Vector::new(0.0, -9.81, 0.0),
+                Some(Sleep {
+                    speed: 10.0,
+                    density_error: 1.0,
+                    time: 0.2,
+                }),
+            );
+            let mut hashes = Vec::new();
+            for frame in 0..60 {
+                if frame == 30 {
+                    ball(
+                        &mut world,
+                        Vector::new(0.3, 0.42, 0.3),
+                        Vector::new(0.0, -1.5, 0.0),
+                    );
+                }
+                world.step().unwrap();
+                hashes.push((
+                    world.fluids[water].state_hash(),
+                    world.fluids[water].is_sleeping(),
+                ));
+            }
+            hashes
+        })
+    };
+    let one = run(1);
+    assert!(one.iter().any(|h| h.1), "it never slept");
+    assert!(!one.last().unwrap().1, "the ball did not wake it");
+    assert_eq!(one, run(2));
+}
