@@ -2,9 +2,12 @@
 //! for bodies (Box2D's and Jolt's sleeping, Bullet's deactivation).
 //!
 //! A fluid whose [`crate::FluidParams::sleep`] is set falls asleep once, for
-//! [`Sleep::time`] seconds of consecutive frames, its fastest particle stayed below
-//! [`Sleep::speed`], its mean density error below [`Sleep::density_error`], and every
-//! non-fixed body near it moved slower than [`Sleep::speed`]. Falling asleep sets its
+//! [`Sleep::time`] seconds of consecutive frames, its particles stayed where they were (their
+//! root-mean-square displacement below [`Sleep::mean_drift`] spacings, every one's below
+//! [`Sleep::max_drift`]), its mean density error below [`Sleep::density_error`], and every
+//! non-fixed body near it stayed within [`Sleep::max_drift`] spacings too. Displacements,
+//! not speeds: SPH water at rest jitters in place (DFSPH's at about 3 cm/s, see
+//! docs/performance.md), and a hull floating on it rocks with it, but neither goes anywhere. Falling asleep sets its
 //! particles' velocities to zero (the kinetic energy dropped is recorded:
 //! [`SleepInfo::dropped_kinetic_energy`]) and puts the dynamic bodies near it to sleep in
 //! rapier (`RigidBody::sleep`): the fluid and the bodies floating in it form one island, and
@@ -27,9 +30,11 @@
 //!
 //! A snapshot carries the sleep state: a restored sleeping pool sleeps on.
 //!
-//! What it approximates: the velocities dropped at sleep (at most [`Sleep::speed`] each)
-//! and the density error frozen at sleep (at most [`Sleep::density_error`] on average); the
-//! water does not creep further while asleep. Leave [`crate::FluidParams::sleep`] at `None`
+//! What it approximates: the velocities dropped at sleep (the jitter's kinetic energy, and
+//! any current slower than the drift thresholds allow), the density error frozen at sleep
+//! (at most [`Sleep::density_error`] on average); the water does not creep further while
+//! asleep. The window's start positions are kept as three attributes of the fluid's
+//! particles (12 bytes a particle, only for a fluid that may sleep). Leave [`crate::FluidParams::sleep`] at `None`
 //! (the presets' default) for exact results. docs/performance.md has the measured costs and
 //! errors.
 
@@ -52,22 +57,30 @@ use crate::math::{Real, Vector};
 #[derive(Copy, Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
 pub struct Sleep {
-    /// Fastest particle, and fastest surface of a non-fixed body near the fluid, that still
-    /// counts as at rest (m/s). Default: 0.02.
-    pub speed: Real,
-    /// Mean density error `(ρ − ρ0)/ρ0` averaged over the particles that still counts as at
-    /// rest (a fraction). Default: 0.01.
-    pub density_error: Real,
-    /// Seconds the fluid must stay at rest before it falls asleep. Default: 0.5.
+    /// Seconds the fluid must stay at rest before it falls asleep: the window over which
+    /// the particles' displacements are measured. Default: 0.5.
     pub time: Real,
+    /// Largest root-mean-square displacement of the particles over [`Sleep::time`] that
+    /// still counts as at rest, in particle spacings. Default: 0.1 (water jitters in place
+    /// by about 0.05 spacings over 0.5 s, see docs/performance.md; a current of
+    /// `0.1·spacing/time`, 6 mm/s at 3 cm and 0.5 s, keeps it awake).
+    pub mean_drift: Real,
+    /// Largest displacement over [`Sleep::time`] of any particle, and of any point of a
+    /// non-fixed body near the fluid (its center of mass's displacement plus its turn times
+    /// its reach), that still counts as at rest, in particle spacings. Default: 1.
+    pub max_drift: Real,
+    /// Largest mean density error `(ρ − ρ0)/ρ0` (averaged over the particles, the largest
+    /// of a frame's substeps) that still counts as at rest (a fraction). Default: 0.01.
+    pub density_error: Real,
 }
 
 impl Default for Sleep {
     fn default() -> Self {
         Self {
-            speed: 0.02,
-            density_error: 0.01,
             time: 0.5,
+            mean_drift: 0.1,
+            max_drift: 1.0,
+            density_error: 0.01,
         }
     }
 }
@@ -76,13 +89,14 @@ impl Sleep {
     /// Checks the thresholds.
     ///
     /// # Errors
-    /// [`SphError::InvalidParameter`] naming `sleep.speed`, `sleep.density_error` or
-    /// `sleep.time` when one is negative or not finite.
+    /// [`SphError::InvalidParameter`] naming the field (`sleep.time`, `sleep.mean_drift`,
+    /// …) when one is negative or not finite.
     pub fn validate(&self) -> SphResult<()> {
         let fields = [
-            ("sleep.speed", self.speed),
-            ("sleep.density_error", self.density_error),
             ("sleep.time", self.time),
+            ("sleep.mean_drift", self.mean_drift),
+            ("sleep.max_drift", self.max_drift),
+            ("sleep.density_error", self.density_error),
         ];
         for (field, v) in fields {
             if !v.is_finite() || v < 0.0 {
@@ -130,6 +144,13 @@ pub(crate) struct SleepState {
     pub colliders: u64,
     /// Watched colliders when it fell asleep.
     pub watched: u64,
+    /// The non-fixed bodies near the fluid at the start of the sleep test's window: their
+    /// centers of mass and orientations.
+    pub bodies: Vec<(
+        rapier3d::dynamics::RigidBodyHandle,
+        Vector,
+        crate::math::Rotation,
+    )>,
 }
 
 impl SleepState {
@@ -156,6 +177,10 @@ impl SleepState {
             && i.dropped_kinetic_energy.is_finite()
             && i.dropped_max_speed.is_finite()
             && i.density_error_at_sleep.is_finite()
+            && self
+                .bodies
+                .iter()
+                .all(|b| crate::math::is_finite(b.1) && b.2.is_finite())
     }
 
     pub fn public(&self) -> SleepInfo {

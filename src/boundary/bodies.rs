@@ -376,6 +376,18 @@ impl Coupling {
         near
     }
 
+    /// The non-fixed colliders whose boxes (at the frame's end) come within `margin` of
+    /// `fluid_box`.
+    pub fn near<'a>(
+        &'a self,
+        fluid_box: &'a Aabb,
+        margin: Real,
+    ) -> impl Iterator<Item = &'a MovingCollider> + 'a {
+        self.candidates
+            .iter()
+            .filter(move |c| c.aabb.loosened(margin).intersects(fluid_box))
+    }
+
     /// The dynamic bodies whose colliders' boxes (at the frame's end) meet `area`, each once.
     pub fn dynamic_bodies_in(&self, area: &Aabb) -> Vec<RigidBodyHandle> {
         let mut out: Vec<RigidBodyHandle> = Vec::new();

@@ -269,9 +269,7 @@ impl FluidPipeline {
             .map(|(r, (_, f))| (r.handle, &mut r.ws.forces, f.is_sleeping()));
         self.records.finish(dt, forces);
         report.coupled_bodies = self.coupling.apply(bodies);
-        for near in &fell_asleep {
-            sleep::sleep_bodies(near, &self.coupling, bodies);
-        }
+        drop(fell_asleep);
         self.report = report;
         Ok(&self.report)
     }

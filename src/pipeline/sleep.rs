@@ -24,13 +24,16 @@ pub(super) struct Surroundings<'a> {
 }
 
 /// How far from a sleeping fluid's particles a collider or body counts as near (m): a kernel
-/// support and a particle radius, plus how far a particle at the sleep speed and gravity would
-/// move in a frame (what an awake fluid's coupling table reaches, see `Frame::quarantine`).
+/// support and a particle radius, plus how far gravity would move a particle in a frame
+/// (what an awake fluid's coupling table reaches, see `Frame::quarantine`).
 fn margin(fluid: &Fluid, s: &Surroundings<'_>) -> Real {
     let p = fluid.params();
-    let speed = p.sleep.map_or(0.0, |z| z.speed);
-    p.smoothing_length + p.particle_radius + (speed + s.gravity.length() * s.dt) * s.dt
+    p.smoothing_length + p.particle_radius + s.gravity.length() * s.dt * s.dt
 }
+
+/// The attributes holding each particle's position at the start of the sleep test's window
+/// (they follow the particles through re-sorts and removals).
+const ANCHOR: [&str; 3] = ["sleep.anchor.x", "sleep.anchor.y", "sleep.anchor.z"];
 
 /// Whether something disturbs a sleeping `fluid` this frame (see [`crate::sleep`] for the
 /// list). Costs a few comparisons, a pass over the non-fixed bodies' boxes and a query of
@@ -56,8 +59,8 @@ pub(super) fn disturbed(fluid: &Fluid, rt: &FluidRuntime, s: &Surroundings<'_>) 
 }
 
 /// Puts `fluid` to sleep if it has been at rest for long enough; returns the box (with the
-/// margin) in which dynamic bodies join it in sleep. `emitted` and `drained` are the frame's
-/// counts for this fluid.
+/// margin) in which dynamic bodies join it in sleep. `changed`: particles came or went
+/// during the frame.
 pub(super) fn test(
     fluid: &mut Fluid,
     rt: &FluidRuntime,
@@ -65,19 +68,90 @@ pub(super) fn test(
     changed: bool,
 ) -> Option<Aabb> {
     let sleep = fluid.params().sleep?;
-    let at_rest = !changed
-        && !fluid.is_empty()
-        && rt.ws.max_speed <= sleep.speed
-        && rt.ws.frame_error <= sleep.density_error
-        && rt.ws.bodies_near.fastest <= sleep.speed;
-    if !at_rest {
-        fluid.sleep.info.quiet_time = 0.0;
+    let calm = !changed && !fluid.is_empty() && rt.ws.frame_error <= sleep.density_error;
+    let fresh = fluid.sleep.info.quiet_time == 0.0;
+    let (lo, hi) = crate::integrate::bounds(fluid.positions());
+    let near = Aabb::new(lo, hi).loosened(margin(fluid, s));
+    if !calm || fresh || !within_drift(fluid, &sleep) || !bodies_within(fluid, s, &near, &sleep) {
+        // A new window starts here.
+        anchor(fluid);
+        anchor_bodies(fluid, s, &near);
+        fluid.sleep.info.quiet_time = if calm { s.dt } else { 0.0 };
         return None;
     }
     fluid.sleep.info.quiet_time += s.dt;
     if fluid.sleep.info.quiet_time < sleep.time {
         return None;
     }
+    Some(fall_asleep(fluid, rt, s))
+}
+
+/// Whether every non-fixed body near the fluid (in `near`) stayed within the largest drift
+/// of its pose at the window's start; a body that came near since does not.
+fn bodies_within(
+    fluid: &Fluid,
+    s: &Surroundings<'_>,
+    near: &Aabb,
+    sleep: &crate::sleep::Sleep,
+) -> bool {
+    let limit = sleep.max_drift * fluid.params().particle_spacing;
+    let anchors = &fluid.sleep.bodies;
+    s.coupling.near(near, 0.0).all(|c| {
+        anchors.iter().find(|a| a.0 == c.body).is_some_and(|a| {
+            let turn = a.2.angle_between(c.end.rotation);
+            (c.com_end - a.1).length() + turn * c.reach <= limit
+        })
+    })
+}
+
+/// Starts the window of the bodies near the fluid (in `near`): their poses now.
+fn anchor_bodies(fluid: &mut Fluid, s: &Surroundings<'_>, near: &Aabb) {
+    let anchors = &mut fluid.sleep.bodies;
+    anchors.clear();
+    for c in s.coupling.near(near, 0.0) {
+        if !anchors.iter().any(|a| a.0 == c.body) {
+            anchors.push((c.body, c.com_end, c.end.rotation));
+        }
+    }
+}
+
+/// Whether every particle stayed within the drift thresholds of its window's start.
+fn within_drift(fluid: &mut Fluid, sleep: &crate::sleep::Sleep) -> bool {
+    let spacing = fluid.params().particle_spacing;
+    let n = fluid.len();
+    let (_, particles) = fluid.split_mut();
+    let ks = ANCHOR.map(|name| particles.attributes.ensure(name, n));
+    let (mut sum, mut max2) = (0.0f64, 0.0 as Real);
+    for (i, x) in particles.positions.iter().enumerate() {
+        let a = Vector::new(
+            particles.attributes.get(ks[0])[i],
+            particles.attributes.get(ks[1])[i],
+            particles.attributes.get(ks[2])[i],
+        );
+        let d2 = (*x - a).length_squared();
+        sum += d2 as f64;
+        max2 = max2.max(d2);
+    }
+    let rms = (sum / n.max(1) as f64).sqrt() as Real;
+    rms <= sleep.mean_drift * spacing && max2.sqrt() <= sleep.max_drift * spacing
+}
+
+/// Starts the sleep test's window: every particle's anchor at its position.
+fn anchor(fluid: &mut Fluid) {
+    let n = fluid.len();
+    let (_, particles) = fluid.split_mut();
+    for (c, name) in ANCHOR.iter().enumerate() {
+        let k = particles.attributes.ensure(name, n);
+        let a = particles.attributes.get_mut(k);
+        for (a, x) in a.iter_mut().zip(particles.positions.iter()) {
+            *a = x[c];
+        }
+    }
+}
+
+/// Stops the particles (recording what that dropped) and marks the fluid asleep; returns
+/// the box in which dynamic bodies join it.
+fn fall_asleep(fluid: &mut Fluid, rt: &FluidRuntime, s: &Surroundings<'_>) -> Aabb {
     let (lo, hi) = crate::integrate::bounds(fluid.positions());
     let fluid_box = Aabb::new(lo, hi);
     let m = margin(fluid, s);
@@ -102,7 +176,7 @@ pub(super) fn test(
     st.bounds = (lo, hi);
     st.colliders = fingerprint;
     st.watched = watched(s.watch);
-    Some(fluid_box.loosened(m))
+    fluid_box.loosened(m)
 }
 
 /// Puts the dynamic bodies whose colliders reach into `near` to sleep in rapier: they rest
