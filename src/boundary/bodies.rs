@@ -388,17 +388,6 @@ impl Coupling {
             .filter(move |c| c.aabb.loosened(margin).intersects(fluid_box))
     }
 
-    /// The dynamic bodies whose colliders' boxes (at the frame's end) meet `area`, each once.
-    pub fn dynamic_bodies_in(&self, area: &Aabb) -> Vec<RigidBodyHandle> {
-        let mut out: Vec<RigidBodyHandle> = Vec::new();
-        for c in &self.candidates {
-            if c.dynamic && c.aabb.intersects(area) && !out.contains(&c.body) {
-                out.push(c.body);
-            }
-        }
-        out
-    }
-
     /// The fastest surface speeds (m/s) of the colliders of the current substep's table.
     pub fn table_surface_speeds(&self) -> NearBodies {
         let mut near = NearBodies::default();

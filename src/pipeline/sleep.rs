@@ -8,7 +8,6 @@ use crate::fluid::Fluid;
 use crate::math::{Real, Vector};
 use parry3d::bounding_volume::{Aabb, BoundingVolume};
 use parry3d::partitioning::{Bvh, BvhNode};
-use rapier3d::dynamics::RigidBodySet;
 use rapier3d::geometry::ColliderSet;
 
 /// What the wake checks and the sleep test read of the frame.
@@ -58,16 +57,12 @@ pub(super) fn disturbed(fluid: &Fluid, rt: &FluidRuntime, s: &Surroundings<'_>) 
     colliders_near(&fluid_box, m, s) != st.colliders
 }
 
-/// Puts `fluid` to sleep if it has been at rest for long enough; returns the box (with the
-/// margin) in which dynamic bodies join it in sleep. `changed`: particles came or went
-/// during the frame.
-pub(super) fn test(
-    fluid: &mut Fluid,
-    rt: &FluidRuntime,
-    s: &Surroundings<'_>,
-    changed: bool,
-) -> Option<Aabb> {
-    let sleep = fluid.params().sleep?;
+/// Puts `fluid` to sleep if it has been at rest for long enough. `changed`: particles came
+/// or went during the frame.
+pub(super) fn test(fluid: &mut Fluid, rt: &FluidRuntime, s: &Surroundings<'_>, changed: bool) {
+    let Some(sleep) = fluid.params().sleep else {
+        return;
+    };
     let calm = !changed && !fluid.is_empty() && rt.ws.frame_error <= sleep.density_error;
     let fresh = fluid.sleep.info.quiet_time == 0.0;
     let (lo, hi) = crate::integrate::bounds(fluid.positions());
@@ -77,13 +72,12 @@ pub(super) fn test(
         anchor(fluid);
         anchor_bodies(fluid, s, &near);
         fluid.sleep.info.quiet_time = if calm { s.dt } else { 0.0 };
-        return None;
+        return;
     }
     fluid.sleep.info.quiet_time += s.dt;
-    if fluid.sleep.info.quiet_time < sleep.time {
-        return None;
+    if fluid.sleep.info.quiet_time >= sleep.time {
+        fall_asleep(fluid, rt, s);
     }
-    Some(fall_asleep(fluid, rt, s))
 }
 
 /// Whether every non-fixed body near the fluid (in `near`) stayed within the largest drift
@@ -149,9 +143,8 @@ fn anchor(fluid: &mut Fluid) {
     }
 }
 
-/// Stops the particles (recording what that dropped) and marks the fluid asleep; returns
-/// the box in which dynamic bodies join it.
-fn fall_asleep(fluid: &mut Fluid, rt: &FluidRuntime, s: &Surroundings<'_>) -> Aabb {
+/// Stops the particles (recording what that dropped) and marks the fluid asleep.
+fn fall_asleep(fluid: &mut Fluid, rt: &FluidRuntime, s: &Surroundings<'_>) {
     let (lo, hi) = crate::integrate::bounds(fluid.positions());
     let fluid_box = Aabb::new(lo, hi);
     let m = margin(fluid, s);
@@ -176,20 +169,6 @@ fn fall_asleep(fluid: &mut Fluid, rt: &FluidRuntime, s: &Surroundings<'_>) -> Aa
     st.bounds = (lo, hi);
     st.colliders = fingerprint;
     st.watched = watched(s.watch);
-    fluid_box.loosened(m)
-}
-
-/// Puts the dynamic bodies whose colliders reach into `near` to sleep in rapier: they rest
-/// in the sleeping water (one island with it), and a floating body stays where its buoyancy
-/// held it.
-pub(super) fn sleep_bodies(near: &Aabb, coupling: &Coupling, bodies: &mut RigidBodySet) {
-    for body in coupling.dynamic_bodies_in(near) {
-        if let Some(b) = bodies.get_mut(body)
-            && !b.is_sleeping()
-        {
-            b.sleep();
-        }
-    }
 }
 
 /// An order-independent fingerprint of the colliders whose boxes come within `margin` of
