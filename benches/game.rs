@@ -11,6 +11,7 @@
 //! cargo bench --bench game -- --particles 10000 --threads 2
 //! cargo bench --bench game -- --warm-start 0.9 --min-iterations 1 --hydrostatic-walls false
 //! cargo bench --bench game -- --full-warm-start true
+//! cargo bench --bench game -- --particles 10000 --threads 2 --sleep-drift 0.1,3
 //! ```
 //!
 //! The last four flags change DFSPH's settings from their defaults (`Dfsph`'s fields of
@@ -22,6 +23,13 @@
 //! rows, a kinematic paddle at one end swinging 8 cm each way every 1.5 s (a wave maker). The
 //! `still` rows are the same pool with the paddle still: what most of a game's water does
 //! most of the time.
+//!
+//! The `asleep` rows are the still pool with sleeping on (`rapier_sph::sleep`,
+//! `Sleep::default()` but for its drift thresholds: `--sleep-drift mean,max` in spacings,
+//! default 0.1,1): it runs untimed until the water falls asleep (at most 20 s; the row says
+//! "never slept" otherwise), then `--seconds` of frames are timed as the others. The row
+//! gives when it fell asleep and what falling asleep dropped (the particles' kinetic energy,
+//! the fastest particle's speed) and the density error it froze.
 //!
 //! Each case settles for 0.5 s (not timed), then runs `--seconds` (default 2 s) of frames.
 //! "hull draft / expected" is how deep the hull's bottom lies under the water's level over
@@ -59,19 +67,53 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         print!("---|");
     }
     println!();
+    let mut slept = Vec::new();
     for &n in &args.particles {
-        for paddle in [true, false] {
+        for mode in [Mode::Moving, Mode::Still, Mode::Asleep] {
             for &threads in &args.threads {
                 let pool = rayon::ThreadPoolBuilder::new()
                     .num_threads(threads)
                     .build()?;
-                let row = pool.install(|| run(n, paddle, args.seconds))?;
+                let row = pool.install(|| run(n, mode, &args))?;
                 row.print(threads);
+                if let Some(s) = row.slept {
+                    slept.push((row.particles, threads, s));
+                }
             }
+        }
+    }
+    println!();
+    println!(
+        "asleep rows (drift thresholds {:?} spacings): | particles | threads | fell asleep after (s) | kinetic energy dropped (J) | fastest particle stopped (m/s) | density error frozen |",
+        args.sleep_drift
+    );
+    for (n, threads, s) in slept {
+        match s {
+            Some((t, info)) => println!(
+                "| {n} | {threads} | {t:.2} | {:.3e} | {:.3} | {:.3} % |",
+                info.dropped_kinetic_energy,
+                info.dropped_max_speed,
+                100.0 * info.density_error_at_sleep
+            ),
+            None => println!("| {n} | {threads} | never slept in {SLEEP_WAIT} s | | | |"),
         }
     }
     Ok(())
 }
+
+/// The pool's three cases.
+#[derive(Copy, Clone, PartialEq)]
+enum Mode {
+    /// The paddle swings.
+    Moving,
+    /// The paddle stands still.
+    Still,
+    /// The paddle stands still and the water may sleep.
+    Asleep,
+}
+
+/// Longest the `asleep` rows wait for the water to fall asleep (simulated seconds).
+const SLEEP_WAIT: Real = 20.0;
 
 /// The DFSPH settings every case runs with (the defaults unless the command line changes them).
 static DFSPH: std::sync::OnceLock<Dfsph> = std::sync::OnceLock::new();
@@ -80,6 +122,8 @@ struct Args {
     particles: Vec<usize>,
     threads: Vec<usize>,
     seconds: Real,
+    /// `Sleep::mean_drift` and `Sleep::max_drift` of the `asleep` rows.
+    sleep_drift: (Real, Real),
 }
 
 impl Args {
@@ -113,6 +157,12 @@ impl Args {
             seconds: value("--seconds")
                 .and_then(|s| s.parse().ok())
                 .unwrap_or(if quick { 1.0 } else { 2.0 }),
+            sleep_drift: value("--sleep-drift")
+                .and_then(|s| {
+                    let (a, b) = s.split_once(',')?;
+                    Some((a.parse().ok()?, b.parse().ok()?))
+                })
+                .unwrap_or((Sleep::default().mean_drift, Sleep::default().max_drift)),
         }
     }
 }
@@ -120,7 +170,9 @@ impl Args {
 struct Row {
     particles: usize,
     spacing: Real,
-    paddle: bool,
+    mode: Mode,
+    /// The `asleep` rows: when the water fell asleep and what that dropped (`None`: never).
+    slept: Option<Option<(Real, SleepInfo)>>,
     frame_ms: (f64, f64, f64),
     cpu_ms: f64,
     substeps: f64,
@@ -134,7 +186,8 @@ struct Row {
     frames: usize,
 }
 
-fn run(n: usize, paddle: bool, seconds: Real) -> SphResult<Row> {
+fn run(n: usize, mode: Mode, args: &Args) -> SphResult<Row> {
+    let seconds = args.seconds;
     let mut config = WavePoolConfig {
         particles: n,
         params: |s| {
@@ -145,13 +198,16 @@ fn run(n: usize, paddle: bool, seconds: Real) -> SphResult<Row> {
         },
         ..Default::default()
     };
-    if !paddle {
+    if mode != Mode::Moving {
         config.paddle.0 = 0.0;
     }
     let mut pool = WavePool::new(config)?;
     for _ in 0..30 {
         pool.frame()?;
     }
+    let slept = (mode == Mode::Asleep)
+        .then(|| fall_asleep(&mut pool, args.sleep_drift))
+        .transpose()?;
     let frames = (seconds * 60.0).round() as usize;
     let (mut times, mut rapier) = (Vec::with_capacity(frames), Duration::ZERO);
     let (mut stages, mut substeps, mut error) = (StageTimings::default(), 0u64, 0.0f64);
@@ -178,7 +234,8 @@ fn run(n: usize, paddle: bool, seconds: Real) -> SphResult<Row> {
     Ok(Row {
         particles: pool.world.fluids[pool.water].len(),
         spacing: pool.spacing,
-        paddle,
+        mode,
+        slept,
         frame_ms: (pick(0.1), pick(0.5), pick(0.9)),
         cpu_ms: cpu * 1e3 / frames as f64,
         substeps: substeps as f64 / frames as f64,
@@ -196,6 +253,28 @@ fn run(n: usize, paddle: bool, seconds: Real) -> SphResult<Row> {
     })
 }
 
+/// Lets the pool's water sleep (drift thresholds `drift`) and steps it until it does, at
+/// most [`SLEEP_WAIT`] seconds: when it fell asleep and what that dropped.
+fn fall_asleep(pool: &mut WavePool, drift: (Real, Real)) -> SphResult<Option<(Real, SleepInfo)>> {
+    let water = &mut pool.world.fluids[pool.water];
+    let mut params = water.params().clone();
+    params.sleep = Some(Sleep {
+        mean_drift: drift.0,
+        max_drift: drift.1,
+        ..Sleep::default()
+    });
+    water.set_params(params)?;
+    let frames = (SLEEP_WAIT * 60.0) as usize;
+    for frame in 1..=frames {
+        pool.frame()?;
+        let water = &pool.world.fluids[pool.water];
+        if water.is_sleeping() {
+            return Ok(Some((frame as Real / 60.0, water.sleep_info())));
+        }
+    }
+    Ok(None)
+}
+
 impl Row {
     fn print(&self, threads: usize) {
         let (p10, p50, p90) = self.frame_ms;
@@ -203,7 +282,11 @@ impl Row {
             "| {} | {:.1} | {} | {threads} | {p50:.2} [{p10:.2}–{p90:.2}] | {:.1} | {:.2} | {:.1}, {:.1} | {} | {:.3} % | {} | {:.2} | {:.2} |",
             self.particles,
             self.spacing * 1e3,
-            if self.paddle { "moving" } else { "still" },
+            match self.mode {
+                Mode::Moving => "moving",
+                Mode::Still => "still",
+                Mode::Asleep => "asleep",
+            },
             self.cpu_ms,
             self.substeps,
             self.iterations.0,

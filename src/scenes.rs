@@ -1100,12 +1100,6 @@ impl WavePool {
         Ok(rapier)
     }
 
-    /// Changes the paddle's stroke (`(amplitude, period)` as [`WavePoolConfig::paddle`]) from
-    /// the next frame on; an amplitude of 0 stops it where it is.
-    pub fn set_paddle(&mut self, paddle: (Real, Real)) {
-        self.config.paddle = paddle;
-    }
-
     /// Particles outside the pool's inside (through a wall, or over the paddle's top).
     pub fn outside(&self) -> usize {
         let f = &self.world.fluids[self.water];

@@ -9,10 +9,10 @@
 //! not speeds: SPH water at rest jitters in place (DFSPH's at about 3 cm/s, see
 //! docs/performance.md), and a hull floating on it rocks with it, but neither goes anywhere. Falling asleep sets its
 //! particles' velocities to zero (the kinetic energy dropped is recorded:
-//! [`SleepInfo::dropped_kinetic_energy`]). A dynamic body floating in it that moves wakes it
-//! again (rapier 0.36 wakes a body put to sleep with `RigidBody::sleep` at its next step, so
-//! the water does not put its floating bodies to sleep with it): floating bodies never lose
-//! their buoyancy, and water under a body that keeps rocking stays awake.
+//! [`SleepInfo::dropped_kinetic_energy`]) and puts the dynamic bodies near it to sleep in
+//! rapier (`RigidBody::sleep`): the fluid and the bodies floating in it form one island, and
+//! a floating hull stays where its buoyancy held it. A body near it that moves (woken by the
+//! game, by rapier's contacts, or never asleep) wakes it.
 //!
 //! A sleeping fluid is not stepped: no neighbour search, no solver, no contact; its
 //! particles stay bitwise where they are, its queries, its watched colliders' forces and its

@@ -63,7 +63,7 @@ const MAGIC: &[u8; 16] = b"rapier-sph snap\0";
 /// each dynamic body was left with; 5: per-particle attributes, and the solvers' memory
 /// beside the fluids; 6: the payload's length and CRC-32 in the header; 7: the scalars the
 /// particles carry; 8: the fluid's viscosity solve, `FluidParams::viscosity_solve`, whose
-/// warm start rides with the per-particle attributes; 9: the fluids\' sleep state, see
+/// warm start rides with the per-particle attributes; 9: the fluids' sleep state, see
 /// [`crate::sleep`]).
 pub const FORMAT_VERSION: u32 = 9;
 

@@ -293,28 +293,58 @@ fn sleeping_is_the_same_on_one_and_two_threads() {
     assert_eq!(one, run(2));
 }
 
-/// A box floating on the water keeps buoyancy: a dynamic body near the water that moves
-/// wakes it, so the water never sleeps under it and the box never loses its support.
+/// A box floating on water that falls asleep sleeps with it in rapier (one island): it stays
+/// where its buoyancy held it, and a ball falling near wakes both.
 #[test]
-fn a_floating_body_keeps_its_buoyancy() {
-    let lowest = |sleep: Option<Sleep>| {
-        let (mut world, water, _) = tank(Vector::new(0.0, -9.81, 0.0), sleep);
-        let float = world
-            .physics
-            .insert_body(RigidBodyBuilder::dynamic().translation(Vector::new(0.3, 0.2, 0.3)));
-        world.physics.insert_collider(
-            ColliderBuilder::cuboid(0.08, 0.04, 0.08).density(500.0),
-            Some(float),
-        );
-        let mut lowest = Real::MAX;
-        for _ in 0..180 {
-            world.step().unwrap();
-            lowest = lowest.min(world.physics.bodies[float].translation().y);
+fn a_floating_body_sleeps_with_the_water_and_wakes_with_it() {
+    let (mut world, water, _) = tank(Vector::new(0.0, -9.81, 0.0), Some(loose()));
+    let float = world
+        .physics
+        .insert_body(RigidBodyBuilder::dynamic().translation(Vector::new(0.3, 0.2, 0.3)));
+    world.physics.insert_collider(
+        ColliderBuilder::cuboid(0.08, 0.04, 0.08).density(500.0),
+        Some(float),
+    );
+    until_asleep(&mut world, water, 60);
+    assert!(world.physics.bodies[float].is_sleeping());
+    let at = *world.physics.bodies[float].position();
+    for _ in 0..60 {
+        world.step().unwrap();
+        assert!(world.fluids[water].is_sleeping());
+    }
+    assert!(world.physics.bodies[float].is_sleeping());
+    assert_eq!(*world.physics.bodies[float].position(), at);
+    ball(
+        &mut world,
+        Vector::new(0.15, 0.45, 0.15),
+        Vector::new(0.0, -1.5, 0.0),
+    );
+    for _ in 0..10 {
+        world.step().unwrap();
+    }
+    assert!(!world.fluids[water].is_sleeping());
+}
+
+/// A snapshot carries the sleep state: restored, the water sleeps on, and a ball thrown in
+/// splashes as in the run that never stopped.
+#[cfg(feature = "snapshot")]
+#[test]
+fn a_snapshot_carries_the_sleep_state() {
+    let (mut world, water, _) = tank(Vector::ZERO, Some(quick()));
+    until_asleep(&mut world, water, 30);
+    let bytes = rapier_sph::snapshot::to_bytes(&world).unwrap();
+    let mut restored = rapier_sph::snapshot::from_bytes(&bytes).unwrap();
+    let (_, again) = restored.fluids.iter().next().unwrap();
+    assert!(again.is_sleeping());
+    assert_eq!(again.sleep_info(), world.fluids[water].sleep_info());
+    let mut hashes = Vec::new();
+    for w in [&mut world, &mut restored] {
+        ball(w, Vector::new(0.3, 0.42, 0.3), Vector::new(0.0, -1.5, 0.0));
+        for _ in 0..20 {
+            w.step().unwrap();
         }
-        let _ = water;
-        lowest
-    };
-    let (slept, awake) = (lowest(Some(loose())), lowest(None));
-    println!("lowest {slept} with sleep, {awake} without");
-    assert!((slept - awake).abs() < 0.5 * SPACING, "{slept} vs {awake}");
+        let (_, f) = w.fluids.iter().next().unwrap();
+        hashes.push(f.state_hash());
+    }
+    assert_eq!(hashes[0], hashes[1]);
 }

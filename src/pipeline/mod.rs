@@ -247,6 +247,7 @@ impl FluidPipeline {
             coupling: &mut self.coupling,
             report: StepReport::default(),
             watch: &self.records.watch,
+            fell_asleep: Vec::new(),
         };
         // Called from outside rayon's pool, every parallel stage would hand its work to the
         // pool and wait for a worker to wake up: tens of microseconds per stage, more than a
@@ -260,6 +261,7 @@ impl FluidPipeline {
         #[cfg(not(feature = "parallel"))]
         frame.run();
         let mut report = frame.report;
+        let fell_asleep = frame.fell_asleep;
         let forces = self
             .runtimes
             .iter_mut()
@@ -267,6 +269,9 @@ impl FluidPipeline {
             .map(|(r, (_, f))| (r.handle, &mut r.ws.forces, f.is_sleeping()));
         self.records.finish(dt, forces);
         report.coupled_bodies = self.coupling.apply(bodies);
+        for near in &fell_asleep {
+            sleep::sleep_bodies(near, &self.coupling, bodies);
+        }
         self.report = report;
         Ok(&self.report)
     }
@@ -471,6 +476,9 @@ struct Frame<'a> {
     report: StepReport,
     /// The watched colliders (the sleep test keeps them in its fingerprint).
     watch: &'a crate::boundary::forces::Watch,
+    /// The boxes of the fluids that fell asleep at this frame's end: the dynamic bodies in
+    /// them are put to sleep with them once the coupling's impulses are applied.
+    fell_asleep: Vec<parry3d::bounding_volume::Aabb>,
 }
 
 impl Frame<'_> {
@@ -641,7 +649,9 @@ impl Frame<'_> {
             if fluid.is_sleeping() || fluid.params().sleep.is_none() {
                 continue;
             }
-            sleep::test(fluid, rt, &around, changed);
+            if let Some(near) = sleep::test(fluid, rt, &around, changed) {
+                self.fell_asleep.push(near);
+            }
         }
     }
 }

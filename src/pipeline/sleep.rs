@@ -8,6 +8,7 @@ use crate::fluid::Fluid;
 use crate::math::{Real, Vector};
 use parry3d::bounding_volume::{Aabb, BoundingVolume};
 use parry3d::partitioning::{Bvh, BvhNode};
+use rapier3d::dynamics::RigidBodySet;
 use rapier3d::geometry::ColliderSet;
 
 /// What the wake checks and the sleep test read of the frame.
@@ -57,12 +58,15 @@ pub(super) fn disturbed(fluid: &Fluid, rt: &FluidRuntime, s: &Surroundings<'_>) 
     colliders_near(&fluid_box, m, s) != st.colliders
 }
 
-/// Puts `fluid` to sleep if it has been at rest for long enough. `changed`: particles came
-/// or went during the frame.
-pub(super) fn test(fluid: &mut Fluid, rt: &FluidRuntime, s: &Surroundings<'_>, changed: bool) {
-    let Some(sleep) = fluid.params().sleep else {
-        return;
-    };
+/// Puts `fluid` to sleep if it has been at rest for long enough; returns the box in which
+/// dynamic bodies join it in sleep. `changed`: particles came or went during the frame.
+pub(super) fn test(
+    fluid: &mut Fluid,
+    rt: &FluidRuntime,
+    s: &Surroundings<'_>,
+    changed: bool,
+) -> Option<Aabb> {
+    let sleep = fluid.params().sleep?;
     let calm = !changed && !fluid.is_empty() && rt.ws.frame_error <= sleep.density_error;
     let fresh = fluid.sleep.info.quiet_time == 0.0;
     let (lo, hi) = crate::integrate::bounds(fluid.positions());
@@ -72,12 +76,10 @@ pub(super) fn test(fluid: &mut Fluid, rt: &FluidRuntime, s: &Surroundings<'_>, c
         anchor(fluid);
         anchor_bodies(fluid, s, &near);
         fluid.sleep.info.quiet_time = if calm { s.dt } else { 0.0 };
-        return;
+        return None;
     }
     fluid.sleep.info.quiet_time += s.dt;
-    if fluid.sleep.info.quiet_time >= sleep.time {
-        fall_asleep(fluid, rt, s);
-    }
+    (fluid.sleep.info.quiet_time >= sleep.time).then(|| fall_asleep(fluid, rt, s))
 }
 
 /// Whether every non-fixed body near the fluid (in `near`) stayed within the largest drift
@@ -143,8 +145,9 @@ fn anchor(fluid: &mut Fluid) {
     }
 }
 
-/// Stops the particles (recording what that dropped) and marks the fluid asleep.
-fn fall_asleep(fluid: &mut Fluid, rt: &FluidRuntime, s: &Surroundings<'_>) {
+/// Stops the particles (recording what that dropped) and marks the fluid asleep; returns
+/// the box in which dynamic bodies join it in sleep.
+fn fall_asleep(fluid: &mut Fluid, rt: &FluidRuntime, s: &Surroundings<'_>) -> Aabb {
     let (lo, hi) = crate::integrate::bounds(fluid.positions());
     let fluid_box = Aabb::new(lo, hi);
     let m = margin(fluid, s);
@@ -169,6 +172,22 @@ fn fall_asleep(fluid: &mut Fluid, rt: &FluidRuntime, s: &Surroundings<'_>) {
     st.bounds = (lo, hi);
     st.colliders = fingerprint;
     st.watched = watched(s.watch);
+    fluid_box.loosened(m)
+}
+
+/// Puts the dynamic bodies whose colliders reach into `near` to sleep in rapier
+/// (`RigidBody::sleep`, which rapier keeps until something wakes the body): they rest in the
+/// sleeping water as one island with it, and a floating body stays where its buoyancy held
+/// it instead of sinking through water that no longer pushes.
+pub(super) fn sleep_bodies(near: &Aabb, coupling: &Coupling, bodies: &mut RigidBodySet) {
+    for c in coupling.near(near, 0.0) {
+        if let Some(b) = bodies.get_mut(c.body)
+            && b.is_dynamic()
+            && !b.is_sleeping()
+        {
+            b.sleep();
+        }
+    }
 }
 
 /// An order-independent fingerprint of the colliders whose boxes come within `margin` of
@@ -184,6 +203,11 @@ fn colliders_near(fluid_box: &Aabb, margin: Real, s: &Surroundings<'_>) -> u64 {
         let Some((co, h)) = s.colliders.get_unknown_gen(leaf) else {
             continue;
         };
+        if s.coupling.is_nonfixed(h) {
+            // Moving bodies are followed by their motion (and teleports), not their poses:
+            // the coupling moves a floating body after the fluid's sleep test.
+            continue;
+        }
         let (index, generation) = h.into_raw_parts();
         let mut x = mix(((index as u64) << 32) | generation as u64);
         let pose = co.position();
