@@ -510,8 +510,8 @@ impl Frame<'_> {
             }
         }
         self.end_relaxations();
-        let changed = self.emit();
-        self.sleep_tests(&changed);
+        self.emit();
+        self.sleep_tests();
         self.report.particles = self.fluids.num_particles();
         if counted > 0 {
             self.report.mean_density_error = (weighted_error / counted as f64) as Real;
@@ -614,28 +614,25 @@ impl Frame<'_> {
     }
 
     /// Emitters: the particles due during the frame, where they are at its end (into sleeping
-    /// fluids too, which wakes them). Returns per fluid whether particles came or went.
-    fn emit(&mut self) -> Vec<bool> {
+    /// fluids too, which wakes them); notes per fluid whether particles came or went.
+    fn emit(&mut self) {
         let world = crate::emitter::EmitWorld {
             bvh: self.scene.map(|s| s.bvh),
             colliders: self.colliders,
             bodies: self.bodies,
         };
-        let mut changed = Vec::with_capacity(self.fluids.len());
-        for (_, fluid) in self.fluids.iter_mut() {
+        for ((_, fluid), rt) in self.fluids.iter_mut().zip(self.runtimes.iter_mut()) {
             let before = (fluid.emitted(), fluid.drained());
             let e = fluid.run_emitters(self.dt, world);
             self.report.emitted += e.emitted;
             self.report.emitter_blocked += e.blocked;
             self.report.capacity_reached |= e.capacity_reached;
-            changed.push((fluid.emitted(), fluid.drained()) != before || e.blocked > 0);
+            rt.ws.frame_changed = (fluid.emitted(), fluid.drained()) != before || e.blocked > 0;
         }
-        changed
     }
 
-    /// The sleep test of every awake fluid that may sleep (see [`crate::sleep`]); `changed`
-    /// says per fluid whether particles came or went during the frame.
-    fn sleep_tests(&mut self, changed: &[bool]) {
+    /// The sleep test of every awake fluid that may sleep (see [`crate::sleep`]).
+    fn sleep_tests(&mut self) {
         let around = sleep::Surroundings {
             gravity: self.gravity,
             dt: self.dt,
@@ -644,12 +641,11 @@ impl Frame<'_> {
             coupling: self.coupling,
             watch: self.watch,
         };
-        let fluids = self.fluids.iter_mut().zip(self.runtimes.iter_mut());
-        for (((_, fluid), rt), &changed) in fluids.zip(changed) {
+        for ((_, fluid), rt) in self.fluids.iter_mut().zip(self.runtimes.iter_mut()) {
             if fluid.is_sleeping() || fluid.params().sleep.is_none() {
                 continue;
             }
-            if let Some(near) = sleep::test(fluid, rt, &around, changed) {
+            if let Some(near) = sleep::test(fluid, rt, &around, rt.ws.frame_changed) {
                 self.fell_asleep.push(near);
             }
         }

@@ -41,6 +41,9 @@ pub(crate) struct Workspace {
     pub max_speed: Real,
     /// Largest mean density error of the frame's substeps (the sleep test's input).
     pub frame_error: Real,
+    /// Whether particles came or went (emitters, sinks) or an emitter was blocked during the
+    /// frame (the sleep test's input).
+    pub frame_changed: bool,
     /// Fastest surface speeds of the non-fixed bodies near the fluid during the frame (the
     /// adaptive time step's input beside `max_speed`; the kinematic ones bound the speeds
     /// they can give, see `pipeline::substep`).
