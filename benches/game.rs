@@ -279,7 +279,7 @@ impl Row {
     fn print(&self, threads: usize) {
         let (p10, p50, p90) = self.frame_ms;
         print!(
-            "| {} | {:.1} | {} | {threads} | {p50:.2} [{p10:.2}–{p90:.2}] | {:.1} | {:.2} | {:.1}, {:.1} | {} | {:.3} % | {} | {:.2} | {:.2} |",
+            "| {} | {:.1} | {} | {threads} | {p50:.3} [{p10:.3}–{p90:.3}] | {:.1} | {:.2} | {:.1}, {:.1} | {} | {:.3} % | {} | {:.2} | {:.2} |",
             self.particles,
             self.spacing * 1e3,
             match self.mode {
