@@ -703,8 +703,8 @@ impl Fluid {
     /// # Examples
     /// ```
     /// use rapier_sph::prelude::*;
-    /// let mut world = FluidWorld::new(); // no gravity-free trick: an empty world, still water
-    /// world.physics.gravity = Vector::ZERO;
+    /// let mut world = FluidWorld::new();
+    /// world.physics.gravity = Vector::ZERO; // a block at rest density stays exactly at rest
     /// let sleep = Sleep { time: 0.05, ..Sleep::default() };
     /// let mut water = Fluid::new(FluidParamsBuilder::water(0.05).sleep(sleep))?;
     /// water.add_block(Vector::ZERO, Vector::splat(0.2))?;
