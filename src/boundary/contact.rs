@@ -561,13 +561,15 @@ fn static_pass(
 }
 
 /// `true` when the particle's motion `from → to` (over the substep) crosses no candidate's
-/// surface, each collider seen in its own moving frame.
+/// surface, each collider seen in its own moving frame. With `may_leave` (the particle was
+/// pushed by a surface other than the moving ones: a landing body may have closed over it
+/// against that surface), a motion from inside a moving collider to outside it passes.
 fn moving_segment_free(
     colliders: &ColliderSet,
     table: &[MovingCollider],
     candidates: &[ColliderHandle],
-    from: Vector,
-    to: Vector,
+    (from, to): (Vector, Vector),
+    may_leave: bool,
 ) -> Result<(), Option<u32>> {
     for &h in candidates {
         let Some(co) = colliders.get(h) else { continue };
@@ -575,15 +577,16 @@ fn moving_segment_free(
             Some((e, m)) if m.moving => {
                 let a = m.start.inverse_transform_point(from);
                 let b = m.stop.inverse_transform_point(to);
-                if co.shape().contains_local_point(a) {
-                    // A particle the body closed over (caught against another surface)
-                    // may leave it; it may not stay.
-                    if co.shape().contains_local_point(b) {
+                if a == b {
+                    if co.shape().contains_local_point(a) {
                         return Err(Some(e));
                     }
                     continue;
                 }
-                if a == b {
+                if may_leave && co.shape().contains_local_point(a) {
+                    if co.shape().contains_local_point(b) {
+                        return Err(Some(e));
+                    }
                     continue;
                 }
                 if co
@@ -857,7 +860,8 @@ fn moving_particle(
         p.finish(false, counts, x, v);
         return;
     }
-    let fallback = verify_moving(m, &mut p, cands, v_orig, &mut kicks);
+    let may_leave = press.other.is_some();
+    let fallback = verify_moving(m, &mut p, (cands, may_leave), v_orig, &mut kicks);
     let integrated = *x;
     p.finish(fallback, counts, x, v);
     settle_records(&mut kicks, integrated, *x, v_orig);
@@ -1027,18 +1031,18 @@ fn settle_records(kicks: &mut Kicks<'_>, integrated: Vector, x: Vector, v: Vecto
 /// Step 3 of the moving path: the corrected motion must cross no surface in the moving
 /// frames, and be finite. On failure the particle rides with the body that failed it, unless
 /// riding crosses another solid (a particle caught between a moving body and a wall), or
-/// stays put against a static one; its impulses are then only that change. Returns whether
-/// it failed.
+/// stays put against a static one; its impulses are then only that change. `may_leave`: see
+/// [`moving_segment_free`]. Returns whether it failed.
 fn verify_moving(
     m: &Moving<'_>,
     p: &mut Particle,
-    cands: &[ColliderHandle],
+    (cands, may_leave): (&[ColliderHandle], bool),
     v_orig: Vector,
     kicks: &mut Kicks<'_>,
 ) -> bool {
     let (colliders, table, start) = (m.input.colliders, m.table, p.start);
     let check = if p.finite() {
-        moving_segment_free(colliders, table, cands, start, p.target)
+        moving_segment_free(colliders, table, cands, (start, p.target), may_leave)
     } else {
         Err(None)
     };
@@ -1047,7 +1051,14 @@ fn verify_moving(
     match failed.map(|e| (e, &table[e as usize])) {
         Some((e, mc))
             if mc.moving
-                && moving_segment_free(colliders, table, cands, start, ride(mc, start)).is_ok() =>
+                && moving_segment_free(
+                    colliders,
+                    table,
+                    cands,
+                    (start, ride(mc, start)),
+                    false,
+                )
+                .is_ok() =>
         {
             p.target = ride(mc, start);
             p.v = mc.velocity_at_stop(p.target);
