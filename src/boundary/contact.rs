@@ -561,15 +561,13 @@ fn static_pass(
 }
 
 /// `true` when the particle's motion `from → to` (over the substep) crosses no candidate's
-/// surface, each collider seen in its own moving frame. With `may_leave` (the particle was
-/// pushed by a surface other than the moving ones: a landing body may have closed over it
-/// against that surface), a motion from inside a moving collider to outside it passes.
+/// surface, each collider seen in its own moving frame.
 fn moving_segment_free(
     colliders: &ColliderSet,
     table: &[MovingCollider],
     candidates: &[ColliderHandle],
-    (from, to): (Vector, Vector),
-    may_leave: bool,
+    from: Vector,
+    to: Vector,
 ) -> Result<(), Option<u32>> {
     for &h in candidates {
         let Some(co) = colliders.get(h) else { continue };
@@ -577,16 +575,15 @@ fn moving_segment_free(
             Some((e, m)) if m.moving => {
                 let a = m.start.inverse_transform_point(from);
                 let b = m.stop.inverse_transform_point(to);
-                if a == b {
-                    if co.shape().contains_local_point(a) {
+                if co.shape().contains_local_point(a) {
+                    // A particle the body closed over (caught against another surface)
+                    // may leave it; it may not stay.
+                    if co.shape().contains_local_point(b) {
                         return Err(Some(e));
                     }
                     continue;
                 }
-                if may_leave && co.shape().contains_local_point(a) {
-                    if co.shape().contains_local_point(b) {
-                        return Err(Some(e));
-                    }
+                if a == b {
                     continue;
                 }
                 if co
@@ -860,8 +857,7 @@ fn moving_particle(
         p.finish(false, counts, x, v);
         return;
     }
-    let may_leave = press.other.is_some();
-    let fallback = verify_moving(m, &mut p, (cands, may_leave), v_orig, &mut kicks);
+    let fallback = verify_moving(m, &mut p, cands, v_orig, &mut kicks);
     let integrated = *x;
     p.finish(fallback, counts, x, v);
     settle_records(&mut kicks, integrated, *x, v_orig);
@@ -1031,18 +1027,18 @@ fn settle_records(kicks: &mut Kicks<'_>, integrated: Vector, x: Vector, v: Vecto
 /// Step 3 of the moving path: the corrected motion must cross no surface in the moving
 /// frames, and be finite. On failure the particle rides with the body that failed it, unless
 /// riding crosses another solid (a particle caught between a moving body and a wall), or
-/// stays put against a static one; its impulses are then only that change. `may_leave`: see
-/// [`moving_segment_free`]. Returns whether it failed.
+/// stays put against a static one; its impulses are then only that change. Returns whether
+/// it failed.
 fn verify_moving(
     m: &Moving<'_>,
     p: &mut Particle,
-    (cands, may_leave): (&[ColliderHandle], bool),
+    cands: &[ColliderHandle],
     v_orig: Vector,
     kicks: &mut Kicks<'_>,
 ) -> bool {
     let (colliders, table, start) = (m.input.colliders, m.table, p.start);
     let check = if p.finite() {
-        moving_segment_free(colliders, table, cands, (start, p.target), may_leave)
+        moving_segment_free(colliders, table, cands, start, p.target)
     } else {
         Err(None)
     };
@@ -1051,14 +1047,7 @@ fn verify_moving(
     match failed.map(|e| (e, &table[e as usize])) {
         Some((e, mc))
             if mc.moving
-                && moving_segment_free(
-                    colliders,
-                    table,
-                    cands,
-                    (start, ride(mc, start)),
-                    false,
-                )
-                .is_ok() =>
+                && moving_segment_free(colliders, table, cands, start, ride(mc, start)).is_ok() =>
         {
             p.target = ride(mc, start);
             p.v = mc.velocity_at_stop(p.target);
