@@ -189,9 +189,12 @@ fn very_light_bodies_float() {
     ]);
 }
 
-/// Every solver, each with a 2,000 and a 20,000 kg/m³ box (stone, tungsten).
-fn heavy_cases() -> Vec<(Solver, Real)> {
-    let mut cases = Vec::new();
+/// Drops 16 cm boxes much heavier than water (2,000 and 20,000 kg/m³: stone, tungsten) in the
+/// same tank with each solver; prints the figures and returns the outcomes.
+fn drop_heavy() -> Vec<(String, Outcome)> {
+    let (depth, drop) = (0.24, 0.05);
+    let (body_bound, water_bound) = speed_bounds(depth, drop);
+    let mut out = Vec::new();
     for solver in [
         Solver::Wcsph,
         Solver::dfsph(),
@@ -199,36 +202,24 @@ fn heavy_cases() -> Vec<(Solver, Real)> {
         Solver::Pbf(Pbf::default()),
     ] {
         for density in [2_000.0, 20_000.0] {
-            cases.push((solver, density));
+            let o = drop_box(solver, density, drop, 1.5);
+            println!(
+                "{:6} {:5} kg/m³: body ≤ {:.2} m/s (bound {:.2}), water ≤ {:.2} m/s (bound \
+                 {:.2}), lowest corner {:+.4} m, inside {}, escaped {}, quarantined {}, cap {}",
+                solver.name(),
+                density,
+                o.body_speed,
+                body_bound,
+                o.water_speed,
+                water_bound,
+                o.lowest,
+                o.inside,
+                o.escaped,
+                o.quarantined,
+                o.cap_hit
+            );
+            out.push((format!("{} at {density} kg/m³", solver.name()), o));
         }
-    }
-    cases
-}
-
-/// Drops 16 cm boxes much heavier than water (`cases`: solver and density) in the same tank;
-/// prints the figures and returns the outcomes.
-fn drop_heavy(cases: &[(Solver, Real)]) -> Vec<(String, Outcome)> {
-    let (depth, drop) = (0.24, 0.05);
-    let (body_bound, water_bound) = speed_bounds(depth, drop);
-    let mut out = Vec::new();
-    for &(solver, density) in cases {
-        let o = drop_box(solver, density, drop, 1.5);
-        println!(
-            "{:6} {:5} kg/m³: body ≤ {:.2} m/s (bound {:.2}), water ≤ {:.2} m/s (bound \
-             {:.2}), lowest corner {:+.4} m, inside {}, escaped {}, quarantined {}, cap {}",
-            solver.name(),
-            density,
-            o.body_speed,
-            body_bound,
-            o.water_speed,
-            water_bound,
-            o.lowest,
-            o.inside,
-            o.escaped,
-            o.quarantined,
-            o.cap_hit
-        );
-        out.push((format!("{} at {density} kg/m³", solver.name()), o));
     }
     out
 }
@@ -239,7 +230,7 @@ fn drop_heavy(cases: &[(Solver, Real)]) -> Vec<(String, Outcome)> {
 #[test]
 fn heavy_bodies_sink_without_being_thrown() {
     let (body_bound, water_bound) = speed_bounds(0.24, 0.05);
-    let failures: Vec<String> = drop_heavy(&heavy_cases())
+    let failures: Vec<String> = drop_heavy()
         .into_iter()
         .filter(|(_, o)| {
             !(o.body_speed <= body_bound
@@ -253,44 +244,28 @@ fn heavy_bodies_sink_without_being_thrown() {
     assert!(failures.is_empty(), "failed: {failures:?}");
 }
 
-/// `true` when a heavy box came to rest on the floor with no particle inside it: each
-/// particle's center outside the box after every frame, and at the end the box's lowest
-/// corner at most a spacing and a quarter up (resting on at most the last layer of
-/// particles, see `tests/buoyancy.rs`; a box still sinking or held by two layers would be
+/// Heavy boxes come to rest on the floor with no particle inside them: each particle's
+/// center outside the box after every frame, and at the end the box's lowest corner at most
+/// a spacing and a quarter up (the last layer of particles under a landed box cannot be
+/// squeezed out, see `tests/buoyancy.rs`; a box still sinking or held by two layers would be
 /// higher) and not a quarter spacing into the floor.
-fn rests_on_the_floor(o: &Outcome) -> bool {
-    let spacing = 0.04;
-    o.inside == 0 && o.lowest <= 1.25 * spacing && o.lowest >= -0.25 * spacing
-}
-
-/// Heavy boxes come to rest on the floor with no particle inside them (see
-/// [`rests_on_the_floor`]). The particles a landing box catches against the floor are
-/// squeezed out sideways (`boundary::contact`'s squeeze); before, contact's fallback kept
-/// them in place and the box closed over them: 4–9 particles ended 1–2 mm inside the 20,000
-/// kg/m³ boxes of every solver and PBF's 2,000 kg/m³ one. Clavet's 2,000 kg/m³ box is left
-/// to [`clavet_lets_a_heavy_body_sink`].
+///
+/// Not yet: measured (`cargo test --release --test light_bodies -- --ignored --nocapture`),
+/// the 20,000 kg/m³ boxes of WCSPH, DFSPH and Clavet and both of PBF's land on the particles
+/// under them: 4–9 particles, pinned on the floor (y < 1 mm) by contact's fallback for a
+/// particle caught between a moving body and a static wall, end 1–2 mm inside the box's
+/// bottom face and stay there; Clavet's 2,000 kg/m³ box does not sink (lowest corner at
+/// 0.121 m after 1.5, 3 and 5 s: its fluid holds it; its walls leave bodies to contact).
 #[test]
+#[ignore = "pinned particles end inside landed heavy boxes; Clavet holds a 2,000 kg/m³ box up (see the doc comment)"]
 fn heavy_bodies_rest_on_the_floor_with_no_particle_inside() {
-    let cases: Vec<(Solver, Real)> = heavy_cases()
+    let spacing = 0.04;
+    let failures: Vec<String> = drop_heavy()
         .into_iter()
-        .filter(|&(s, d)| !(matches!(s, Solver::Clavet(_)) && d == 2_000.0))
-        .collect();
-    let failures: Vec<String> = drop_heavy(&cases)
-        .into_iter()
-        .filter(|(_, o)| !rests_on_the_floor(o))
+        .filter(|(_, o)| {
+            !(o.inside == 0 && o.lowest <= 1.25 * spacing && o.lowest >= -0.25 * spacing)
+        })
         .map(|(name, _)| name)
         .collect();
     assert!(failures.is_empty(), "failed: {failures:?}");
-}
-
-/// Clavet's 2,000 kg/m³ box should sink and rest on the floor as the others do.
-///
-/// Not yet: measured (`cargo test --release --test light_bodies -- --ignored --nocapture`),
-/// it does not sink: lowest corner at 0.121 m after 1.5, 3 and 5 s, no particle inside it;
-/// its fluid holds it (Clavet's walls leave bodies to contact).
-#[test]
-#[ignore = "Clavet's fluid holds a 2,000 kg/m³ box 12 cm up (see the doc comment)"]
-fn clavet_lets_a_heavy_body_sink() {
-    let o = drop_heavy(&[(Solver::clavet(), 2_000.0)]);
-    assert!(rests_on_the_floor(&o[0].1), "failed: {}", o[0].0);
 }

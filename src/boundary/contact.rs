@@ -33,8 +33,6 @@ pub struct ContactCounts {
     pub fallbacks: usize,
     /// Particles that started the step inside a solid and were pushed out.
     pub depenetrated: usize,
-    /// Particles squeezed out of a gap a moving body closed on them (see `squeeze`).
-    pub squeezed: usize,
 }
 
 impl std::ops::Add for ContactCounts {
@@ -44,7 +42,6 @@ impl std::ops::Add for ContactCounts {
             contacts: self.contacts + o.contacts,
             fallbacks: self.fallbacks + o.fallbacks,
             depenetrated: self.depenetrated + o.depenetrated,
-            squeezed: self.squeezed + o.squeezed,
         }
     }
 }
@@ -575,15 +572,10 @@ fn moving_segment_free(
             Some((e, m)) if m.moving => {
                 let a = m.start.inverse_transform_point(from);
                 let b = m.stop.inverse_transform_point(to);
-                if co.shape().contains_local_point(a) {
-                    // A particle the body closed over (caught against another surface)
-                    // may leave it; it may not stay.
-                    if co.shape().contains_local_point(b) {
+                if a == b {
+                    if co.shape().contains_local_point(a) {
                         return Err(Some(e));
                     }
-                    continue;
-                }
-                if a == b {
                     continue;
                 }
                 if co
@@ -823,7 +815,6 @@ fn moving_particle(
 
     // 2. Keep one contact radius off every surface, at the substep's end poses.
     let start = p.start;
-    let mut press = Press::default();
     p.keep_off(|target, v| {
         let mut moved = false;
         for &h in cands {
@@ -839,7 +830,6 @@ fn moving_particle(
             };
             *target = point + n * r;
             let e = entry.map(|(e, _)| e);
-            press.record(from.zip(e), n, point);
             let nv = m.respond(e, *v, n, point);
             kicks.add(e, nv - *v, point, n);
             *v = nv;
@@ -850,158 +840,10 @@ fn moving_particle(
     if !p.touched {
         return;
     }
-    if let Some(c) = press.caught()
-        && squeeze(m, &mut p, c, cands, &mut kicks)
-    {
-        counts.squeezed += 1;
-        p.finish(false, counts, x, v);
-        return;
-    }
     let fallback = verify_moving(m, &mut p, cands, v_orig, &mut kicks);
     let integrated = *x;
     p.finish(fallback, counts, x, v);
     settle_records(&mut kicks, integrated, *x, v_orig);
-}
-
-/// The last pushes of step 2 on one particle: by a moving collider and by any other
-/// surface, each as `(outward normal, surface point)`, the moving one with its entry.
-#[derive(Default)]
-struct Press {
-    moving: Option<(u32, Vector, Vector)>,
-    other: Option<(Vector, Vector)>,
-}
-
-/// A particle caught between a moving body and another surface facing it (see [`Press`]).
-#[derive(Copy, Clone)]
-struct Caught {
-    /// The body's coupling-table entry.
-    entry: u32,
-    /// The body's outward normal and surface point.
-    body: (Vector, Vector),
-    /// The other surface's outward normal and point.
-    other: (Vector, Vector),
-}
-
-impl Press {
-    /// Records a push of normal `n` at `point`, by the moving collider of `entry` (none: any
-    /// other collider).
-    #[inline(always)]
-    fn record(&mut self, entry: Option<(&MovingCollider, u32)>, n: Vector, point: Vector) {
-        match entry {
-            Some((_, e)) => self.moving = Some((e, n, point)),
-            None => self.other = Some((n, point)),
-        }
-    }
-
-    /// The particle is caught when both a moving collider and another surface pushed it
-    /// and their normals are more than 120° apart: a gap thinner than two contact radii,
-    /// which step 2 cannot keep it out of.
-    #[inline(always)]
-    fn caught(&self) -> Option<Caught> {
-        let (entry, n, point) = self.moving?;
-        let other = self.other?;
-        (n.dot(other.0) < -0.5).then_some(Caught {
-            entry,
-            body: (n, point),
-            other,
-        })
-    }
-}
-
-/// A particle caught between a moving body closing in on it and another surface (step 2's
-/// pushes in opposite directions) is squeezed out sideways, as the water under a landing
-/// body is, instead of being kept at its start until the body passes over it (the fallback
-/// of [`verify_moving`]: 4–9 particles ended 1–2 mm inside 20,000 kg/m³ boxes resting on the
-/// floor, `tests/light_bodies.rs`). Returns whether it moved the particle (`p.target`,
-/// `p.v`), which then needs no other check.
-///
-/// Across the gap it stands in the middle (one contact radius off the other surface when
-/// the gap allows: the body is not given a gap it has not closed). Along the body's surface
-/// it moves away from the body's center of mass by the part of its way out from under the
-/// body (`X`: to the body's edge along that direction, plus a contact radius) that the body
-/// closes of the distance `d` to it over the substep (`δ`, the body's approach at the
-/// contact point): `X·δ/d`, all of `X` once `δ ≥ d`. So it leaves the gap when the body
-/// reaches its level, as in a squeeze flow (the fraction of the way out follows the fraction
-/// of the gap closed). It is not given that motion as velocity (no energy from the
-/// correction); its velocity loses its part along the body's normal (it can move into
-/// neither surface). Its records on the body are dropped: the other surface holds it, so it
-/// does not move with the body in the added-mass solve.
-///
-/// The move runs along the body's surface, so it cannot cross the body; it is kept only if
-/// its end is inside no candidate (moving ones at their substep-end poses) and its segment
-/// crosses no collider at rest.
-fn squeeze(
-    m: &Moving<'_>,
-    p: &mut Particle,
-    c: Caught,
-    cands: &[ColliderHandle],
-    kicks: &mut Kicks<'_>,
-) -> bool {
-    let mc = &m.table[c.entry as usize];
-    let ((n, point), (n_o, point_o)) = (c.body, c.other);
-    let r = m.input.response.radius;
-    let dt = mc.backs.0 - mc.backs.1;
-    let approach = n.dot(mc.velocity_at_stop(point)) * dt;
-    let Some(co) = m.input.colliders.get(mc.handle) else {
-        return false;
-    };
-    if !(approach > 0.0) {
-        return false;
-    }
-    // Across the gap: the middle, at most a contact radius off the other surface.
-    let gap = (point - point_o).dot(n_o);
-    let level = point_o + n_o * (0.5 * gap).clamp(0.0, r);
-    let target = p.target - n_o * (p.target - level).dot(n_o);
-    let d = (target - point).dot(n);
-    let x = target - mc.com_stop;
-    let side = (x - n * n.dot(x)).normalize_or(n.any_orthonormal_vector());
-    let side = (side - n_o * n_o.dot(side)).normalize_or(side);
-    // The way out from under the body along `side`: the exit of a ray cast from just inside
-    // its surface, plus a contact radius.
-    let inside = point - n * (0.1 * r);
-    let Some(exit) = co
-        .shape()
-        .cast_ray(&mc.stop, &Ray::new(inside, side), Real::MAX, false)
-    else {
-        return false;
-    };
-    let way = exit + r;
-    let step = if d <= approach {
-        way
-    } else {
-        way * (approach / d)
-    };
-    let target = target + side * step;
-    if !crate::math::is_finite(target) || !squeeze_is_free(m, cands, p.start, target) {
-        return false;
-    }
-    p.target = target;
-    p.v -= n * n.dot(p.v);
-    p.v -= n_o * n_o.dot(p.v).min(0.0);
-    kicks.records.truncate(kicks.first);
-    true
-}
-
-/// `true` when `target` is inside no candidate (moving ones at their substep-end poses) and
-/// the segment `from → target` crosses no collider at rest.
-fn squeeze_is_free(m: &Moving<'_>, cands: &[ColliderHandle], from: Vector, target: Vector) -> bool {
-    let motion = target - from;
-    cands.iter().all(|&h| {
-        let Some(co) = m.input.colliders.get(h) else {
-            return true;
-        };
-        match entry_of(m.table, h) {
-            Some((_, mc)) if mc.moving => !co.shape().contains_point(&mc.stop, target),
-            _ => {
-                !co.shape().contains_point(co.position(), target)
-                    && (motion.length_squared() == 0.0
-                        || co
-                            .shape()
-                            .cast_ray(co.position(), &Ray::new(from, motion), 1.0, false)
-                            .is_none())
-            }
-        }
-    })
 }
 
 /// The angular momentum bookkeeping of one particle's contact records: the particle's

@@ -25,7 +25,7 @@ pub(crate) struct Scene<'a> {
 
 /// Collider contact of every particle, swept from the positions at the substep's start to
 /// the current ones; the impulses it recorded on dynamic bodies go to them. Returns the
-/// number of particles pushed out of a solid or squeezed out of a closing gap.
+/// number of particles pushed out of a solid.
 pub(super) fn collider_contact(
     fluid: &mut Fluid,
     ws: &mut Workspace,
@@ -110,9 +110,7 @@ pub(super) fn collider_contact(
     report.contacts += counts.contacts;
     report.contact_fallbacks += counts.fallbacks;
     report.depenetrated += counts.depenetrated;
-    // Squeezed particles were moved into the water beside the gap: the overlap relaxation
-    // spreads them as it does those pushed out of a solid.
-    counts.depenetrated + counts.squeezed
+    counts.depenetrated
 }
 
 /// What the watched colliders' records read of the contact stage.
