@@ -14,6 +14,7 @@
 //! owns which data and how to add a stage or a solver.
 
 mod contact;
+mod interaction;
 mod records;
 mod relax;
 mod substep;
@@ -217,6 +218,7 @@ impl FluidPipeline {
         broad_phase: &BroadPhaseBvh,
     ) -> SphResult<&StepReport> {
         self.validate(gravity, dt)?;
+        self.runtimes.groups.sync(fluids)?;
         let has_colliders = self.check_broad_phase(broad_phase, colliders)?;
         self.begin_frame(dt, fluids, bodies, colliders, has_colliders);
         // The BVH is the broad-phase's own tree; an empty body set keeps it from borrowing
@@ -259,7 +261,7 @@ impl FluidPipeline {
         let mut report = frame.report;
         let forces = self
             .runtimes
-            .iter_mut()
+            .all_mut()
             .map(|r| (r.handle, &mut r.ws.forces));
         self.records.finish(dt, forces);
         report.coupled_bodies = self.coupling.apply(bodies);
@@ -434,7 +436,7 @@ fn begin_records(
         Some((bodies, colliders)) => records.watch.collect(colliders, bodies),
         None => records.watch = Default::default(),
     }
-    for rt in runtimes.iter_mut() {
+    for rt in runtimes.all_mut() {
         rt.ws.forces.begin_frame(&records.watch);
     }
 }
@@ -538,6 +540,7 @@ impl Frame<'_> {
                 rt.ws.reserve(capacity);
             }
         }
+        self.runtimes.begin_group_frames();
     }
 
     /// One substep of every fluid, then their sinks; adds the density error summed over the
@@ -549,7 +552,11 @@ impl Frame<'_> {
             scene: self.scene,
             back,
         };
-        for ((_, fluid), rt) in self.fluids.iter_mut().zip(self.runtimes.iter_mut()) {
+        let pairs = self.fluids.iter_mut().zip(self.runtimes.with_groups_mut());
+        for ((_, fluid), (rt, grouped)) in pairs {
+            if grouped {
+                continue; // stepped with its group below
+            }
             let n = fluid.len();
             let result = substep::substep(fluid, rt, &input, self.coupling, &mut self.report);
             *error.0 += result.mean_error as f64 * n as f64;
@@ -558,6 +565,29 @@ impl Frame<'_> {
                 self.report.quarantined += fluid.quarantine_non_finite();
             }
             self.report.drained += fluid.drain_sinks(self.colliders);
+        }
+        if !self.runtimes.groups.list.is_empty() {
+            self.substep_groups(&input, error);
+        }
+    }
+
+    /// One substep of each group of interacting fluids (`interaction`), then its fluids'
+    /// sinks.
+    fn substep_groups(&mut self, input: &SubstepInput<'_>, error: (&mut f64, &mut usize)) {
+        let mut fluids: Vec<&mut crate::Fluid> = self.fluids.iter_mut().map(|(_, f)| f).collect();
+        for g in 0..self.runtimes.groups.list.len() {
+            let group = &mut self.runtimes.groups.list[g];
+            let result = group.substep(&mut fluids, input, self.coupling, &mut self.report);
+            for &k in group.members() {
+                let fluid = &mut *fluids[k];
+                *error.0 += result.mean_error as f64 * fluid.len() as f64;
+                *error.1 += fluid.len();
+                if result.non_finite > 0 {
+                    self.report.quarantined += fluid.quarantine_non_finite();
+                }
+                self.report.drained += fluid.drain_sinks(self.colliders);
+            }
+            self.runtimes.spread_group_speed(g);
         }
     }
 
@@ -569,6 +599,11 @@ impl Frame<'_> {
                 r.relax_compression = r.relax_compression.max(left.compression);
                 r.relax_stalled |= left.stalled;
             }
+        }
+        for left in self.runtimes.end_group_relaxations() {
+            let r = &mut self.report;
+            r.relax_compression = r.relax_compression.max(left.compression);
+            r.relax_stalled |= left.stalled;
         }
     }
 
