@@ -16,6 +16,9 @@ pub enum Start {
     Layered,
     /// The light liquid under the heavy one (it overturns).
     Inverted,
+    /// Side by side, the heavy liquid in the half `x < width/2` (a lock exchange: it runs
+    /// under the light one).
+    SideBySide,
     /// Mixed in a checkerboard of cubes of `k × k × k` particles over the whole column.
     Checker(usize),
 }
@@ -60,11 +63,13 @@ impl LayeredTank {
         );
         world.physics.step();
         let lattice = try_lattice(Vector::splat(0.5 * s), nx, 2 * layers, nz, s)?;
+        // `try_lattice` runs z outermost, then y, then x.
         let is_heavy = |k: usize| {
-            let (i, j, l) = (k / (2 * layers * nz), (k / nz) % (2 * layers), k % nz);
+            let (i, j, l) = (k % nx, (k / nx) % (2 * layers), k / (nx * 2 * layers));
             match start {
                 Start::Layered => j < layers,
                 Start::Inverted => j >= layers,
+                Start::SideBySide => 2 * i < nx,
                 Start::Checker(b) => {
                     let b = b.max(1);
                     (i / b + j / b + l / b) % 2 == 0
