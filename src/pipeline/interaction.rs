@@ -90,6 +90,14 @@ impl Groups {
         Ok(())
     }
 
+    /// Heap bytes held: the groups' runtimes and their combined fluids' arrays.
+    pub fn heap_bytes(&self) -> usize {
+        self.list
+            .iter()
+            .map(|g| g.rt.ws.heap_bytes() + g.rt.solver.heap_bytes() + g.fluid.heap_bytes())
+            .sum()
+    }
+
     /// `true` when the `k`-th fluid of the set is stepped with a group.
     pub fn steps(&self, k: usize) -> bool {
         self.list.iter().any(|g| g.members.contains(&k))

@@ -236,5 +236,6 @@ impl Runtimes {
             .map(|e| e.ws.heap_bytes() + e.solver.heap_bytes())
             .sum::<usize>()
             + self.entries.capacity() * std::mem::size_of::<FluidRuntime>()
+            + self.groups.heap_bytes()
     }
 }
