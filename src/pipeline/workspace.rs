@@ -182,7 +182,7 @@ impl Runtimes {
     /// nearby bodies (measured per member by the frame's quarantine) merged.
     pub fn begin_group_frames(&mut self) {
         for g in &mut self.groups.list {
-            let (mut near, mut speed, mut frame) = (Default::default(), 0.0 as Real, 0.0 as Real);
+            let (mut near, mut speed, mut frame): (_, Real, Real) = (Default::default(), 0.0, 0.0);
             for &k in g.members() {
                 let ws = &self.entries[k].ws;
                 near = ws.bodies_near.merge(near);
