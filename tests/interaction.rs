@@ -280,6 +280,14 @@ fn mismatched_interacting_fluids_are_typed_errors() {
         (
             FluidParamsBuilder::water(SPACING)
                 .rest_density(800.0)
+                .viscosity_solve(rapier_sph::ViscositySolve::Implicit(Default::default()))
+                .build()
+                .unwrap(),
+            "viscosity_solve",
+        ),
+        (
+            FluidParamsBuilder::water(SPACING)
+                .rest_density(800.0)
                 .particle_mass(1e-3)
                 .build()
                 .unwrap(),

@@ -38,7 +38,8 @@
 //! Interacting fluids must share everything the combined step reads once for all of them:
 //! particle spacing, particle volume (mass / rest density), smoothing length, contact
 //! radius, kernels, domain, the solver (DFSPH or WCSPH; PBF and Clavet return an error: not
-//! supported yet), its boolean settings, WCSPH's equation of state, the wall, contact and
+//! supported yet), its boolean settings, the explicit viscosity (the implicit
+//! `viscosity_solve` returns an error: not supported yet), WCSPH's equation of state, the wall, contact and
 //! surface settings and the collision groups; a density ratio of at most
 //! [`MAX_DENSITY_RATIO`]; no diffusing scalar (scalar diffusion across fluids is not done
 //! yet); and interaction must hold between every two fluids of a group (`a`–`b` and `b`–`c`
@@ -77,7 +78,7 @@ use rapier3d::geometry::InteractionGroups;
 
 /// The largest ratio of rest densities interacting fluids may have (heaviest / lightest).
 /// Water under a liquid of 100 kg/m³ runs stable with DFSPH and WCSPH (the stability suite's
-/// case "17 layers 1:10", tests/interaction.rs); larger ratios were not measured.
+/// case "18 layers 1:10", tests/interaction.rs); larger ratios were not measured.
 pub const MAX_DENSITY_RATIO: Real = 10.0;
 
 /// Relative tolerance of the equalities between interacting fluids' sizes.
@@ -189,6 +190,13 @@ fn check_fluid(f: &Fluid) -> SphResult<()> {
             "solver",
             0.0,
             "interacting fluids: DFSPH and WCSPH only (PBF and Clavet not supported yet)",
+        ));
+    }
+    if !matches!(f.params().viscosity_solve, crate::ViscositySolve::Explicit) {
+        return Err(invalid(
+            "viscosity_solve",
+            0.0,
+            "interacting fluids: the explicit viscosity only (the implicit solve is not supported yet)",
         ));
     }
     if f.scalars.iter().any(|s| s.diffusivity > 0.0) {
