@@ -249,6 +249,17 @@ pub struct FluidParams {
     /// Which colliders the particles touch (rapier's collision groups; sensors are always
     /// ignored). Default: all.
     pub collision_groups: InteractionGroups,
+    /// Which other fluids of the same [`crate::FluidSet`] this fluid interacts with
+    /// (rapier's [`InteractionGroups`], tested both ways as for colliders): fluids that
+    /// interact share one neighbour search and one pressure solve, so pressure and viscosity
+    /// act across them and each keeps its own rest density and viscosity (see
+    /// [`crate::fluid::interaction`] for the formulation and what must match). Default:
+    /// [`InteractionGroups::none`], the fluid sees no other fluid and pays nothing for them.
+    #[cfg_attr(
+        feature = "snapshot",
+        serde(default = "crate::fluid::interaction::no_groups")
+    )]
+    pub fluid_groups: InteractionGroups,
     /// The pressure solver. Water preset: DFSPH ([`Solver::dfsph`], the accurate default);
     /// paper preset: WCSPH (the paper's method).
     pub solver: Solver,
@@ -514,6 +525,7 @@ impl FluidParamsBuilder {
                 restitution: 0.0,
                 friction: 0.0,
                 collision_groups: InteractionGroups::all(),
+                fluid_groups: InteractionGroups::none(),
                 solver: Solver::dfsph(),
                 wall_density: true,
                 domain: crate::domain::Domain::Open,
@@ -549,6 +561,7 @@ impl FluidParamsBuilder {
                 restitution: 0.5,
                 friction: 0.0,
                 collision_groups: InteractionGroups::all(),
+                fluid_groups: InteractionGroups::none(),
                 solver: Solver::Wcsph,
                 wall_density: false,
                 domain: crate::domain::Domain::Open,
@@ -708,6 +721,12 @@ impl FluidParamsBuilder {
     /// Collision groups against rapier colliders.
     pub fn collision_groups(mut self, g: InteractionGroups) -> Self {
         self.params.collision_groups = g;
+        self
+    }
+    /// Which fluids of the same set this one interacts with ([`FluidParams::fluid_groups`]);
+    /// `InteractionGroups::all()` interacts with every fluid that says the same.
+    pub fn fluid_groups(mut self, g: InteractionGroups) -> Self {
+        self.params.fluid_groups = g;
         self
     }
 

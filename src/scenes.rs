@@ -1206,3 +1206,6 @@ mod tests {
         }
     }
 }
+
+mod layered;
+pub use layered::{LayeredTank, Start as LayeredStart};

@@ -31,6 +31,9 @@
 //!
 //! A snapshot carries the sleep state: a restored sleeping pool sleeps on.
 //!
+//! A fluid stepped with others in one interaction group ([`crate::FluidParams::fluid_groups`])
+//! does not sleep: its group stays awake.
+//!
 //! What it approximates: the velocities dropped at sleep (the jitter's kinetic energy, and
 //! any current slower than the drift thresholds allow), the density error frozen at sleep
 //! (at most [`Sleep::density_error`] on average); the water does not creep further while

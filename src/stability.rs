@@ -30,7 +30,9 @@
 //! preset's, beyond what the substep cap lets the explicit viscosity hold: it is limited), and
 //! 14 a block thrown apart at 20 to 50 m/s at 0.2 m spacing, 15 and 16 a dam break with
 //! surface tension and adhesion at 100 and 10^4 times water's, 17 case 13 with the implicit
-//! viscosity solve (held, not limited). docs/stability.md has the results.
+//! viscosity solve (held, not limited), 18 water under a liquid ten times lighter,
+//! interacting (`crate::fluid::interaction`; DFSPH and WCSPH, the solvers that support it).
+//! docs/stability.md has the results.
 
 #![cfg_attr(docsrs, doc(cfg(feature = "validation")))]
 
@@ -128,6 +130,8 @@ impl CaseResult {
 struct Setup {
     world: FluidWorld,
     fluid: FluidHandle,
+    /// Further fluids of the case (interacting with the first), counted with it.
+    others: Vec<FluidHandle>,
     frames: usize,
     /// Floor height for the potential energy.
     floor: Real,
@@ -148,6 +152,7 @@ pub fn cases() -> Vec<Case> {
         abuse_cases(),
         surface_tension_cases(),
         implicit_viscosity_cases(),
+        interaction_cases(),
     ]
     .concat()
 }
@@ -462,7 +467,7 @@ fn potential_energy(fluid: &Fluid, floor: Real, g: Real) -> f64 {
 fn execute(case: &'static str, solver: &Solver, mut s: Setup) -> SphResult<CaseResult> {
     let t0 = Instant::now();
     let g = s.world.physics.gravity.length();
-    let n0 = s.world.fluids[s.fluid].len();
+    let n0 = fluids(&s).map(Fluid::len).sum();
     let e0 = energy(&s, g, true);
     let mut r = CaseResult {
         case,
@@ -491,7 +496,8 @@ fn execute(case: &'static str, solver: &Solver, mut s: Setup) -> SphResult<CaseR
         }
         let rep = s.world.step()?.clone();
         record_frame(&mut r, &rep);
-        r.escaped = r.escaped.max((s.escaped)(&s.world.fluids[s.fluid]));
+        let escaped = fluids(&s).map(|f| (s.escaped)(f)).sum();
+        r.escaped = r.escaped.max(escaped);
         // Kinetic energy, or with the internal energy counted, the total.
         let e = energy(&s, g, s.internal_energy);
         let ratio = if e.is_finite() && e0 > 0.0 {
@@ -501,8 +507,8 @@ fn execute(case: &'static str, solver: &Solver, mut s: Setup) -> SphResult<CaseR
         };
         r.energy_ratio = r.energy_ratio.max(ratio);
     }
-    let f = &s.world.fluids[s.fluid];
-    r.lost = n0.saturating_sub(f.len() + f.quarantined());
+    let left: usize = fluids(&s).map(|f| f.len() + f.quarantined()).sum();
+    r.lost = n0.saturating_sub(left);
     r.wall_time = t0.elapsed().as_secs_f64();
     r.failure = verdict(&r);
     Ok(r)
@@ -513,7 +519,7 @@ fn execute(case: &'static str, solver: &Solver, mut s: Setup) -> SphResult<CaseR
 fn energy(s: &Setup, g: Real, total: bool) -> f64 {
     let f = &s.world.fluids[s.fluid];
     let (body_ke, body_pe) = bodies_energy(&s.world, s.floor, g);
-    let kinetic = f.kinetic_energy() + body_ke;
+    let kinetic = fluids(s).map(Fluid::kinetic_energy).sum::<f64>() + body_ke;
     if !total {
         return kinetic;
     }
@@ -522,7 +528,58 @@ fn energy(s: &Setup, g: Real, total: bool) -> f64 {
     } else {
         0.0
     };
-    kinetic + potential_energy(f, s.floor, g) + body_pe + internal
+    let potential: f64 = fluids(s).map(|f| potential_energy(f, s.floor, g)).sum();
+    kinetic + potential + body_pe + internal
+}
+
+/// The case's fluids: the first, then the others.
+fn fluids(s: &Setup) -> impl Iterator<Item = &Fluid> {
+    std::iter::once(s.fluid)
+        .chain(s.others.iter().copied())
+        .map(|h| &s.world.fluids[h])
+}
+
+/// Case 18: interacting fluids.
+fn interaction_cases() -> Vec<Case> {
+    vec![Case {
+        name: "18 layers 1:10",
+        description: "water under a liquid of 100 kg/m³ in a closed tank, interacting",
+        quick: true,
+        build: layers_1_to_10,
+    }]
+}
+
+/// Case 18: a closed tank 0.1 m wide ([`crate::scenes::LayeredTank`], 8 × 8 × 8 particles
+/// of each liquid at 1.25 cm) with water under a liquid ten times lighter
+/// ([`crate::fluid::interaction::MAX_DENSITY_RATIO`]), at rest from a lattice, for 2 s
+/// (full: 4 s). PBF and Clavet do not support interacting fluids yet (`None`).
+fn layers_1_to_10(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>> {
+    if !matches!(solver, Solver::Dfsph(_) | Solver::Wcsph) {
+        return None;
+    }
+    Some((|| {
+        let s = 0.1 / 8.0;
+        let liquid = |rest: Real| {
+            FluidParamsBuilder::water(s)
+                .rest_density(rest)
+                .solver(*solver)
+                .build()
+        };
+        let start = crate::scenes::LayeredStart::Layered;
+        let tank =
+            crate::scenes::LayeredTank::new(liquid(1000.0)?, liquid(100.0)?, [8, 8, 8], start)?;
+        let top = 2.0 * tank.surface_height;
+        Ok(Setup {
+            world: tank.world,
+            fluid: tank.heavy,
+            others: vec![tank.light],
+            frames: (seconds(size, 2.0, 4.0) * 60.0) as usize,
+            floor: 0.0,
+            escaped: box_escape(Vector::ZERO, Vector::new(0.1, top, 0.1)),
+            event: None,
+            internal_energy: false,
+        })
+    })())
 }
 
 /// Adds one frame's report to the run's measurements.
@@ -590,6 +647,7 @@ fn from_dam_break(d: DamBreak, frames: usize, frame_dt: Real) -> Setup {
     Setup {
         floor: d.tank_min.y,
         fluid: d.fluid,
+        others: Vec::new(),
         world,
         frames,
         escaped,
@@ -657,6 +715,7 @@ fn heavy_body(solver: &Solver, size: SuiteSize, density: Real) -> Option<SphResu
         Ok(Setup {
             world: scene.world,
             fluid: scene.fluid,
+            others: Vec::new(),
             frames: (seconds(size, 3.0, 6.0) * 60.0) as usize,
             floor: 0.0,
             escaped,
@@ -691,6 +750,7 @@ fn wide_support(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>> {
         Ok(Setup {
             world,
             fluid: tank.fluid,
+            others: Vec::new(),
             frames: (seconds(size, 1.0, 2.0) * 60.0) as usize,
             floor: 0.0,
             escaped: box_escape(min, max),
@@ -824,6 +884,7 @@ fn boxed(
     Ok(Setup {
         world,
         fluid,
+        others: Vec::new(),
         frames,
         floor: min.y,
         escaped: Box::new(move |f: &Fluid| {

@@ -1070,3 +1070,27 @@ fn carried_emitters_and_fills_build_and_their_mistakes_are_located() {
         other => panic!("expected an invalid fill, got {:?}", other.err()),
     }
 }
+
+/// `interacts: true` makes the fluids of `oil_on_water.ron` interact: after 1 s of the lock
+/// exchange the water's mean height is below the oil's by more than a spacing (both start at
+/// 0.1 m; without interaction the oil would fall through the water instead).
+#[test]
+fn the_oil_on_water_file_builds_interacting_fluids() {
+    let (_, mut built) = SceneFile::load_and_build(scenes_dir().join("oil_on_water.ron")).unwrap();
+    let [water, oil] = built.fluids[..] else {
+        panic!("two fluids")
+    };
+    let all = rapier_sph::rapier3d::prelude::InteractionGroups::all();
+    for h in [water, oil] {
+        assert_eq!(built.world.fluids[h].params().fluid_groups, all);
+    }
+    for _ in 0..60 * built.steps_per_frame {
+        built.world.step().unwrap();
+    }
+    let mean = |h| {
+        let f: &rapier_sph::Fluid = &built.world.fluids[h];
+        f.positions().iter().map(|x| x.y).sum::<f32>() / f.len() as f32
+    };
+    let (w, o) = (mean(water), mean(oil));
+    assert!(w < o - 0.02, "water at {w}, oil at {o}");
+}

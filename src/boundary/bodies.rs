@@ -769,3 +769,69 @@ pub fn entry_of(table: &[MovingCollider], h: ColliderHandle) -> Option<(u32, &Mo
         .ok()
         .map(|k| (k as u32, &table[k]))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rapier3d::dynamics::RigidBodyBuilder;
+    use rapier3d::geometry::ColliderBuilder;
+    use rapier3d::pipeline::PhysicsWorld;
+
+    /// A ball in free fall whose frame ends with a fluid impulse `J` (`Coupling::apply`), then
+    /// one more rapier step: the velocity change `begin_frame` reads for that step should be
+    /// rapier's own (gravity: `rapier_rate = g`, `accel = g·(n − 1)/n`), as the fields' docs
+    /// say, not `g + J/(M·dt)`: the impulse changed the velocity rapier started from, before
+    /// its substeps.
+    ///
+    /// Not yet: `apply` records the velocity a body is left with before it applies the
+    /// impulses, so the next frame's `rapier_rate` and `accel` include them. Measured: with
+    /// `J = 5 m/s · M` at 60 Hz, `rapier_rate.y` = 290.19 m/s² (`g + J/(M·dt)`) instead of
+    /// −9.81. For a body the water holds up, `J/(M·dt) ≈ −g`, so the exchange has been
+    /// running with `rapier_rate ≈ 0`. Recording the velocity after the impulses (the fix
+    /// this test asks for) moves the floating boxes of `tests/buoyancy.rs` 5–7 % of their
+    /// height deeper, out of that test's bounds: WCSPH 250 / 500 / 750 kg/m³ submerged
+    /// 0.246 / 0.519 / 0.751 → 0.201 / 0.449 / 0.714, DFSPH 0.264 / 0.498 / 0.722 → 0.212 /
+    /// 0.457 / 0.708 (measured beside a contact change that alone left these figures as they
+    /// were). So the fix waits for the exchange's `ext` term (which the tuned figures met at
+    /// `rapier_rate ≈ 0`) to be revisited with the true rate.
+    #[test]
+    #[ignore = "rapier_rate includes the fluid's last impulse; the fix moves buoyancy out of bounds (see the doc comment)"]
+    fn rapier_rate_leaves_out_the_fluids_last_impulse() {
+        let mut world = PhysicsWorld::new();
+        world.gravity = Vector::new(0.0, -9.81, 0.0);
+        let dt = world.integration_parameters.dt;
+        let n = world.integration_parameters.num_solver_iterations;
+        let body = world
+            .bodies
+            .insert(RigidBodyBuilder::dynamic().translation(Vector::new(0.0, 10.0, 0.0)));
+        let (bodies, colliders) = (&mut world.bodies, &mut world.colliders);
+        colliders.insert_with_parent(ColliderBuilder::ball(0.5), body, bodies);
+        world.step();
+        let mut coupling = Coupling::default();
+        coupling.begin_frame(dt, n, &world.bodies, &world.colliders);
+        let mass = world.bodies[body].mass();
+        // The fluid's impulse of the frame: 5 m/s up.
+        coupling
+            .impulses
+            .push((body, [0.0, 5.0 * mass as f64, 0.0], [0.0; 3]));
+        coupling.apply(&mut world.bodies);
+        world.step();
+        coupling.begin_frame(dt, n, &world.bodies, &world.colliders);
+        let c = &coupling.candidates[0];
+        let g = -9.81;
+        // f32 round-off of velocities near 5 m/s divided by dt: a few 1e-4 m/s².
+        let tol = 64.0 * Real::EPSILON * 5.0 / dt;
+        assert!(
+            (c.rapier_rate.y - g).abs() < tol && c.rapier_rate.x == 0.0,
+            "rapier_rate {:?}, expected gravity {g}",
+            c.rapier_rate
+        );
+        let spread = (n as Real - 1.0) / n as Real;
+        assert!(
+            (c.accel.y - g * spread).abs() < tol,
+            "accel {:?}, expected {}",
+            c.accel,
+            g * spread
+        );
+    }
+}

@@ -68,6 +68,11 @@ impl Attributes {
         &mut self.entries[k].1
     }
 
+    /// Every attribute's name and values.
+    pub fn iter(&self) -> impl Iterator<Item = (&str, &[Real])> {
+        self.entries.iter().map(|(a, v)| (a.as_str(), &v[..]))
+    }
+
     /// Every attribute's values.
     pub fn values_mut(&mut self) -> impl Iterator<Item = &mut Vec<Real>> {
         self.entries.iter_mut().map(|(_, v)| v)

@@ -30,8 +30,9 @@ enum Entry {
 
 /// All the fluids of a scene, each with its own parameters.
 ///
-/// Fluids in one set do not interact with each other yet (each has its own neighbour
-/// grid); each interacts with the rapier colliders.
+/// Each fluid interacts with the rapier colliders; fluids of one set interact with each other
+/// when their [`crate::FluidParams::fluid_groups`] say so (default: they do not; see
+/// [`crate::fluid::interaction`]).
 ///
 /// # Examples
 /// ```

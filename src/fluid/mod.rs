@@ -4,6 +4,7 @@ mod attributes;
 mod edit;
 mod fill;
 mod fluid_set;
+pub mod interaction;
 #[cfg(feature = "snapshot")]
 pub(crate) mod snapshot;
 

@@ -14,6 +14,7 @@
 //! owns which data and how to add a stage or a solver.
 
 mod contact;
+mod interaction;
 mod records;
 mod relax;
 mod sleep;
@@ -218,6 +219,7 @@ impl FluidPipeline {
         broad_phase: &BroadPhaseBvh,
     ) -> SphResult<&StepReport> {
         self.validate(gravity, dt)?;
+        self.runtimes.groups.sync(fluids)?;
         let has_colliders = self.check_broad_phase(broad_phase, colliders)?;
         let surroundings = (gravity, broad_phase);
         self.begin_frame(dt, fluids, bodies, colliders, surroundings, has_colliders);
@@ -264,9 +266,10 @@ impl FluidPipeline {
         let fell_asleep = frame.fell_asleep;
         let forces = self
             .runtimes
-            .iter_mut()
-            .zip(fluids.iter())
-            .map(|(r, (_, f))| (r.handle, &mut r.ws.forces, f.is_sleeping()));
+            .all_mut()
+            // The groups' runtimes come after the fluids' and never sleep.
+            .zip(fluids.iter().map(|(_, f)| f.is_sleeping()).chain(std::iter::repeat(false)))
+            .map(|(r, asleep)| (r.handle, &mut r.ws.forces, asleep));
         self.records.finish(dt, forces);
         report.coupled_bodies = self.coupling.apply(bodies);
         for near in &fell_asleep {
@@ -572,6 +575,7 @@ impl Frame<'_> {
                 rt.ws.reserve(capacity);
             }
         }
+        self.runtimes.begin_group_frames();
     }
 
     /// One substep of every fluid, then their sinks; adds the density error summed over the
@@ -583,9 +587,10 @@ impl Frame<'_> {
             scene: self.scene,
             back,
         };
-        for ((_, fluid), rt) in self.fluids.iter_mut().zip(self.runtimes.iter_mut()) {
-            if fluid.is_sleeping() {
-                continue;
+        let pairs = self.fluids.iter_mut().zip(self.runtimes.with_groups_mut());
+        for ((_, fluid), (rt, grouped)) in pairs {
+            if grouped || fluid.is_sleeping() {
+                continue; // stepped with its group below, or asleep
             }
             let n = fluid.len();
             let result = substep::substep(fluid, rt, &input, self.coupling, &mut self.report);
@@ -596,6 +601,29 @@ impl Frame<'_> {
                 self.report.quarantined += fluid.quarantine_non_finite();
             }
             self.report.drained += fluid.drain_sinks(self.colliders);
+        }
+        if !self.runtimes.groups.list.is_empty() {
+            self.substep_groups(&input, error);
+        }
+    }
+
+    /// One substep of each group of interacting fluids (`interaction`), then its fluids'
+    /// sinks.
+    fn substep_groups(&mut self, input: &SubstepInput<'_>, error: (&mut f64, &mut usize)) {
+        let mut fluids: Vec<&mut crate::Fluid> = self.fluids.iter_mut().map(|(_, f)| f).collect();
+        for g in 0..self.runtimes.groups.list.len() {
+            let group = &mut self.runtimes.groups.list[g];
+            let result = group.substep(&mut fluids, input, self.coupling, &mut self.report);
+            for &k in group.members() {
+                let fluid = &mut *fluids[k];
+                *error.0 += result.mean_error as f64 * fluid.len() as f64;
+                *error.1 += fluid.len();
+                if result.non_finite > 0 {
+                    self.report.quarantined += fluid.quarantine_non_finite();
+                }
+                self.report.drained += fluid.drain_sinks(self.colliders);
+            }
+            self.runtimes.spread_group_speed(g);
         }
     }
 
@@ -610,6 +638,11 @@ impl Frame<'_> {
                 r.relax_compression = r.relax_compression.max(left.compression);
                 r.relax_stalled |= left.stalled;
             }
+        }
+        for left in self.runtimes.end_group_relaxations() {
+            let r = &mut self.report;
+            r.relax_compression = r.relax_compression.max(left.compression);
+            r.relax_stalled |= left.stalled;
         }
     }
 
@@ -641,8 +674,10 @@ impl Frame<'_> {
             coupling: self.coupling,
             watch: self.watch,
         };
-        for ((_, fluid), rt) in self.fluids.iter_mut().zip(self.runtimes.iter_mut()) {
-            if fluid.is_sleeping() || fluid.params().sleep.is_none() {
+        let pairs = self.fluids.iter_mut().zip(self.runtimes.with_groups_mut());
+        for ((_, fluid), (rt, grouped)) in pairs {
+            // A fluid stepped with its group stays awake: the group sleeps as one or not at all.
+            if grouped || fluid.is_sleeping() || fluid.params().sleep.is_none() {
                 continue;
             }
             if let Some(near) = sleep::test(fluid, rt, &around, rt.ws.frame_changed) {

@@ -374,6 +374,9 @@ fn solve(
     let wall_ws = std::mem::take(&mut ws.wall);
     ws.inv_densities.resize(n, 0.0);
     ws.previous_positions.resize(n, Vector::ZERO);
+    // Interacting fluids stepped together: their per-particle factors, taken out of the
+    // attributes (a move) while the context borrows those, put back below.
+    let phases = super::interaction::take_phases(particles.attributes);
     let mut ctx = StepContext {
         params,
         gravity: input.gravity,
@@ -384,13 +387,14 @@ fn solve(
         densities: particles.densities,
         pressures: particles.pressures,
         ids: particles.ids,
-        attributes: particles.attributes,
+        attributes: &mut *particles.attributes,
         inv_densities: &mut ws.inv_densities,
         previous_positions: &mut ws.previous_positions,
         neighbors: &ws.search.lists,
         wall: wall_ws.any().then_some(&wall_ws),
         hold,
         report,
+        phases: super::interaction::phases(&phases),
     };
     let outcome = rt.solver.step(&mut ctx);
     implicit_viscosity(&mut ctx, outcome.non_finite, &mut ws.viscosity);
@@ -416,6 +420,7 @@ fn solve(
         }
     }
     let (_, mean_error) = measure_density_error(&mut ctx, &mut ws.partials);
+    super::interaction::put_back_phases(particles.attributes, phases);
     ws.wall_viscous_impulses = viscous;
     ws.wall = wall_ws;
     (outcome, mean_error)

@@ -115,10 +115,13 @@ pub(crate) struct FluidRuntime {
     pub relax: super::relax::RelaxBudget,
 }
 
-/// One [`FluidRuntime`] per fluid of the set last stepped, in the set's order.
+/// One [`FluidRuntime`] per fluid of the set last stepped, in the set's order, and the
+/// groups of interacting fluids (each with its own runtime).
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Runtimes {
     entries: Vec<FluidRuntime>,
+    /// Groups of interacting fluids (`pipeline::interaction`); empty when none interacts.
+    pub groups: super::interaction::Groups,
 }
 
 impl Runtimes {
@@ -163,6 +166,58 @@ impl Runtimes {
         self.entries.iter_mut()
     }
 
+    /// The entries, in the set's order, each with whether a group steps its fluid.
+    pub fn with_groups_mut(&mut self) -> impl Iterator<Item = (&mut FluidRuntime, bool)> {
+        let groups = &self.groups;
+        let grouped = move |k| !groups.list.is_empty() && groups.steps(k);
+        self.entries
+            .iter_mut()
+            .enumerate()
+            .map(move |(k, e)| (e, grouped(k)))
+    }
+
+    /// The entries, then the groups' runtimes (whose records count under their first
+    /// fluid's handle).
+    pub fn all_mut(&mut self) -> impl Iterator<Item = &mut FluidRuntime> {
+        let groups = self.groups.list.iter_mut().map(|g| &mut g.rt);
+        self.entries.iter_mut().chain(groups)
+    }
+
+    /// The frame's start of each group: its relaxation budget, and its members' speeds and
+    /// nearby bodies (measured per member by the frame's quarantine) merged.
+    pub fn begin_group_frames(&mut self) {
+        for g in &mut self.groups.list {
+            let (mut near, mut speed, mut frame): (_, Real, Real) = (Default::default(), 0.0, 0.0);
+            for &k in g.members() {
+                let ws = &self.entries[k].ws;
+                near = ws.bodies_near.merge(near);
+                speed = speed.max(ws.max_speed);
+                frame = frame.max(ws.frame_speed);
+            }
+            g.begin_relax();
+            g.rt.ws.bodies_near = near;
+            g.rt.ws.max_speed = speed;
+            g.rt.ws.frame_speed = frame;
+        }
+    }
+
+    /// After a group's substep: its fastest speed is each member's (the next substep's
+    /// CFL input).
+    pub fn spread_group_speed(&mut self, group: usize) {
+        let g = &self.groups.list[group];
+        for &k in g.members() {
+            self.entries[k].ws.max_speed = g.rt.ws.max_speed;
+        }
+    }
+
+    /// What each group's overlap relaxation left unfinished this frame.
+    pub fn end_group_relaxations(&mut self) -> impl Iterator<Item = super::relax::RelaxLeft> {
+        self.groups.list.iter_mut().filter_map(|g| {
+            let pending = g.relax_pending();
+            g.rt.relax.end_frame(pending)
+        })
+    }
+
     /// The entry of `handle`.
     pub fn get(&self, handle: FluidHandle) -> Option<&FluidRuntime> {
         self.entries.iter().find(|e| e.handle == handle)
@@ -186,5 +241,6 @@ impl Runtimes {
             .map(|e| e.ws.heap_bytes() + e.solver.heap_bytes())
             .sum::<usize>()
             + self.entries.capacity() * std::mem::size_of::<FluidRuntime>()
+            + self.groups.heap_bytes()
     }
 }

@@ -508,6 +508,10 @@ pub struct FluidDesc {
     /// preset's (water: on, except with the Clavet solver; paper: off).
     #[serde(default)]
     pub wall_density: Option<bool>,
+    /// Interacts with every other fluid of the scene that says so (`fluid_groups` all; see
+    /// [`crate::fluid::interaction`]). Default: no.
+    #[serde(default)]
+    pub interacts: Option<bool>,
     /// Boxes filled with particles at the fluid's spacing ([`Fluid::add_block`]).
     #[serde(default)]
     pub blocks: Vec<BlockDesc>,
@@ -604,6 +608,9 @@ impl FluidDesc {
         }
         if let Some(v) = self.wall_density {
             b = b.wall_density(v);
+        }
+        if self.interacts == Some(true) {
+            b = b.fluid_groups(rapier3d::geometry::InteractionGroups::all());
         }
         b.build()
     }

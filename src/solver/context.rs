@@ -48,6 +48,41 @@ pub(crate) struct StepContext<'a> {
     pub hold: Real,
     /// The step report the stages add to.
     pub report: &'a mut StepReport,
+    /// Interacting fluids stepped together (`crate::fluid::interaction`): each particle's
+    /// factors on the reference fluid's accelerations and viscosity. `None` for one fluid.
+    pub phases: Option<Phases<'a>>,
+}
+
+/// Per-particle factors of a group of interacting fluids stepped as one
+/// (`crate::fluid::interaction`), indexed like the sorted particles.
+#[derive(Copy, Clone)]
+pub(crate) struct Phases<'a> {
+    /// `r_i = m_ref/m_i = ρ_ref/ρ0_i`: the factor on every pair acceleration of particle `i`.
+    pub ratio: &'a [Real],
+    /// `√(ε_i/ε)`, `ε` the group's (largest) viscosity: a pair's viscosity is `ε` times the
+    /// two particles' weights, `√(ε_i·ε_j)`.
+    pub viscosity: &'a [Real],
+}
+
+impl Phases<'_> {
+    /// Multiplies each acceleration by its particle's ratio.
+    pub fn scale(&self, accelerations: &mut [Vector]) {
+        for (a, &r) in accelerations.iter_mut().zip(self.ratio) {
+            *a *= r;
+        }
+    }
+
+    /// `1/ρ_j` weighted by the viscosity weights, into `out` (the viscosity stages read it in
+    /// place of `1/ρ`, which gives each pair `√(ε_i·ε_j)`).
+    pub fn viscous_inv_densities(&self, inv_densities: &[Real], out: &mut Vec<Real>) {
+        out.clear();
+        out.extend(
+            inv_densities
+                .iter()
+                .zip(self.viscosity)
+                .map(|(&d, &w)| d * w),
+        );
+    }
 }
 
 /// What a solver's substep reports back: particles that became non-finite, and the largest

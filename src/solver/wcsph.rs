@@ -12,9 +12,13 @@ use crate::neighbors::Pairs;
 use crate::params::FluidParams;
 use crate::{density, forces, integrate, pressure};
 
-/// WCSPH keeps no state between substeps.
+/// WCSPH keeps no state between substeps (only scratch for interacting fluids).
 #[derive(Clone, Debug, Default)]
-pub(crate) struct WcsphState;
+pub(crate) struct WcsphState {
+    /// Interacting fluids: `1/ρ` times each particle's viscosity weight (see
+    /// `solver::context::Phases`); empty for one fluid.
+    viscous_inv_densities: Vec<Real>,
+}
 
 impl PressureSolver for WcsphState {
     type Settings = ();
@@ -52,6 +56,13 @@ impl PressureSolver for WcsphState {
                 p.clamp_negative_pressure,
                 ctx.pressures,
             );
+            // Interacting fluids: each particle's own fluid's pressure, `ρ0_i/ρ_ref` times
+            // the reference's at the same relative density (`crate::fluid::interaction`).
+            if let Some(ph) = ctx.phases {
+                for (pr, &r) in ctx.pressures.iter_mut().zip(ph.ratio) {
+                    *pr /= r;
+                }
+            }
         });
         // Overwrites the accelerations.
         ctx.report.timed(Stage::PressureForce, || {
@@ -60,16 +71,28 @@ impl PressureSolver for WcsphState {
                 p.smoothing_length, wall.map(|w| &w.gradient[..]), ctx.accelerations, sep));
         });
         if p.explicit_viscosity() > 0.0 {
+            let (phases, weighted) = (ctx.phases, &mut self.viscous_inv_densities);
+            let inv = match phases {
+                Some(ph) => {
+                    ph.viscous_inv_densities(ctx.inv_densities, weighted);
+                    &weighted[..]
+                }
+                None => &ctx.inv_densities[..],
+            };
             let limited = ctx.report.timed(Stage::ViscosityForce, || {
                 forces::viscosity::add_accelerations(
                     &pairs,
                     ctx.velocities,
-                    ctx.inv_densities,
+                    inv,
                     (p.explicit_viscosity(), ctx.dt),
                     ctx.accelerations,
                 )
             });
             ctx.report.viscosity_limited += limited;
+        }
+        // Interacting fluids: the pair forces divided by each particle's own mass.
+        if let Some(ph) = ctx.phases {
+            ph.scale(ctx.accelerations);
         }
         if ctx.gravity != Vector::ZERO {
             ctx.report.timed(Stage::ExternalForces, || {
@@ -109,6 +132,6 @@ impl PressureSolver for WcsphState {
     }
 
     fn heap_bytes(&self) -> usize {
-        0
+        self.viscous_inv_densities.capacity() * std::mem::size_of::<Real>()
     }
 }

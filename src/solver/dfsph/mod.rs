@@ -216,16 +216,19 @@ pub(crate) struct WarmPush<'a> {
     pub velocities: &'a [Vector],
     /// Time step.
     pub dt: Real,
+    /// Interacting fluids: each particle's factor on its pushes (see [`Pusher::ratio`]).
+    pub ratio: Option<&'a [Real]>,
 }
 
-impl WarmPush<'_> {
+impl<'a> WarmPush<'a> {
     /// How the warm start pushes particles of mass `mass` (walls' neighbour part included).
-    fn pusher<'w>(&self, mass: Real, wall: Option<&'w WallWorkspace>) -> Pusher<'w> {
+    fn pusher(&self, mass: Real, wall: Option<&'a WallWorkspace>) -> Pusher<'a> {
         Pusher {
             mass,
             wall,
             neighbour: true,
             dt: self.dt,
+            ratio: self.ratio,
         }
     }
 }
@@ -336,6 +339,48 @@ pub(crate) fn density_and_factors<K: Kernel, S: Separation>(
         });
 }
 
+/// Interacting fluids (`crate::fluid::interaction`): the factors `α` of
+/// [`density_and_factors`] again, with each push weighted by its particle's ratio `r`
+/// (`m_ref/m`): `1/α_i = r_i·(Σm∇W + γ∇ρ_wall)·(Σm∇W + ∇ρ_wall) + m²·Σ_j r_j|∇W_ij|²`, from
+/// the pair gradients the pass stored. A light neighbour moves `r_j` times more under the
+/// same pressure; leaving that out of the diagonal overshoots the heavy particles next to
+/// it (with water under a liquid ten times lighter the bottom pressure swung by ±50 %).
+pub(crate) fn phase_factors(
+    (neighbors, grads): (&NeighborLists, &PairGradients),
+    (mass, h): (Real, Real),
+    (wall, ratio): (Option<&WallWorkspace>, &[Real]),
+    densities: &[Real],
+    alpha: &mut [Real],
+) {
+    crate::par_chunks_mut!(alpha, CHUNK)
+        .enumerate()
+        .for_each(|(c, alpha)| {
+            let (offsets, indices) = neighbors.chunk(c);
+            let gc = &grads.chunk(c).grad;
+            for (k, a) in alpha.iter_mut().enumerate() {
+                let i = c * CHUNK + k;
+                let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
+                let (mut g, mut g2r) = (Vec3A::ZERO, 0.0);
+                for (&j, &gij) in indices[s..e].iter().zip(&gc[s..e]) {
+                    g += gij;
+                    g2r += ratio[j as usize] * gij.length_squared();
+                }
+                let grad = Vector::from(g) * mass;
+                let own = match wall {
+                    Some(w) => (grad + w.gradient[i] * w.mirror).dot(grad + w.gradient[i]),
+                    None => grad.length_squared(),
+                };
+                let denom = ratio[i] * own + mass * mass * g2r;
+                let rho = densities[i];
+                *a = if denom > 1e-12 * rho * rho / (h * h) {
+                    1.0 / denom
+                } else {
+                    0.0
+                };
+            }
+        });
+}
+
 /// The density pass's pair values of one particle: gradients (16 bytes wide) and, for a
 /// viscous fluid, the viscosity Laplacians.
 struct StorePairs<'a> {
@@ -440,6 +485,9 @@ struct Pusher<'a> {
     wall: Option<&'a WallWorkspace>,
     neighbour: bool,
     dt: Real,
+    /// Interacting fluids (`crate::fluid::interaction`): `m_ref/m_i`, the factor on particle
+    /// `i`'s push (the same pair force on a lighter particle). `None` for one fluid.
+    ratio: Option<&'a [Real]>,
 }
 
 impl Pusher<'_> {
@@ -458,6 +506,9 @@ impl Pusher<'_> {
                 wall_pi += neighbour_average(nb, g, gw, |j| pi[j]);
             }
             dv += gw * (wall_pi * self.dt);
+        }
+        if let Some(r) = self.ratio {
+            dv *= r[i];
         }
         Vec3A::from(dv)
     }
@@ -516,6 +567,7 @@ fn apply_pressure(ctx: &SolveContext<'_>, neighbour: bool, pi: &[Real], velociti
         wall: ctx.wall,
         neighbour,
         dt: ctx.dt,
+        ratio: ctx.ratio,
     };
     crate::par_chunks_mut!(velocities, CHUNK)
         .enumerate()
@@ -626,6 +678,9 @@ pub(crate) struct SolveContext<'a> {
     pub densities: &'a [Real],
     /// Particle mass.
     pub mass: Real,
+    /// Interacting fluids: each particle's factor `m_ref/m_i` on its pushes (`None` for one
+    /// fluid; see `crate::fluid::interaction`).
+    pub ratio: Option<&'a [Real]>,
     /// Rest density.
     pub rest_density: Real,
     /// Time step.

@@ -34,6 +34,7 @@ macro_rules! solve_context {
             wall: $ctx.wall,
             densities: $ctx.densities,
             mass: p.particle_mass,
+            ratio: $ctx.phases.map(|ph| ph.ratio),
             rest_density: p.rest_density,
             dt: $ctx.dt,
             expected_neighbours: p.expected_neighbours(),
@@ -51,6 +52,9 @@ pub(crate) struct DfsphState {
     /// Kernel gradients of every neighbour pair (computed once per substep by the density
     /// pass, read by both solves and by the walls' reaction).
     pub gradients: PairGradients,
+    /// Interacting fluids: `1/ρ` times each particle's viscosity weight (see
+    /// `solver::context::Phases`); empty for one fluid.
+    pub viscous_inv_densities: Vec<Real>,
 }
 
 impl PressureSolver for DfsphState {
@@ -154,7 +158,9 @@ impl PressureSolver for DfsphState {
     }
 
     fn heap_bytes(&self) -> usize {
-        self.buffers.heap_bytes() + self.gradients.heap_bytes()
+        self.buffers.heap_bytes()
+            + self.gradients.heap_bytes()
+            + self.viscous_inv_densities.capacity() * std::mem::size_of::<Real>()
     }
 }
 
@@ -187,6 +193,7 @@ impl DfsphState {
         let (dt, wall) = (ctx.dt, ctx.wall);
         let warm_divergence = ctx.attributes.get(wv);
         let velocities = &*ctx.velocities;
+        let ratio = ctx.phases.map(|ph| ph.ratio);
         let (buffers, gradients) = (&mut self.buffers, &mut self.gradients);
         ctx.report.timed(Stage::Density, || {
             let viscosity = (p.explicit_viscosity() > 0.0).then(|| ViscosityLaplacian::new(h));
@@ -194,6 +201,7 @@ impl DfsphState {
                 pi: warm_divergence,
                 velocities,
                 dt,
+                ratio,
             });
             let pairs = Pairs {
                 positions: ctx.positions,
@@ -216,6 +224,16 @@ impl DfsphState {
             };
             crate::with_kernel!(p.density_kernel, K =>
                 super::density_and_factors::<K, S>(&pairs, &input, out));
+            // Interacting fluids: each push weighted by its particle's ratio.
+            if let Some(r) = ratio {
+                super::phase_factors(
+                    (ctx.neighbors, gradients),
+                    (p.particle_mass, h),
+                    (wall, r),
+                    ctx.densities,
+                    &mut buffers.alpha,
+                );
+            }
         });
     }
 
@@ -256,16 +274,29 @@ impl DfsphState {
             forces = true;
             let (gradients, velocities) = (&self.gradients, &mut self.buffers.velocities);
             let dt = ctx.dt;
+            let (phases, weighted) = (ctx.phases, &mut self.viscous_inv_densities);
             let limited = ctx.report.timed(Stage::ViscosityForce, || {
                 ctx.accelerations.fill(Vector::ZERO);
+                // Interacting fluids: each pair at `√(ε_i·ε_j)`, then `r_i` on particle `i`.
+                let inv = match phases {
+                    Some(ph) => {
+                        ph.viscous_inv_densities(ctx.inv_densities, weighted);
+                        &weighted[..]
+                    }
+                    None => &ctx.inv_densities[..],
+                };
                 // From the pair Laplacians stored by the density pass.
-                super::viscosity(
+                let limited = super::viscosity(
                     (ctx.neighbors, gradients),
-                    (ctx.velocities, ctx.inv_densities),
+                    (ctx.velocities, inv),
                     (p.explicit_viscosity() * p.particle_mass, dt),
                     velocities,
                     ctx.accelerations,
-                )
+                );
+                if let Some(ph) = phases {
+                    ph.scale(ctx.accelerations);
+                }
+                limited
             });
             ctx.report.viscosity_limited += limited;
         }
