@@ -70,7 +70,7 @@ pub const WINDOW: (f64, f64) = (2.0, 4.5);
 /// (the experiment's median rises at T ≈ 2.45) to the end of the median's decay (0.9 at T = 3).
 pub const IMPACT: (f64, f64) = (2.0, 3.0);
 
-/// Width in `T` of the moving average of [`first_impact_errors`]' filtered peak, for a run
+/// Width in `T` of the moving average behind the `peak_filtered` error, for a run
 /// with `resolution` particles across H: the time the flow at Ritter's front speed
 /// `2·sqrt(g·H)` takes to cross the sensor's support `h = 2s = 2H/resolution`, i.e.
 /// `h/(2H)` in units of `sqrt(H/g)`.
