@@ -357,9 +357,9 @@ mod tests {
     fn moving_average_and_impulse() {
         let pts: Vec<(f64, f64)> = (0..=10).map(|i| (i as f64, (i % 2) as f64)).collect();
         let avg = moving_average(&pts, 2.0);
-        // Interior points average three samples: (0 + 1 + 0)/3 or (1 + 0 + 1)/3.
-        assert!((avg[5].1 - 2.0 / 3.0).abs() < 1e-12);
-        assert!((avg[4].1 - 1.0 / 3.0).abs() < 1e-12);
+        // Interior points average three samples: (0 + 1 + 0)/3 at odd T, (1 + 0 + 1)/3 at even.
+        assert!((avg[5].1 - 1.0 / 3.0).abs() < 1e-12);
+        assert!((avg[4].1 - 2.0 / 3.0).abs() < 1e-12);
         // The end points average two.
         assert!((avg[0].1 - 0.5).abs() < 1e-12);
         // ∫ of the line p = T over [0.5, 2.5] is (2.5² − 0.5²)/2 = 3.
