@@ -32,7 +32,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Error columns of the CSV, in order (a scene fills those it measures).
-const ERROR_COLUMNS: [&str; 14] = [
+const ERROR_COLUMNS: [&str; 18] = [
     "front_rms",
     "front_rms_t3",
     "height_rms",
@@ -44,9 +44,13 @@ const ERROR_COLUMNS: [&str; 14] = [
     "band_rms",
     "peak",
     "peak_time",
+    "peak_filtered",
+    "impulse",
     "ekin_rms",
     "dissipation_t0",
     "ekin_end",
+    "energy_excess",
+    "max_height",
 ];
 
 struct Args {

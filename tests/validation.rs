@@ -60,6 +60,91 @@ fn recommended() -> Vec<Method> {
 /// 10 % RMS.
 const TGV_TOLERANCE: f64 = 0.10;
 
+/// Mechanical energy a stable run may gain over `E_0`, as a fraction: 1 %. Nothing does work
+/// on these fluids (a column released from rest in a closed fixed tank), so the only gain a
+/// correct solver shows is the spawn lattice settling against walls that count in the
+/// density (the lattice itself is at `ρ0` to 3·10⁻⁵ with the cubic spline at h = 2s, but
+/// the rows next to a wall are not at the wall's rest distance): measured at most +0.25 %
+/// (DFSPH, hydrostatic tank, N = 6, fixed dt/2: the column rising by 1.5 % of a spacing),
+/// +1.7 % at N = 3. Gains of solvers that create energy: PBF up to +2.1 % (Koshizuka & Oka,
+/// N = 16, fixed dt/2), Clavet +20 % to +1,700 % (the report's `energy_excess` column).
+const ENERGY_TOLERANCE: f64 = 0.01;
+
+/// The largest `energy_excess` of `m` over every scene under gravity at its default
+/// resolution, at the stable policies `policies`, each run printed with its highest particle.
+fn largest_energy_excess(m: &Method, policies: &[TimePolicy]) -> (f64, String) {
+    let mut worst = (f64::MIN, String::new());
+    for scene in Scene::ALL {
+        for &policy in policies {
+            let r = scene
+                .run(m, scene.default_resolution(), policy, &mut no_progress())
+                .unwrap();
+            let excess = r.error("energy_excess").unwrap();
+            if excess.is_nan() {
+                continue; // no gravity (Taylor–Green)
+            }
+            assert_conserved(&r);
+            let label = format!(
+                "{} {} N={} {}",
+                r.scene,
+                m.name,
+                r.resolution,
+                policy.name()
+            );
+            println!(
+                "{label}: mechanical energy {excess:+.5} of E_0, highest particle {:.3} × the initial top",
+                r.error("max_height").unwrap()
+            );
+            if excess > worst.0 {
+                worst = (excess, label);
+            }
+        }
+    }
+    worst
+}
+
+/// Energy in every report scene under gravity (both Martin & Moyce columns, Koshizuka & Oka,
+/// Lobovský, the hydrostatic tank), WCSPH and DFSPH at the default resolution, adaptive and
+/// fixed `dt/2`: the mechanical energy `E_kin + Σ m·g·y` never exceeds the column's initial
+/// potential energy `E_0` by more than [`ENERGY_TOLERANCE`]. Measured at most +0.04 %
+/// (DFSPH, hydrostatic, N = 8, fixed dt/2).
+///
+/// This bounds the whole fluid. No bound holds particle by particle: pressure moves energy
+/// between particles (Ritter's ideal front moves at `2·sqrt(g·H)`, a specific energy `2gH`,
+/// twice the highest initial one), and the highest particle is printed as a figure (in
+/// Lobovský's tank every solver's run-up reaches the lid at 2H).
+#[test]
+fn mechanical_energy_never_exceeds_the_initial_potential_energy() {
+    for name in ["WCSPH", "DFSPH"] {
+        let (excess, label) = largest_energy_excess(
+            &method(name),
+            &[TimePolicy::Adaptive, TimePolicy::FixedSmall],
+        );
+        assert!(
+            excess <= ENERGY_TOLERANCE,
+            "{label}: mechanical energy {excess:+.5} of E_0 above the initial potential energy"
+        );
+    }
+}
+
+/// As `mechanical_energy_never_exceeds_the_initial_potential_energy` for PBF: not met at
+/// fixed `dt/2`, where PBF creates energy that grows with resolution (the report: Koshizuka &
+/// Oka +1.05 / +1.71 / +2.10 % at N = 8 / 12 / 16, Martin & Moyce n² = 2 +0.81 / +1.12 /
+/// +1.35 %, and particles launched 4.5 % above the column's top before any wall is hit);
+/// its adaptive runs stay within +0.08 % except Koshizuka & Oka at N = 8 (+0.73 %).
+#[test]
+#[ignore = "not met: PBF at fixed dt/2 creates up to +2.1 % of E_0 (Koshizuka & Oka, N = 16; +1.71 % at the default N = 12): see the doc comment"]
+fn pbf_mechanical_energy_never_exceeds_the_initial_potential_energy() {
+    let (excess, label) = largest_energy_excess(
+        &method("PBF"),
+        &[TimePolicy::Adaptive, TimePolicy::FixedSmall],
+    );
+    assert!(
+        excess <= ENERGY_TOLERANCE,
+        "{label}: mechanical energy {excess:+.5} of E_0 above the initial potential energy"
+    );
+}
+
 fn no_progress() -> impl FnMut(Real) {
     |_| {}
 }
@@ -185,8 +270,9 @@ fn dam_break_front_within_10_percent_of_martin_moyce_for_recommended_solvers() {
 }
 
 /// Convergence, default solver: halving the spacing (8 → 16 particles across the column)
-/// does not make the front error over T ≤ 3 grow. The square column; the n² = 2 column is
-/// `dam_break_front_error_does_not_grow_when_spacing_halves_n2_column` (not met).
+/// does not make the front error over T ≤ 3 grow. The square column; on the n² = 2 column the
+/// error against the experiment grows (0.037 → 0.059) and convergence is tested against the
+/// finest run instead (`dam_break_front_converges_at_first_order_against_the_finest_run_n2_column`).
 ///
 /// Tolerance: the finer run may exceed the coarser run's RMS by at most 0.01 (1 % of Z), the
 /// smallest error the data's own transcription carries: below that the two runs cannot be
@@ -201,21 +287,58 @@ fn dam_break_front_error_does_not_grow_when_spacing_halves() {
     front_error_does_not_grow(dam_break::Case::martin_moyce_square().unwrap());
 }
 
-/// The convergence criterion on the n² = 2 column: not met by the default solver
-/// (DFSPH with wall density), and it cannot be for a solver that converges: its front
-/// converges to the model's answer, about 0.2 in T ahead of the experiment (DFSPH with the
-/// hydrostatic walls: 0.037 → 0.059 from N = 8 to 16; Lethe's VOF example shifts its
-/// simulation by 0.175 in T before comparing with the same table). WCSPH without wall
-/// density met it only up to N = 16 on the square column (0.073 → 0.022 → 0.036 at N = 8,
-/// 16, 32: its front, slowed by the 4-layer slab's side walls missing from its density,
-/// rises through the experiment's). Convergence is tested instead against the solver itself
-/// (`dam_break_front_converges_when_spacing_halves`) and against Koshizuka & Oka's MPS
-/// solution of the same model (`dam_break_front_error_against_the_mps_solution_does_not_grow_...`);
-/// see docs/validation.md.
+/// Convergence where it is defined, the n² = 2 column: the default solver's front error
+/// against its own finest run (N = 32 particles across the column) falls at the expected
+/// order from N = 8 to 16, T ≤ 3. The error against the experiment is printed beside it, a
+/// figure and not a criterion: the model (an instant release onto a free-slip floor) runs
+/// about 0.2 in T ahead of Martin & Moyce's front, so that error stops falling once the
+/// discretisation error no longer hides the lead (see docs/validation.md).
+///
+/// Observed order: if `Z_N = Z* + C·N^−p`, the errors against the N = 32 run are
+/// `e_N = |C|·(N^−p − 32^−p)`, so `e_8/e_16 = 2^p + 1` and `p = log2(e_8/e_16 − 1)` (the
+/// three-grid estimate, Roache 1998).
+///
+/// Expected order 1, asserted within ±0.5 (0.5 ≤ p ≤ 1.5): the leading errors of this
+/// discretisation are first order in the spacing — the kernel's truncation at the walls, the
+/// floor and the free surface (`O(h)`, h = 2s), the front measured to a particle's edge, and
+/// symplectic Euler with a step proportional to the spacing. Half an order either way is the
+/// scatter of a three-grid estimate whose finest error is a few times the front's own
+/// quantisation (`s/2`, 1.6 % of the column's width at N = 32, RMS-averaged over the ~60
+/// samples with T ≤ 3). An order below 0.5 says the front is not converging at the rate
+/// its discretisation promises; above 1.5, that the coarse run is outside the asymptotic range.
 #[test]
-#[ignore = "not met for the default solver DFSPH (n2 = 2 column 0.037 -> 0.059 from N = 8 to 16): its front converges to one ~0.2 in T ahead of the experiment; see the doc comment and docs/validation.md"]
-fn dam_break_front_error_does_not_grow_when_spacing_halves_n2_column() {
-    front_error_does_not_grow(dam_break::Case::martin_moyce_n2().unwrap());
+fn dam_break_front_converges_at_first_order_against_the_finest_run_n2_column() {
+    let m = default_method();
+    let case = dam_break::Case::martin_moyce_n2().unwrap();
+    let runs: Vec<RunRecord> = [8, 16, 32]
+        .iter()
+        .map(|&n| martin_moyce(case.clone(), &m, n, 3.05))
+        .collect();
+    runs.iter().for_each(assert_conserved);
+    let (e8, e16) = (
+        front_change(&runs[2], &runs[0]),
+        front_change(&runs[2], &runs[1]),
+    );
+    let order = (e8 / e16 - 1.0).log2();
+    for r in &runs {
+        println!(
+            "{} {} N = {}: front RMS against the experiment {:.4} (T ≤ 3)",
+            r.scene,
+            m.name,
+            r.resolution,
+            r.error("front_rms_t3").unwrap()
+        );
+    }
+    println!(
+        "{} {}: front RMS against N = 32: {e8:.4} (N = 8), {e16:.4} (N = 16); observed order {order:.2}",
+        case.name, m.name
+    );
+    assert!(
+        (0.5..=1.5).contains(&order),
+        "{} {}: observed order {order:.2} (errors against N = 32: {e8:.4} at N = 8, {e16:.4} at N = 16), expected 1 ± 0.5",
+        case.name,
+        m.name
+    );
 }
 
 /// Asserts that the default solver's Martin & Moyce front error over T ≤ 3 does not grow by
@@ -448,7 +571,9 @@ fn dam_break_front_error_against_the_mps_solution_does_not_grow_when_spacing_hal
 }
 
 /// RMS over the samples of `fine` with `0 < T ≤ 3` of `(Z_fine − Z_coarse)/Z_coarse`, the
-/// coarse front interpolated at the fine run's sample times.
+/// coarse front interpolated at the fine run's sample times. With `coarse` the finest run of
+/// a sweep and `fine` a coarser one, the error of that run against the finest, relative to
+/// the finest.
 fn front_change(coarse: &RunRecord, fine: &RunRecord) -> f64 {
     let front = |r: &RunRecord| {
         r.curves

@@ -353,6 +353,7 @@ pub fn run(
             dt_ref,
             policy,
             energy_bound,
+            gravity: G,
             inside: &inside,
         },
         &mut |t, world| {

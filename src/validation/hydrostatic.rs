@@ -71,6 +71,7 @@ pub fn run(
             dt_ref,
             policy,
             energy_bound,
+            gravity: g,
             inside: &inside,
         },
         &mut |t, world| {

@@ -355,8 +355,12 @@ pub(crate) struct DriveSpec<'a> {
     pub sample_dt: Real,
     pub dt_ref: Real,
     pub policy: TimePolicy,
-    /// Kinetic energy above this means the run created energy (J).
+    /// Kinetic energy above this means the run created energy (J). With gravity, the
+    /// fluid's initial potential energy above the floor (the column starts at rest).
     pub energy_bound: f64,
+    /// Gravity's magnitude (m/s², along −y; 0 for a scene without gravity): with it `drive`
+    /// follows the mechanical energy `E_kin + Σ m·g·y` and the highest particle.
+    pub gravity: Real,
     /// Is a position inside the container?
     pub inside: &'a dyn Fn(Vector) -> bool,
 }
@@ -371,6 +375,11 @@ pub(crate) struct Driven {
     pub note: String,
     pub particles_end: usize,
     pub escaped: usize,
+    /// Largest `(E_kin + E_pot)/E_0 − 1` over the frames (NaN without gravity).
+    pub energy_excess: f64,
+    /// Highest particle center over the frames over the highest at the start (NaN without
+    /// gravity).
+    pub max_height: f64,
 }
 
 /// Steps `world` (rapier is not stepped: the containers are fixed; its broad-phase must be
@@ -400,7 +409,14 @@ pub(crate) fn drive(
         note: String::new(),
         particles_end: n0,
         escaped: 0,
+        energy_excess: f64::NAN,
+        max_height: f64::NAN,
     };
+    let top = |f: &crate::Fluid| f.positions().iter().map(|p| p.y).fold(Real::MIN, Real::max);
+    let top0 = top(&world.fluids[fluid]) as f64;
+    if spec.gravity > 0.0 {
+        (out.energy_excess, out.max_height) = (-1.0, 1.0);
+    }
     sample(0.0, world);
     let mut next_sample = spec.sample_dt as f64;
     let mut t = 0.0f64;
@@ -430,6 +446,12 @@ pub(crate) fn drive(
                     spec.energy_bound
                 );
             }
+        }
+        if spec.gravity > 0.0 {
+            let mass = f.params().particle_mass;
+            let e = f.kinetic_energy() + potential_energy(f, mass, spec.gravity);
+            out.energy_excess = out.energy_excess.max(e / spec.energy_bound - 1.0);
+            out.max_height = out.max_height.max(top(f) as f64 / top0);
         }
         if !out.note.is_empty() {
             out.simulated = t as Real;
@@ -467,9 +489,13 @@ impl RunSetup {
     pub(crate) fn record(
         self,
         driven: Driven,
-        errors: Vec<Metric>,
+        mut errors: Vec<Metric>,
         curves: Vec<SimCurve>,
     ) -> RunRecord {
+        errors.extend(metrics([
+            ("energy_excess", driven.energy_excess),
+            ("max_height", driven.max_height),
+        ]));
         RunRecord {
             scene: self.scene,
             method: self.method,

@@ -187,6 +187,7 @@ pub fn run_with(
             dt_ref,
             policy,
             energy_bound,
+            gravity: 0.0,
             inside: &inside,
         },
         &mut |t, world| samples.push((t as f64, kinetic_energy(&world.fluids[fluid]))),
