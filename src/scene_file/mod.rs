@@ -375,6 +375,7 @@ impl SolverDesc {
                         .map_or(d.artificial_pressure_distance, |v| v.0),
                     max_density_error: max_density_error.map_or(d.max_density_error, |v| v.0),
                     hydrostatic_walls: hydrostatic_walls.unwrap_or(d.hydrostatic_walls),
+                    ..d
                 })
             }
             SolverDesc::Clavet {
