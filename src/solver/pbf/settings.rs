@@ -63,9 +63,7 @@ pub struct Pbf {
     /// J of kinetic energy (0.25 J with this option), and stability case 13 (65 µs substeps)
     /// 12.6× its initial energy (0.010× with it). Not the default: the short-range repulsion
     /// it weakens holds the water under a 1 kg/m³ body (`tests/light_bodies.rs`: with it
-    /// the body reaches 5.3e7 m/s). Not stored in snapshots (a restored fluid has it false):
-    /// storing it needs a snapshot format change.
-    #[cfg_attr(feature = "snapshot", serde(skip))]
+    /// the body reaches 5.3e7 m/s).
     pub artificial_pressure_dt_scaling: bool,
 }
 
