@@ -268,7 +268,12 @@ impl FluidPipeline {
             .runtimes
             .all_mut()
             // The groups' runtimes come after the fluids' and never sleep.
-            .zip(fluids.iter().map(|(_, f)| f.is_sleeping()).chain(std::iter::repeat(false)))
+            .zip(
+                fluids
+                    .iter()
+                    .map(|(_, f)| f.is_sleeping())
+                    .chain(std::iter::repeat(false)),
+            )
             .map(|(r, asleep)| (r.handle, &mut r.ws.forces, asleep));
         self.records.finish(dt, forces);
         report.coupled_bodies = self.coupling.apply(bodies);
