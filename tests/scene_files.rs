@@ -1094,3 +1094,38 @@ fn the_oil_on_water_file_builds_interacting_fluids() {
     let (w, o) = (mean(water), mean(oil));
     assert!(w < o - 0.02, "water at {w}, oil at {o}");
 }
+
+#[test]
+fn sleep_is_read_from_the_fluid_entry() {
+    use rapier_sph::Sleep;
+    let with = |entry: &str| {
+        let text = GOOD.replace(
+            "preset: Water(spacing: 0.1),",
+            &format!("preset: Water(spacing: 0.1),\n            {entry}"),
+        );
+        SceneFile::parse(&text, "sleep.ron").map(|s| s.fluids[0].params().unwrap().sleep)
+    };
+    // Absent: off.
+    assert_eq!(
+        SceneFile::parse(GOOD, "good.ron").unwrap().fluids[0]
+            .params()
+            .unwrap()
+            .sleep,
+        None
+    );
+    assert_eq!(with("sleep: Sleep(),").unwrap(), Some(Sleep::default()));
+    let custom = with("sleep: Sleep(time: 1.5, mean_drift: 0.05),")
+        .unwrap()
+        .unwrap();
+    assert_eq!(custom.time, 1.5);
+    assert_eq!(custom.mean_drift, 0.05);
+    assert_eq!(custom.max_drift, Sleep::default().max_drift);
+    // A non-positive time is refused at its line, naming the field.
+    let text = GOOD.replace(
+        "preset: Water(spacing: 0.1),",
+        "preset: Water(spacing: 0.1),\n            sleep: Sleep(time: -1.0),",
+    );
+    let (line, _, field, _) = parse_err(&text);
+    assert_eq!(line, 6); // the `sleep:` line
+    assert!(field.contains("sleep"), "{field}");
+}

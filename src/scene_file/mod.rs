@@ -228,6 +228,40 @@ impl ViscositySolveDesc {
     }
 }
 
+/// Sleeping water, as in [`crate::Sleep`]: `Sleep()` takes its defaults, `Sleep(time: 1.0,
+/// mean_drift: 0.05)` overrides some (times in s, drifts in particle spacings, the density
+/// error a fraction).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Sleep")]
+pub struct SleepDesc {
+    /// Seconds at rest before it falls asleep ([`crate::Sleep::time`]).
+    #[serde(default)]
+    pub time: Option<Positive>,
+    /// Largest RMS drift at rest, in spacings ([`crate::Sleep::mean_drift`]).
+    #[serde(default)]
+    pub mean_drift: Option<Positive>,
+    /// Largest drift of any particle or body near at rest, in spacings
+    /// ([`crate::Sleep::max_drift`]).
+    #[serde(default)]
+    pub max_drift: Option<Positive>,
+    /// Largest mean density error at rest ([`crate::Sleep::density_error`]).
+    #[serde(default)]
+    pub density_error: Option<Positive>,
+}
+
+impl SleepDesc {
+    /// The setting (checked when the parameters are built).
+    pub fn sleep(&self) -> crate::Sleep {
+        let d = crate::Sleep::default();
+        crate::Sleep {
+            time: self.time.map_or(d.time, |v| v.0),
+            mean_drift: self.mean_drift.map_or(d.mean_drift, |v| v.0),
+            max_drift: self.max_drift.map_or(d.max_drift, |v| v.0),
+            density_error: self.density_error.map_or(d.density_error, |v| v.0),
+        }
+    }
+}
+
 /// A pressure solver, as in [`crate::Solver`]: every field is optional and defaults to the
 /// solver's own default, e.g. `Dfsph()` or `Dfsph(max_density_error: 0.0005)`, `Pbf(iterations:
 /// 8)`, `Clavet(springs: Some(Springs()))`, `Wcsph`.
@@ -490,6 +524,10 @@ pub struct FluidDesc {
     /// Adhesion β to colliders ([`FluidParamsBuilder::adhesion`]; needs `wall_density`).
     #[serde(default)]
     pub adhesion: Option<NonNegative>,
+    /// Sleeping water ([`FluidParamsBuilder::sleep`]): `Sleep()` or `Sleep(time: 1.0)`; off
+    /// when absent.
+    #[serde(default)]
+    pub sleep: Option<SleepDesc>,
     /// Density kernel.
     #[serde(default)]
     pub density_kernel: Option<KernelDesc>,
@@ -591,6 +629,9 @@ impl FluidDesc {
         }
         if let Some(v) = self.adhesion {
             b = b.adhesion(v.0);
+        }
+        if let Some(v) = &self.sleep {
+            b = b.sleep(v.sleep());
         }
         if let Some(k) = self.density_kernel {
             b = b.density_kernel(k.into());
