@@ -534,7 +534,7 @@ impl Coupling {
         records: &[Vec<ImpulseRecord>],
         positions: &[Vector],
         velocities: &mut [Vector],
-        mass: Real,
+        mass: ParticleMass<'_>,
     ) {
         let mut done = std::mem::take(&mut self.done);
         done.clear();
@@ -548,7 +548,8 @@ impl Coupling {
             let of_body = |r: &&ImpulseRecord| self.table[r.entry as usize].body == body;
             let mut sums = AddedMass::default();
             for r in records.iter().flatten().filter(of_body) {
-                sums.add(r, positions[r.particle as usize], m.com_stop, mass);
+                let i = r.particle as usize;
+                sums.add(r, positions[i], m.com_stop, mass.of(i));
             }
             if sums.count == 0 {
                 continue;
@@ -579,8 +580,9 @@ impl Coupling {
                 let x = positions[i] - com;
                 let dv = r.normal * r.normal.dot(du + dw.cross(x));
                 velocities[i] += dv;
-                let impulse = r.impulse - dv * mass;
-                let torque = (r.point - com).cross(r.impulse) - r.moment - x.cross(dv * mass);
+                let mi = mass.of(i);
+                let impulse = r.impulse - dv * mi;
+                let torque = (r.point - com).cross(r.impulse) - r.moment - x.cross(dv * mi);
                 let b = &mut self.impulses[slot];
                 for c in 0..3 {
                     b.1[c] += impulse[c] as f64;
@@ -735,6 +737,29 @@ pub fn on_line(lever: Vector, point: Vector, impulse: Vector) -> Vector {
         lever + impulse * ((point - lever).dot(impulse) / l2)
     } else {
         point
+    }
+}
+
+/// Each particle's mass, for the momentum the fluid and the bodies exchange: one mass for a
+/// fluid stepped alone; for interacting fluids stepped as one (`crate::fluid::interaction`),
+/// the reference mass divided by each particle's ratio `r_i = m_ref/m_i`, so a particle of
+/// a lighter liquid gives a body its own momentum, not the reference liquid's.
+#[derive(Copy, Clone, Debug)]
+pub struct ParticleMass<'a> {
+    /// The fluid's particle mass (the group's reference mass) (kg).
+    pub mass: Real,
+    /// `m_ref/m_i` per sorted particle; `None` for one fluid.
+    pub ratio: Option<&'a [Real]>,
+}
+
+impl ParticleMass<'_> {
+    /// The mass of sorted particle `i` (kg).
+    #[inline(always)]
+    pub fn of(&self, i: usize) -> Real {
+        match self.ratio {
+            Some(r) => self.mass / r[i],
+            None => self.mass,
+        }
     }
 }
 

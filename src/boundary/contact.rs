@@ -2,7 +2,7 @@
 //! [module docs](super).
 
 use super::ContactWorkspace;
-use super::bodies::{ImpulseRecord, MovingCollider, entry_of};
+use super::bodies::{ImpulseRecord, MovingCollider, ParticleMass, entry_of};
 use crate::math::{Pose, Real, Vector};
 use crate::neighbors::NeighborGrid;
 use crate::par::CHUNK;
@@ -257,8 +257,8 @@ pub struct ContactInput<'a> {
 pub struct Movers<'a> {
     /// The table of the substep (sorted by collider handle).
     pub table: &'a [MovingCollider],
-    /// Mass of one particle (kg).
-    pub mass: Real,
+    /// Each particle's mass.
+    pub mass: ParticleMass<'a>,
     /// Per-chunk impulses on dynamic bodies, filled by [`resolve`] (chunk order is the
     /// summation order).
     pub records: &'a mut Vec<Vec<ImpulseRecord>>,
@@ -675,8 +675,8 @@ struct Moving<'a> {
     input: &'a ContactInput<'a>,
     /// The coupling table of the substep.
     table: &'a [MovingCollider],
-    /// Mass of one particle (kg).
-    mass: Real,
+    /// Each particle's mass.
+    mass: ParticleMass<'a>,
 }
 
 impl Moving<'_> {
@@ -698,6 +698,7 @@ impl Moving<'_> {
 /// contacts add up, the last normal and point are kept).
 struct Kicks<'a> {
     table: &'a [MovingCollider],
+    /// The particle's mass (kg).
     mass: Real,
     records: &'a mut Vec<ImpulseRecord>,
     /// The particle's first record in `records`.
@@ -787,7 +788,7 @@ fn moving_particle(
     let v_orig = *v;
     let mut kicks = Kicks {
         table,
-        mass: m.mass,
+        mass: m.mass.of(i),
         first: records.len(),
         records,
         particle: i as u32,

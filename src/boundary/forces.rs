@@ -43,7 +43,7 @@
 //! particles in its box. The ids of the frame's touching particles are kept per (fluid, collider),
 //! sorted: a particle that touched and was drained by a sink later in the frame counts.
 
-use super::bodies::{ImpulseRecord, MovingCollider, entry_of};
+use super::bodies::{ImpulseRecord, MovingCollider, ParticleMass, entry_of};
 use super::candidates::ContactWorkspace;
 use crate::fluid::FluidHandle;
 use crate::math::{Real, Vector};
@@ -262,9 +262,9 @@ pub(crate) struct ContactView<'a> {
     pub colliders: &'a ColliderSet,
     /// The coupling table of the substep (empty without moving bodies).
     pub table: &'a [MovingCollider],
-    /// The contact radius, the particle mass and the touch distance.
+    /// The contact radius, each particle's mass and the touch distance.
     pub radius: Real,
-    pub mass: Real,
+    pub mass: ParticleMass<'a>,
     pub touch: Real,
 }
 
@@ -321,13 +321,14 @@ impl FluidForces {
         } = terms;
         for s in &shares {
             let i = s.particle as usize;
-            let pressure = s.gradient * (unit * scale(i)) - s.hydrostatic * (mass * dt);
+            let mi = mass.of(i);
+            let pressure = s.gradient * (unit * scale(i)) - s.hydrostatic * (mi * dt);
             let mut impulse = pressure;
             if epsilon > 0.0 && s.viscous > 0.0 {
                 let f = dt * epsilon * inv_densities[i];
                 let alpha = f * viscous_total[i];
                 let dv = (s.viscous_velocity - velocities[i] * s.viscous) * (f / (1.0 + alpha));
-                impulse -= dv * mass;
+                impulse -= dv * mi;
             }
             if impulse != Vector::ZERO {
                 self.add(watch, s.slot as usize, impulse, s.point);
@@ -366,8 +367,9 @@ impl FluidForces {
         for (i, (&v, &v0)) in velocities.iter().zip(&before).enumerate() {
             let mut dv = v - v0;
             // The dynamic bodies' part of the change is their records' (−J/m).
+            let mi = view.mass.of(i);
             while let Some(r) = recs.next_if(|r| r.particle as usize == i) {
-                dv += r.impulse / view.mass;
+                dv += r.impulse / mi;
             }
             if dv == Vector::ZERO {
                 continue;
@@ -376,7 +378,7 @@ impl FluidForces {
             if !cands.iter().any(|&h| watch.passive_force_slot(h).is_some()) {
                 continue;
             }
-            self.split_contact(view, cands, positions[i], dv);
+            self.split_contact(view, cands, positions[i], (dv, mi));
         }
         self.before = before;
         self.mid_snapped =
@@ -387,14 +389,14 @@ impl FluidForces {
         }
     }
 
-    /// The velocity change `dv` of a particle that ended at `x`, split over the non-dynamic
-    /// colliders among `cands` within `TOUCH` contact radii (see the module docs).
+    /// The velocity change `dv` of a particle of mass `mass` that ended at `x`, split over the
+    /// non-dynamic colliders among `cands` within `TOUCH` contact radii (see the module docs).
     fn split_contact(
         &mut self,
         view: &ContactView<'_>,
         cands: &[ColliderHandle],
         x: Vector,
-        dv: Vector,
+        (dv, mass): (Vector, Real),
     ) {
         let mut near: [(usize, Vector, Vector, Real); 4] =
             [(usize::MAX, Vector::ZERO, Vector::ZERO, 0.0); 4];
@@ -442,7 +444,7 @@ impl FluidForces {
                 1.0 / near.len() as Real
             };
             let part = n * a + rest * weight;
-            self.add(view.watch, slot, -part * view.mass, point);
+            self.add(view.watch, slot, -part * mass, point);
         }
     }
 
@@ -455,7 +457,7 @@ impl FluidForces {
         table: &[MovingCollider],
         records: &[Vec<ImpulseRecord>],
         velocities: &[Vector],
-        (mass, from_mid): (Real, bool),
+        (mass, from_mid): (ParticleMass<'_>, bool),
     ) {
         let snapped = if from_mid {
             self.mid_snapped
@@ -482,7 +484,7 @@ impl FluidForces {
             // The particle's whole share of the exchange, with its first record.
             if r.particle != last {
                 let i = r.particle as usize;
-                impulse -= (velocities[i] - base[i]) * mass;
+                impulse -= (velocities[i] - base[i]) * mass.of(i);
                 last = r.particle;
             }
             self.add(watch, k, impulse, r.point);
@@ -551,7 +553,8 @@ impl FluidForces {
 pub(crate) struct WallTerms<'a> {
     /// `ρ0` times the force kernel's full integral (a share's gradient in kg/m⁴ per unit).
     pub unit: Real,
-    pub mass: Real,
+    /// Each particle's mass.
+    pub mass: ParticleMass<'a>,
     pub dt: Real,
     /// The walls' viscosity `ε_w` (0: off).
     pub epsilon: Real,

@@ -503,7 +503,7 @@ impl WallWorkspace {
 
     /// The impulse each particle's wall term gave the dynamic bodies this substep, recorded
     /// for the body contributing most (`records`, in particle order): `g_c·scale(i) −
-    /// h_c·m·dt`, `g_c` the dynamic bodies' share of the wall density's gradient, `scale` the
+    /// h_c·m_i·dt`, `g_c` the dynamic bodies' share of the wall density's gradient, `scale` the
     /// solver's share (see `PressureSolver::wall_impulse_scale`), `h_c` their share of the
     /// hydrostatic wall acceleration. With `added_mass` the particle moves with the body along
     /// the gradient's direction in the exchange (as for contact). `at` holds the positions the
@@ -513,7 +513,7 @@ impl WallWorkspace {
     pub(crate) fn reaction(
         &self,
         scale: impl Fn(usize) -> Real,
-        (added_mass, mass_dt): (bool, Real),
+        (added_mass, mass, dt): (bool, super::bodies::ParticleMass<'_>, Real),
         at: &[Vector],
         records: &mut Vec<super::bodies::ImpulseRecord>,
     ) {
@@ -522,7 +522,7 @@ impl WallWorkspace {
                 continue;
             }
             let gc = cw.gradient;
-            let impulse = gc * scale(i) - cw.hydrostatic * mass_dt;
+            let impulse = gc * scale(i) - cw.hydrostatic * (mass.of(i) * dt);
             if impulse != Vector::ZERO {
                 records.push(super::bodies::ImpulseRecord {
                     entry: cw.entry,

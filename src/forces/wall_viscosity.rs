@@ -20,8 +20,8 @@ use rayon::prelude::*;
 pub(crate) struct WallViscosity<'a> {
     /// The walls' viscosity `ε_w`.
     pub epsilon: Real,
-    /// Particle mass.
-    pub mass: Real,
+    /// Each particle's mass.
+    pub mass: crate::boundary::bodies::ParticleMass<'a>,
     /// The substep.
     pub dt: Real,
     /// The walls' viscous sums (`viscous`, `viscous_velocity`, `coupled`).
@@ -52,7 +52,7 @@ pub(crate) fn apply(
                 entry: cw.entry,
                 particle: i as u32,
                 normal: Vector::ZERO,
-                impulse: -dv * c.mass,
+                impulse: -dv * c.mass.of(i),
                 point: positions[i],
                 moment: Vector::ZERO,
             });

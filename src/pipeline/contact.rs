@@ -4,6 +4,7 @@
 
 use super::workspace::Workspace;
 use crate::boundary::Coupling;
+use crate::boundary::bodies::ParticleMass;
 use crate::boundary::candidates::ColliderQuery;
 use crate::boundary::contact::{self, ContactInput, ContactResponse, Movers};
 use crate::boundary::forces::{ContactView, Watch};
@@ -39,6 +40,7 @@ pub(super) fn collider_contact(
         return 0;
     };
     let (p, particles) = fluid.split_mut();
+    let masses = super::interaction::masses(p.particle_mass, particles.attributes);
     let Workspace {
         search,
         contact,
@@ -81,7 +83,7 @@ pub(super) fn collider_contact(
         };
         let movers = coupling.as_deref().map(|c| Movers {
             table: c.table(),
-            mass: p.particle_mass,
+            mass: masses,
             records: impulses,
         });
         contact::resolve(&input, positions, velocities, movers)
@@ -93,19 +95,19 @@ pub(super) fn collider_contact(
     } else {
         &impulses[..]
     };
-    let view = contact_view(scene, search, contact, table, p);
+    let view = contact_view(scene, search, contact, table, (p, masses));
     forces.after_resolve(&view, records, positions, velocities);
     if let Some(c) = coupling.as_deref_mut()
         && !c.table().is_empty()
     {
         report.timed(Stage::Contact, || {
-            c.exchange(impulses, positions, velocities, p.particle_mass)
+            c.exchange(impulses, positions, velocities, masses)
         });
-        let m = (p.particle_mass, true);
+        let m = (masses, true);
         forces.after_exchange(scene.watch, c.table(), impulses, velocities, m);
     }
     let table = coupling.as_deref().map_or(&[][..], |c| c.table());
-    let view = contact_view(scene, search, contact, table, p);
+    let view = contact_view(scene, search, contact, table, (p, masses));
     forces.touch(&view, positions, ids);
     report.contacts += counts.contacts;
     report.contact_fallbacks += counts.fallbacks;
@@ -119,7 +121,7 @@ fn contact_view<'a>(
     search: &'a crate::neighbors::NeighbourSearch,
     contact: &'a crate::boundary::ContactWorkspace,
     table: &'a [crate::boundary::bodies::MovingCollider],
-    p: &crate::params::FluidParams,
+    (p, masses): (&crate::params::FluidParams, ParticleMass<'a>),
 ) -> ContactView<'a> {
     ContactView {
         watch: scene.watch,
@@ -128,7 +130,7 @@ fn contact_view<'a>(
         colliders: scene.colliders,
         table,
         radius: p.particle_radius,
-        mass: p.particle_mass,
+        mass: masses,
         touch: crate::boundary::forces::touch_distance(p),
     }
 }

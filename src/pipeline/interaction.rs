@@ -8,6 +8,7 @@
 use super::substep::{self, SubstepInput, SubstepResult};
 use super::workspace::{FluidRuntime, Workspace};
 use crate::boundary::Coupling;
+use crate::boundary::bodies::ParticleMass;
 use crate::diagnostics::StepReport;
 use crate::error::SphResult;
 use crate::fluid::{Attributes, Fluid, FluidHandle, FluidSet, interaction};
@@ -279,6 +280,17 @@ pub(crate) fn take_phases(attributes: &mut Attributes) -> Option<TakenPhases> {
         ratio: (r, std::mem::take(attributes.vec_mut(r))),
         viscosity: (v, std::mem::take(attributes.vec_mut(v))),
     })
+}
+
+/// Each particle's mass in a substep of the fluid with `attributes` and particle mass
+/// `mass`: for a combined fluid, the reference mass over each particle's ratio `r_i` (what
+/// its contact and wall impulses on bodies count); for a fluid stepped alone, `mass` (one
+/// scan of its attribute names).
+pub(crate) fn masses(mass: Real, attributes: &Attributes) -> ParticleMass<'_> {
+    let ratio = attributes
+        .index_of(PREFIX, "ratio")
+        .map(|r| attributes.get(r));
+    ParticleMass { mass, ratio }
 }
 
 /// The step context's view of the taken factors.

@@ -363,6 +363,10 @@ impl FluidPipeline {
                 rt.ws.forces.begin_frame(&self.records.watch);
             }
         }
+        // The groups' runtimes record the forces of their fluids stepped together.
+        for g in &mut self.runtimes.groups.list {
+            g.rt.ws.forces.begin_frame(&self.records.watch);
+        }
     }
 
     /// Advances every fluid by one frame of a rapier [`PhysicsWorld`] that has just stepped

@@ -414,7 +414,7 @@ fn solve(
         let records = &mut ws.wall_impulses;
         let exchanged = wall_reaction(&mut ctx, &rt.solver, records, &mut viscous, c);
         if let Some(w) = watch.filter(|_| exchanged) {
-            let m = (params.particle_mass, false);
+            let m = (ctx.masses(), false);
             ws.forces
                 .after_exchange(w, c.table(), records, ctx.velocities, m);
         }
@@ -438,7 +438,7 @@ fn wall_impulses(
     let p = ctx.params;
     let terms = WallTerms {
         unit: wall.gradient_unit(p.rest_density),
-        mass: p.particle_mass,
+        mass: ctx.masses(),
         dt: ctx.dt,
         epsilon: if wall.viscous.len() == ctx.velocities.len() {
             p.wall_viscosity
@@ -503,11 +503,12 @@ fn wall_viscosity(ctx: &mut StepContext<'_>, records: &mut Vec<ImpulseRecord>) {
     if w.viscous.len() != ctx.velocities.len() {
         return;
     }
+    let mass = ctx.masses();
     ctx.report.timed(Stage::ViscosityForce, || {
         forces::wall_viscosity::apply(
             forces::wall_viscosity::WallViscosity {
                 epsilon: p.wall_viscosity,
-                mass: p.particle_mass,
+                mass,
                 dt: ctx.dt,
                 wall: w,
             },
@@ -572,13 +573,13 @@ fn wall_reaction(
         return false;
     };
     let t0 = std::time::Instant::now();
-    let (m, dt) = (ctx.params.particle_mass, ctx.dt);
+    let (m, dt) = (ctx.masses(), ctx.dt);
     records.resize_with(1, Vec::new);
     records[0].clear();
     let scale = |i| solver.wall_impulse_scale(ctx, i);
     w.reaction(
         scale,
-        (added_mass, m * dt),
+        (added_mass, m, dt),
         ctx.previous_positions,
         &mut records[0],
     );

@@ -53,6 +53,17 @@ pub(crate) struct StepContext<'a> {
     pub phases: Option<Phases<'a>>,
 }
 
+impl<'a> StepContext<'a> {
+    /// Each particle's mass: the fluid's, or with [`StepContext::phases`] the reference mass
+    /// over each particle's ratio (what its impulses on bodies count).
+    pub fn masses(&self) -> crate::boundary::bodies::ParticleMass<'a> {
+        crate::boundary::bodies::ParticleMass {
+            mass: self.params.particle_mass,
+            ratio: self.phases.map(|p| p.ratio),
+        }
+    }
+}
+
 /// Per-particle factors of a group of interacting fluids stepped as one
 /// (`crate::fluid::interaction`), indexed like the sorted particles.
 #[derive(Copy, Clone)]
