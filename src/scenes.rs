@@ -220,6 +220,21 @@ pub struct HydrostaticTank {
     pub fluid_height: Real,
 }
 
+/// A world holding a closed box from the origin, `size` wide and deep and twice `size.y`
+/// tall, walls `max(4s, 5 cm)` thick, with rapier stepped once so its broad-phase holds them:
+/// the tank of [`HydrostaticTank`] and [`LayeredTank`] for a column `size` at spacing `s`.
+fn hydrostatic_world(size: Vector, s: Real) -> FluidWorld {
+    let mut world = FluidWorld::new();
+    add_closed_box(
+        &mut world,
+        Vector::ZERO,
+        Vector::new(size.x, 2.0 * size.y, size.z),
+        (4.0 * s).max(0.05),
+    );
+    world.physics.step();
+    world
+}
+
 impl HydrostaticTank {
     /// Builds the tank. The box is twice as tall as the fluid.
     pub fn new(params: FluidParams, counts: [usize; 3]) -> SphResult<Self> {
@@ -233,14 +248,7 @@ impl HydrostaticTank {
         }
         let s = params.particle_spacing;
         let size = Vector::new(nx as Real, ny as Real, nz as Real) * s;
-        let mut world = FluidWorld::new();
-        add_closed_box(
-            &mut world,
-            Vector::ZERO,
-            Vector::new(size.x, 2.0 * size.y, size.z),
-            (4.0 * s).max(0.05),
-        );
-        world.physics.step();
+        let mut world = hydrostatic_world(size, s);
         let mut fluid = Fluid::new(params)?;
         fluid.add_particles(&try_lattice(Vector::splat(0.5 * s), nx, ny, nz, s)?)?;
         let fluid = world.fluids.insert(fluid);

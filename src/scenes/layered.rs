@@ -1,7 +1,6 @@
 //! Two interacting liquids in one closed box: the heavy one under the light one, or both
 //! mixed in a checkerboard (see `crate::fluid::interaction`).
 
-use super::add_closed_box;
 use crate::error::SphResult;
 use crate::fluid::{Fluid, FluidHandle, try_lattice};
 use crate::math::{Real, Vector};
@@ -53,15 +52,8 @@ impl LayeredTank {
     ) -> SphResult<Self> {
         let s = heavy.particle_spacing;
         let height = 2.0 * layers as Real * s;
-        let mut world = FluidWorld::new();
         let size = Vector::new(nx as Real * s, height, nz as Real * s);
-        add_closed_box(
-            &mut world,
-            Vector::ZERO,
-            Vector::new(size.x, 2.0 * size.y, size.z),
-            (4.0 * s).max(0.05),
-        );
-        world.physics.step();
+        let mut world = super::hydrostatic_world(size, s);
         let lattice = try_lattice(Vector::splat(0.5 * s), nx, 2 * layers, nz, s)?;
         // `try_lattice` runs z outermost, then y, then x.
         let is_heavy = |k: usize| {
