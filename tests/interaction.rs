@@ -193,10 +193,10 @@ fn momentum_and_mass_are_conserved_across_fluids() {
 /// the water runs under the oil, and the interface settles at the water's volume over the
 /// floor's area and stays there. Tolerance: one spacing (one layer of particles), and at most
 /// 10 % of the oil left more than a spacing below the interface. Single oil particles caught
-/// in the water stay there: a lone SPH particle is held by its neighbours' lattice under a
-/// pressure `ρ·g·depth` far above its buoyancy `Δρ·g·s` (measured: 0.108 m for 0.100; a
-/// checkerboard of 2 × 2 × 2-particle cubes stays mostly mixed, one of 4 × 4 × 4 goes two
-/// thirds of the way, see `fluid::interaction`).
+/// in the water stay there (measured: 0.108 m for 0.100): passing its neighbours takes a
+/// particle through densities further from rest than DFSPH's 0.1 % allows, whatever the
+/// viscosity, so a checkerboard mix stays mostly mixed (`fluid::interaction`, "Why a fine mix
+/// stays mixed", `examples/layered_probe.rs`).
 ///
 /// WCSPH, whose pressures in this tank are twice the hydrostatic ones (its walls; see
 /// above), holds more of them: its interface settles at 0.136 m, 64 % of the way from the

@@ -57,11 +57,8 @@
 //!   this tank (its walls mirror the particle's own pressure);
 //! - oil and water side by side (a lock exchange) stratify within 2 s; the interface settles
 //!   at 0.108 m for 0.100 with DFSPH (0.136 m with WCSPH). What is left are single particles of
-//!   one liquid caught in the other: a lone particle is held by its neighbours' lattice under
-//!   a pressure `ρ·g·depth` far above its buoyancy `Δρ·g·s`, so a mix at the particle scale
-//!   barely separates (a checkerboard of 2 × 2 × 2-particle cubes went from 0.200 to 0.183 m
-//!   in 5 s, one of 4 × 4 × 4 to 0.133 m, at a viscosity of 0.05; with the water preset's 0.5
-//!   the 4 × 4 × 4 one stalled at 0.174 m);
+//!   one liquid caught in the other, and a mix at the particle scale does not separate (see
+//!   below);
 //! - two blobs (1000 and 100 kg/m³) thrown at each other in open space: the total momentum
 //!   changed by 1.4·10⁻⁸ (DFSPH) and 7·10⁻⁸ (WCSPH) of `Σ m_i|v_i|` over 30 frames.
 //!
@@ -79,6 +76,53 @@
 //!
 //! What the combined step does not do per fluid yet: the overlap relaxation and surface
 //! tension act as within one fluid.
+//!
+//! # Why a fine mix stays mixed
+//!
+//! Oil and water mixed at the scale of a few particles stall instead of stratifying. In the
+//! tank above with DFSPH (`cargo run --release --example layered_probe -- --start checker
+//! --k K --viscosity ε --seconds 6`), the interface height (0.200 m mixed, 0.100 m
+//! separated) after 6 s, oil particles more than a spacing below 0.100 m of 512:
+//!
+//! | start | ε = 0.5 (water preset) | ε = 0.05 | ε = 0 |
+//! |---|---|---|---|
+//! | checkerboard of single particles | 0.195 m (224) | 0.190 m (217) | 0.182 m (212) |
+//! | of 2 × 2 × 2 cubes | 0.193 m (228) | 0.183 m (217) | 0.134 m (107), still moving |
+//! | of 4 × 4 × 4 cubes | 0.174 m (208) | 0.133 m (104) | 0.126 m (87) |
+//!
+//! (WCSPH at ε = 0.05: 0.174 m with 2 × 2 × 2 cubes, 0.150 m with 4 × 4 × 4.) Measured causes:
+//! - **Not the viscosity's size.** The explicit force gives the viscosity set: a shear wave's
+//!   decay at this spacing (`--start shear`) reads `μ_eff` = 0.979 ε at ε = 0.5, 0.976 at
+//!   0.05, 0.975 at 0.005, and no decay at 0. Stokes' rise speed `2/9·Δρ·g·r²/μ` of one oil
+//!   particle in water (`r` = 0.62 s, the sphere of a particle's volume; Δρ = 200 kg/m³) is
+//!   5.2 cm/s at the preset's 0.5 Pa·s, of a 2 × 2 × 2 blob 21 cm/s. Measured
+//!   (`--start blob --k K --at L`): one oil particle set into the water moves up at most 0.4
+//!   spacing within 0.5 s and stays there, at ε = 0.5, 0.05 and 0 alike, mid-column or on
+//!   the floor, under 2 to 16 layers of water (`--layers`); a 2 × 2 × 2 blob on the floor rises 2.3 mm
+//!   in 3 s at ε = 0.5 (5.5 mm at ε = 0); a 4 × 4 × 4 blob stops after 3 mm at ε = 0.5 and
+//!   rises 5.6 cm in 3 s at ε = 0.05. A smaller viscosity helps blobs, not single particles.
+//! - **The constant-density solve.** A particle passes its neighbours only through
+//!   configurations whose density is off by more than DFSPH's 0.1 % allows: with
+//!   `max_density_error` 0.03 (`--eta 0.03`, ε = 0.05) the lone oil particle reaches the
+//!   interface in 2.5 s and a checkerboard of single particles settles at 0.106 m in 8 s (19
+//!   of 512 below; at 0.01: 0.186 m). But the looser solve stirs the liquids: the settled
+//!   two-layer tank at rest then runs at an RMS speed of 0.14–0.18 m/s over 6 s (0.02–0.04 m/s
+//!   at 0.001) and had mixed 14 oil particles into the water after 2 s.
+//! - **Particle shifting does not cure it.** Lind et al. 2012's shift `δr = −D·V·Σ_j ∇W_ij`
+//!   after each substep of the group (particles with a full kernel support only): with
+//!   Skillen et al. 2013's `D = A·(h/2)·|v|·dt` at A = 2 and 6 (the range DualSPHysics and
+//!   Chrono::FSI use) the 2 × 2 × 2 checkerboard at ε = 0.05 read 0.184 and 0.188 m after
+//!   4 s (0.183 m without): a liquid at rest has no speed to scale the shift. A fixed
+//!   `D = 0.5·h²` per substep, each shift capped at 0.1 s, brought it to 0.104 m in 10 s
+//!   (3 of 512 below), single particles to 0.105 m (11 below), but it too works by
+//!   stirring: the settled tank's RMS speed rose to 0.16–0.19 m/s; uncapped it threw
+//!   particles at 6 m/s (D = 0.25·h²) or barely helped (0.1·h²: 0.173 m in 6 s). No option is offered: each
+//!   separates a mix only by heating the liquids.
+//!
+//! So the mix is held by the pressure solve's incompressibility at the particle scale, not by
+//! a wrong interface term: the pressure force is Solenthaler & Pajarola's symmetric
+//! `(p_i/δ_i² + p_j/δ_j²)` (checked above), and the layers, the lock exchange and the
+//! bottom pressure come out right.
 
 use super::{Fluid, FluidSet};
 use crate::error::{SphError, SphResult};
