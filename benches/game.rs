@@ -1,6 +1,7 @@
 //! Game benchmark: a pool of water in 1/60 s frames, as a game steps it (rapier's step and
 //! the fluid's adaptive substeps in each frame), at 2,500, 10,000 and 40,000 particles, on 1
-//! and 2 threads. Reports the milliseconds per frame (wall and CPU), the substeps per frame,
+//! and 2 threads, with the water preset (`FluidParamsBuilder::water`, DFSPH at 0.1 %) and
+//! the game preset (`FluidParamsBuilder::game_water`, DFSPH at 0.5 %) side by side. Reports the milliseconds per frame (wall and CPU), the substeps per frame,
 //! the solver's iterations per substep, the most halvings of its relaxation (see
 //! `StepReport::solver_relaxation_halvings`), the per-stage breakdown, the density error, the particles that left the pool and how deep
 //! the hull floats.
@@ -11,15 +12,16 @@
 //! cargo bench --bench game -- --particles 10000 --threads 2
 //! cargo bench --bench game -- --warm-start 0.9 --min-iterations 1 --hydrostatic-walls false
 //! cargo bench --bench game -- --full-warm-start true
+//! cargo bench --bench game -- --preset game --modes moving,still --max-density-error 0.005
 //! cargo bench --bench game -- --particles 10000 --threads 2 --sleep-drift 0.1,3
 //! ```
 //!
-//! The last four flags change DFSPH's settings from their defaults (`Dfsph`'s fields of
-//! the same names).
+//! `--preset water`, `--preset game` or `--preset water,game` (default) picks the presets,
+//! `--modes` the rows (default `moving,still,asleep`). The DFSPH flags (`--warm-start`,
+//! `--min-iterations`, `--hydrostatic-walls`, `--full-warm-start`, `--max-density-error`) change the given field of `Dfsph` in every preset's settings.
 //!
 //! The scene (`rapier_sph::scenes::WavePool`): a closed pool 2.0 × 0.8 × 0.7 m (inside),
-//! water 0.45 m deep (the water preset, its default solver DFSPH; the spacing chosen for the
-//! particle count), a 40 × 10 × 24 cm hull of 500 kg/m³ floating in it, and, in the `moving`
+//! water 0.45 m deep (the preset's water; the spacing chosen for the particle count), a 40 × 10 × 24 cm hull of 500 kg/m³ floating in it, and, in the `moving`
 //! rows, a kinematic paddle at one end swinging 8 cm each way every 1.5 s (a wave maker). The
 //! `still` rows are the same pool with the paddle still: what most of a game's water does
 //! most of the time.
@@ -32,6 +34,11 @@
 //! the fastest particle's speed) and the density error it froze.
 //!
 //! Each case settles for 0.5 s (not timed), then runs `--seconds` (default 2 s) of frames.
+//! "mean density error" is the frames' mean compression (`StepReport::mean_density_error`)
+//! averaged, with the worst frame's in brackets; "largest particle compression" the largest
+//! single particle's over all frames (`StepReport::max_density_error`); "water KE" the
+//! particles' kinetic energy averaged over the first and the second half of the timed frames
+//! (in the still rows a pool whose jitter grows shows a larger second half).
 //! "hull draft / expected" is how deep the hull's bottom lies under the water's level over
 //! its expected draft (density ratio × height: 1 is Archimedes), averaged over the frames.
 //! "ms/frame" is the median wall time of a frame, with its 10th and 90th percentiles;
@@ -49,56 +56,78 @@ use std::time::Duration;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args = Args::parse();
     println!(
-        "game pool: water preset (DFSPH), 1/60 s frames, {} s timed after 0.5 s settling, {}",
+        "game pool: DFSPH, 1/60 s frames, {} s timed after 0.5 s settling, {}",
         args.seconds,
         std::env::consts::ARCH
     );
     println!();
     print!(
-        "| particles | spacing (mm) | paddle | threads | ms/frame [p10–p90] | CPU ms/frame | \
-         substeps/frame | iterations/substep (density, divergence) | relaxation halvings | mean density error | left the pool | hull draft / expected | rapier (ms) |"
+        "| preset | particles | spacing (mm) | paddle | threads | ms/frame [p10–p90] | CPU ms/frame | \
+         substeps/frame | iterations/substep (density, divergence) | relaxation halvings | mean density error [worst frame] | largest particle compression | water KE (J) 1st / 2nd half | left the pool | hull draft / expected | rapier (ms) |"
     );
     for s in Stage::ALL {
         print!(" {} |", s.name());
     }
     println!();
-    print!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    print!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for _ in Stage::ALL {
         print!("---|");
     }
     println!();
     let mut slept = Vec::new();
     for &n in &args.particles {
-        for mode in [Mode::Moving, Mode::Still, Mode::Asleep] {
-            for &threads in &args.threads {
-                let pool = rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .build()?;
-                let row = pool.install(|| run(n, mode, &args))?;
-                row.print(threads);
-                if let Some(s) = row.slept {
-                    slept.push((row.particles, threads, s));
+        for &preset in &args.presets {
+            for &mode in &args.modes {
+                for &threads in &args.threads {
+                    let pool = rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .build()?;
+                    let row = pool.install(|| run(n, preset, mode, &args))?;
+                    row.print(threads);
+                    if let Some(s) = row.slept {
+                        slept.push((preset.name(), row.particles, threads, s));
+                    }
                 }
             }
         }
     }
     println!();
     println!(
-        "asleep rows (drift thresholds {:?} spacings): | particles | threads | fell asleep after (s) | kinetic energy dropped (J) | fastest particle stopped (m/s) | density error frozen |",
+        "asleep rows (drift thresholds {:?} spacings): | preset | particles | threads | fell asleep after (s) | kinetic energy dropped (J) | fastest particle stopped (m/s) | density error frozen |",
         args.sleep_drift
     );
-    for (n, threads, s) in slept {
+    for (preset, n, threads, s) in slept {
         match s {
             Some((t, info)) => println!(
-                "| {n} | {threads} | {t:.2} | {:.3e} | {:.3} | {:.3} % |",
+                "| {preset} | {n} | {threads} | {t:.2} | {:.3e} | {:.3} | {:.3} % |",
                 info.dropped_kinetic_energy,
                 info.dropped_max_speed,
                 100.0 * info.density_error_at_sleep
             ),
-            None => println!("| {n} | {threads} | never slept in {SLEEP_WAIT} s | | | |"),
+            None => {
+                println!("| {preset} | {n} | {threads} | never slept in {SLEEP_WAIT} s | | | |")
+            }
         }
     }
     Ok(())
+}
+
+/// The parameter presets compared.
+#[derive(Copy, Clone, PartialEq)]
+enum Preset {
+    /// `FluidParamsBuilder::water`.
+    Water,
+    /// `FluidParamsBuilder::game_water`.
+    Game,
+}
+
+impl Preset {
+    fn name(self) -> &'static str {
+        match self {
+            Preset::Water => "water",
+            Preset::Game => "game",
+        }
+    }
 }
 
 /// The pool's three cases.
@@ -115,10 +144,23 @@ enum Mode {
 /// Longest the `asleep` rows wait for the water to fall asleep (simulated seconds).
 const SLEEP_WAIT: Real = 20.0;
 
-/// The DFSPH settings every case runs with (the defaults unless the command line changes them).
-static DFSPH: std::sync::OnceLock<Dfsph> = std::sync::OnceLock::new();
+/// The DFSPH settings the water preset's cases run with (its own unless the command line
+/// changes them).
+static WATER: std::sync::OnceLock<Dfsph> = std::sync::OnceLock::new();
+/// The same for the game preset.
+static GAME: std::sync::OnceLock<Dfsph> = std::sync::OnceLock::new();
+
+/// The DFSPH settings of a preset's parameters.
+fn dfsph_of(params: SphResult<FluidParams>) -> Dfsph {
+    match params.map(|p| p.solver) {
+        Ok(Solver::Dfsph(d)) => d,
+        _ => panic!("the presets run DFSPH"),
+    }
+}
 
 struct Args {
+    presets: Vec<Preset>,
+    modes: Vec<Mode>,
     particles: Vec<usize>,
     threads: Vec<usize>,
     seconds: Real,
@@ -133,21 +175,51 @@ impl Args {
         let value = |name: &str| argv.windows(2).find(|w| w[0] == name).map(|w| w[1].clone());
         let list =
             |s: String| -> Vec<usize> { s.split(',').filter_map(|x| x.parse().ok()).collect() };
-        let mut dfsph = Dfsph::default();
-        if let Some(w) = value("--warm-start").and_then(|s| s.parse().ok()) {
-            dfsph.warm_start = w;
-        }
-        if let Some(m) = value("--min-iterations").and_then(|s| s.parse().ok()) {
-            dfsph.min_iterations = m;
-        }
-        if let Some(h) = value("--hydrostatic-walls").and_then(|s| s.parse().ok()) {
-            dfsph.hydrostatic_walls = h;
-        }
-        if let Some(f) = value("--full-warm-start").and_then(|s| s.parse().ok()) {
-            dfsph.full_warm_start = f;
-        }
-        let _ = DFSPH.set(dfsph);
+        let settings = |mut dfsph: Dfsph| {
+            if let Some(w) = value("--warm-start").and_then(|s| s.parse().ok()) {
+                dfsph.warm_start = w;
+            }
+            if let Some(m) = value("--min-iterations").and_then(|s| s.parse().ok()) {
+                dfsph.min_iterations = m;
+            }
+            if let Some(h) = value("--hydrostatic-walls").and_then(|s| s.parse().ok()) {
+                dfsph.hydrostatic_walls = h;
+            }
+            if let Some(f) = value("--full-warm-start").and_then(|s| s.parse().ok()) {
+                dfsph.full_warm_start = f;
+            }
+            if let Some(e) = value("--max-density-error").and_then(|s| s.parse().ok()) {
+                dfsph.max_density_error = e;
+            }
+            dfsph
+        };
+        let _ = WATER.set(settings(dfsph_of(FluidParamsBuilder::water(0.04).build())));
+        let _ = GAME.set(settings(dfsph_of(
+            FluidParamsBuilder::game_water(0.04).build(),
+        )));
+        let names = |s: String| -> Vec<String> { s.split(',').map(str::to_owned).collect() };
         Self {
+            presets: value("--preset")
+                .map(names)
+                .unwrap_or(vec!["water".into(), "game".into()])
+                .iter()
+                .filter_map(|p| match p.as_str() {
+                    "water" => Some(Preset::Water),
+                    "game" => Some(Preset::Game),
+                    _ => None,
+                })
+                .collect(),
+            modes: value("--modes")
+                .map(names)
+                .unwrap_or(vec!["moving".into(), "still".into(), "asleep".into()])
+                .iter()
+                .filter_map(|m| match m.as_str() {
+                    "moving" => Some(Mode::Moving),
+                    "still" => Some(Mode::Still),
+                    "asleep" => Some(Mode::Asleep),
+                    _ => None,
+                })
+                .collect(),
             particles: value("--particles").map(list).unwrap_or(if quick {
                 vec![2_500, 10_000]
             } else {
@@ -168,6 +240,7 @@ impl Args {
 }
 
 struct Row {
+    preset: Preset,
     particles: usize,
     spacing: Real,
     mode: Mode,
@@ -179,6 +252,9 @@ struct Row {
     iterations: (f64, f64),
     halvings: u32,
     density_error: f64,
+    worst_error: Real,
+    largest_compression: Real,
+    kinetic_energy: (f64, f64),
     outside: usize,
     draft: Real,
     rapier_ms: f64,
@@ -186,16 +262,25 @@ struct Row {
     frames: usize,
 }
 
-fn run(n: usize, mode: Mode, args: &Args) -> SphResult<Row> {
+fn run(n: usize, preset: Preset, mode: Mode, args: &Args) -> SphResult<Row> {
     let seconds = args.seconds;
-    let mut config = WavePoolConfig {
-        particles: n,
-        params: |s| {
-            let dfsph = DFSPH.get().copied().unwrap_or_default();
+    let params: fn(Real) -> SphResult<FluidParams> = match preset {
+        Preset::Water => |s| {
+            let dfsph = WATER.get().copied().expect("set by Args::parse");
             FluidParamsBuilder::water(s)
                 .solver(Solver::Dfsph(dfsph))
                 .build()
         },
+        Preset::Game => |s| {
+            let dfsph = GAME.get().copied().expect("set by Args::parse");
+            FluidParamsBuilder::game_water(s)
+                .solver(Solver::Dfsph(dfsph))
+                .build()
+        },
+    };
+    let mut config = WavePoolConfig {
+        particles: n,
+        params,
         ..Default::default()
     };
     if mode != Mode::Moving {
@@ -214,8 +299,10 @@ fn run(n: usize, mode: Mode, args: &Args) -> SphResult<Row> {
     let mut iterations = (0u64, 0u64);
     let mut halvings = 0;
     let mut draft = 0.0;
+    let (mut worst_error, mut largest_compression) = (0.0 as Real, 0.0 as Real);
+    let mut kinetic_energy = (0.0, 0.0);
     let cpu0 = cpu_seconds();
-    for _ in 0..frames {
+    for frame in 0..frames {
         let start = std::time::Instant::now();
         rapier += pool.frame()?;
         times.push(start.elapsed().as_secs_f64() * 1e3);
@@ -226,12 +313,21 @@ fn run(n: usize, mode: Mode, args: &Args) -> SphResult<Row> {
         iterations.1 += report.divergence_iterations as u64;
         error += report.mean_density_error as f64;
         halvings = halvings.max(report.solver_relaxation_halvings);
+        worst_error = worst_error.max(report.mean_density_error);
+        largest_compression = largest_compression.max(report.max_density_error);
+        let ke = pool.world.fluids[pool.water].kinetic_energy();
+        if frame < frames / 2 {
+            kinetic_energy.0 += ke / (frames / 2) as f64;
+        } else {
+            kinetic_energy.1 += ke / (frames - frames / 2) as f64;
+        }
         draft += pool.draft_ratio();
     }
     let cpu = cpu_seconds() - cpu0;
     times.sort_by(f64::total_cmp);
     let pick = |q: f64| times[((times.len() - 1) as f64 * q).round() as usize];
     Ok(Row {
+        preset,
         particles: pool.world.fluids[pool.water].len(),
         spacing: pool.spacing,
         mode,
@@ -245,6 +341,9 @@ fn run(n: usize, mode: Mode, args: &Args) -> SphResult<Row> {
         ),
         halvings,
         density_error: error / frames as f64,
+        worst_error,
+        largest_compression,
+        kinetic_energy,
         outside: pool.outside(),
         draft: draft / frames as Real,
         rapier_ms: rapier.as_secs_f64() * 1e3 / frames as f64,
@@ -279,7 +378,8 @@ impl Row {
     fn print(&self, threads: usize) {
         let (p10, p50, p90) = self.frame_ms;
         print!(
-            "| {} | {:.1} | {} | {threads} | {p50:.3} [{p10:.3}–{p90:.3}] | {:.1} | {:.2} | {:.1}, {:.1} | {} | {:.3} % | {} | {:.2} | {:.2} |",
+            "| {} | {} | {:.1} | {} | {threads} | {p50:.3} [{p10:.3}–{p90:.3}] | {:.1} | {:.2} | {:.1}, {:.1} | {} | {:.3} % [{:.3} %] | {:.2} % | {:.3} / {:.3} | {} | {:.2} | {:.2} |",
+            self.preset.name(),
             self.particles,
             self.spacing * 1e3,
             match self.mode {
@@ -293,6 +393,10 @@ impl Row {
             self.iterations.1,
             self.halvings,
             100.0 * self.density_error,
+            100.0 * self.worst_error,
+            100.0 * self.largest_compression,
+            self.kinetic_energy.0,
+            self.kinetic_energy.1,
             self.outside,
             self.draft,
             self.rapier_ms,
