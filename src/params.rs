@@ -544,8 +544,8 @@ impl FluidParamsBuilder {
     /// water preset takes four, and fewer iterations in each.
     ///
     /// In the game pool (`cargo bench --bench game`, 10,200 particles, a floating hull,
-    /// docs/performance.md) it costs about half the water preset's CPU time per frame (16 ms
-    /// against 31–35 ms on two threads), at a mean compression of 0.4–0.6 % against 0.11 %,
+    /// docs/performance.md) it costs about half the water preset's CPU time per frame (15–18 ms
+    /// against 29–39 ms, both threads), at a mean compression of 0.4–0.6 % against 0.11 %,
     /// the hull floating within a few per cent of the same depth. Pressures and flows are
     /// less exact than the water preset's: use it where the water is seen, not measured.
     ///

@@ -1,6 +1,6 @@
 //! The game preset (`FluidParamsBuilder::game_water`: DFSPH at a 0.5 % density error
 //! target, so two substeps per 1/60 s frame at 4 cm): a settled column's bottom pressure, a floating box's depth, no leaks in the moving game pool, and bitwise
-//! equal results on 1 and 2 threads. Release mode; about a minute on two cores.
+//! equal results on 1 and 2 threads. Release mode; a few seconds on two cores.
 //!
 //! `cargo test --release --test game_water -- --nocapture` prints every figure.
 
