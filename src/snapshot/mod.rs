@@ -46,6 +46,8 @@
 
 #![cfg_attr(docsrs, doc(cfg(feature = "snapshot")))]
 
+mod bvh;
+
 use crate::error::SphError;
 use crate::fluid::snapshot::FluidState;
 use crate::math::{Real, Vector};
@@ -308,7 +310,9 @@ fn check_physics(p: &PhysicsWorld) -> Result<(), SphError> {
     check_integration(&p.integration_parameters)?;
     check_bodies(p)?;
     check_colliders(p)?;
-    check_references(p)
+    check_references(p)?;
+    bvh::check_broad_phase(&p.broad_phase)?;
+    bvh::check_collider_shapes(&p.colliders)
 }
 
 /// The error of a field of rapier's world.
