@@ -316,3 +316,47 @@ fn resealed_corruption_outcomes() {
         println!("  {c:6}  {r}");
     }
 }
+
+/// A resealed file whose triangle mesh names a vertex it does not have is refused at load
+/// (parry would index out of bounds in the first contact query), naming the collider.
+#[test]
+fn a_mesh_index_outside_its_vertices_is_refused() {
+    use rapier_sph::rapier3d::parry::shape::TriMesh;
+    let vertices = vec![
+        Vector::new(0.0, 0.0, 0.0),
+        Vector::new(1.0, 0.0, 0.0),
+        Vector::new(0.0, 0.0, 1.0),
+        Vector::new(1.0, 0.0, 1.0),
+    ];
+    let indices = vec![[0, 1, 2], [1, 3, 2]];
+    let mesh = TriMesh::new(vertices.clone(), indices.clone()).unwrap();
+    let mut world = FluidWorld::new();
+    world
+        .physics
+        .insert_collider(ColliderBuilder::trimesh(vertices, indices).unwrap(), None);
+    let mut bytes = snapshot::to_bytes(&world).unwrap();
+    snapshot::from_bytes(&bytes).unwrap();
+    // The mesh's vertices and indices as postcard writes them: the vertex count and twelve
+    // floats, then the triangle count (2) and six one-byte indices.
+    let vertices = postcard::to_allocvec(mesh.vertices()).unwrap();
+    let both = postcard::to_allocvec(&(mesh.vertices(), mesh.indices())).unwrap();
+    let at = bytes
+        .windows(both.len())
+        .position(|w| w == both.as_slice())
+        .expect("the mesh's vertices and indices are in the file");
+    let last = at + vertices.len() + 1 + 5; // the last triangle's third vertex
+    assert_eq!(bytes[last], 2);
+    bytes[last] = 100; // of 4
+    reseal(&mut bytes);
+    match snapshot::from_bytes(&bytes) {
+        Err(SnapshotError::Invalid(rapier_sph::SphError::InvalidParameter {
+            field,
+            reason,
+            ..
+        })) => {
+            assert_eq!(field, "colliders");
+            assert!(reason.contains("vertex index"), "{reason}");
+        }
+        other => panic!("expected a refused mesh, got {:?}", other.map(|_| ())),
+    }
+}

@@ -38,11 +38,19 @@
 //!   coupling's velocities finite; rapier's gravity, time step and settings (finite, its
 //!   iteration counts at most [`crate::params::MAX_SOLVER_ITERATIONS`]), body poses and velocities,
 //!   collider poses and bounding boxes finite, every collider's parent a body of the set, the
-//!   narrow phase's pairs naming colliders of the set and the joints bodies of the set.
+//!   narrow phase's pairs naming colliders of the set and the joints bodies of the set;
+//!   rapier's broad-phase tree and the trees of colliders' triangle meshes, polylines and
+//!   compounds well formed (every child, parent link, leaf and free slot inside its array,
+//!   no cycle, leaf counts the sums of their children's, boxes finite), a mesh's or
+//!   polyline's vertex indices inside its vertices, a mesh's pseudo-normals, topology and
+//!   connected components of its sizes. Parry follows these without bounds checks and keeps
+//!   them private, so they are read through a mirror of their serde layout (the `bvh`
+//!   module); rebuilding the broad phase instead would change the order in which rapier
+//!   finds pairs, and with it the bitwise equality of a restored run.
 //!
-//! Rapier's internal structures (its broad-phase tree, islands, contact graph) are restored
-//! as rapier wrote them and not checked further: the checksum guards them against corruption,
-//! not against a file crafted to pass it.
+//! Rapier's other internal structures (islands, contact graph) are restored as rapier wrote
+//! them and not checked further: the checksum guards them against corruption, not against a
+//! file crafted to pass it.
 
 #![cfg_attr(docsrs, doc(cfg(feature = "snapshot")))]
 
@@ -152,8 +160,9 @@ pub enum SnapshotError {
         /// The checksum of the payload as read.
         computed: u32,
     },
-    /// The decoded fluid data is invalid (bad parameters, non-finite particles, arrays of
-    /// different lengths).
+    /// The decoded data is not a valid state (bad parameters, non-finite particles, arrays of
+    /// different lengths; in rapier's world, e.g. field `"broad_phase"`: a malformed
+    /// broad-phase tree, the wide node concerned as the value).
     Invalid(SphError),
 }
 
