@@ -35,8 +35,8 @@ pub const MAX_PARTICLES: usize = u32::MAX as usize;
 /// Measured on the water dam break with 20,000 particles, largest over 20 frames (`H=2
 /// N=20000 cargo test --release --test limits -- --ignored --nocapture bytes_per_particle`,
 /// and `H=3` for a support of 3 spacings), in bytes per particle at N = 33.5 / 113.1: DFSPH
-/// 1,554 / 4,080, WCSPH 484 / 980, PBF 480 / 942, Clavet 361 / 839, Clavet with springs
-/// 1,486 / 4,897; the bounds above (with `N` rounded up) give 1,588 / 4,148 for DFSPH, 538 /
+/// 1,467 / 3,817, WCSPH 390 / 689, PBF 421 / 717, Clavet 275 / 572, Clavet with springs
+/// 1,400 / 4,629; the bounds above (with `N` rounded up) give 1,588 / 4,148 for DFSPH, 538 /
 /// 1,098 for WCSPH, PBF and Clavet, 1,830 / 5,430 for Clavet with springs.
 ///
 /// Before a call adds particles, the memory the fluid will need with them

@@ -41,6 +41,16 @@ fn floor_i64(x: f64) -> i64 {
     t.saturating_sub(((t as f64) > x) as i64)
 }
 
+/// The memory of `keys` (its `len · 16` bytes) as `4 · len` reals, whatever they then hold.
+pub(crate) fn keys_as_reals(keys: &mut Vec<(u64, u32)>) -> &mut [Real] {
+    const _: () = assert!(std::mem::size_of::<(u64, u32)>() == 4 * std::mem::size_of::<Real>());
+    // SAFETY: the slice covers the initialised bytes of the vector's first `len` entries
+    // (16 bytes each, aligned to 8 ≥ 4) and borrows the vector mutably for as long as it
+    // lives. Any bit pattern is a valid `f32`, and is afterwards a valid `u64` or `u32` (a
+    // key's padding bytes may hold anything).
+    unsafe { std::slice::from_raw_parts_mut(keys.as_mut_ptr() as *mut Real, 4 * keys.len()) }
+}
+
 /// Contiguous particle index ranges covering the 27 cells around one cell.
 #[derive(Copy, Clone, Debug)]
 pub struct CellRanges {
@@ -101,6 +111,9 @@ pub struct NeighborGrid {
     periodic: Option<PeriodicCells>,
     /// Scratch: the particles that changed cell (see `merge_movers`).
     movers: Vec<(u64, u32)>,
+    /// Set by [`Self::build_cells`], cleared by a sort: the cells are those of the sort
+    /// keys, which may then be overwritten ([`Self::idle_keys`]).
+    cells_built: bool,
 }
 
 /// The cells of a periodic box: `n[a]` cells along axis `a`, each `1/inv_cell[a] ≥ h` long,
@@ -159,6 +172,7 @@ impl NeighborGrid {
     /// for as many particles), then sorts them.
     fn fill_keys(&mut self, positions: &[Vector], key: impl Fn(Vector) -> u64 + Sync) -> bool {
         let n = positions.len();
+        self.cells_built = false;
         let previous = self.particle_cells.len() == n && !self.cell_keys.is_empty();
         self.sort_keys.resize(n, (0, 0));
         let (cell_keys, particle_cells) = (&self.cell_keys, &self.particle_cells);
@@ -308,9 +322,49 @@ impl NeighborGrid {
         &self.sort_keys
     }
 
+    /// [`Self::permutation`], and the buffer of each particle's cell as a scratch: between a
+    /// sort and [`Self::build_cells`] it is not read, and `build_cells` rewrites it whole (to
+    /// the sorted count), whatever it then holds. The re-sort swaps the ids through it.
+    pub(crate) fn permutation_and_cells(&mut self) -> (&[(u64, u32)], &mut Vec<u32>) {
+        (&self.sort_keys, &mut self.particle_cells)
+    }
+
+    /// The sort keys, taken out once the cells are built (empty before): they are not read
+    /// again until the next sort rewrites them, so the neighbour lists' build writes its
+    /// flat coordinates in their memory ([`keys_as_reals`]: 12 bytes per particle that no
+    /// buffer of its own holds). Give them back with [`Self::put_back_keys`];
+    /// [`Self::permutation`] is meaningless until the next sort.
+    pub(crate) fn take_idle_keys(&mut self) -> Vec<(u64, u32)> {
+        if !self.cells_built {
+            return Vec::new();
+        }
+        std::mem::take(&mut self.sort_keys)
+    }
+
+    /// Returns the keys [`Self::take_idle_keys`] took (an empty vector when it took none
+    /// leaves the keys in place).
+    pub(crate) fn put_back_keys(&mut self, keys: Vec<(u64, u32)>) {
+        if keys.capacity() > 0 {
+            self.sort_keys = keys;
+        }
+    }
+
+    /// Reserves the buffer of each particle's cell (see [`Self::permutation_and_cells`])
+    /// for `capacity` particles. A failed reservation is left to its own growth.
+    pub(crate) fn reserve(&mut self, capacity: usize) {
+        let cells = &mut self.particle_cells;
+        let _ = cells.try_reserve_exact(capacity.saturating_sub(cells.len()));
+    }
+
     /// Builds the cell ranges and the hash table. Call after [`Self::sort`] and after the
     /// per-particle arrays were permuted.
+    /// A second call before the next sort changes nothing (the keys are the same) and
+    /// returns at once.
     pub fn build_cells(&mut self) {
+        if self.cells_built {
+            return;
+        }
+        self.cells_built = true;
         let n = self.sort_keys.len();
         self.cell_keys.clear();
         self.cell_starts.clear();

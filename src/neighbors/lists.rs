@@ -23,9 +23,8 @@ struct Chunk {
 pub struct NeighborLists {
     chunks: Vec<Chunk>,
     len: usize,
-    xs: Vec<Real>,
-    ys: Vec<Real>,
-    zs: Vec<Real>,
+    /// The coordinates' buffer of a build given none (see [`Self::build_in`]).
+    coords: Vec<Real>,
 }
 
 /// Candidates tested together in the neighbour scan.
@@ -256,35 +255,51 @@ fn group_len(grid: &NeighborGrid, i: usize, end: usize, cell: u32) -> usize {
     g
 }
 
-/// Makes room in `buf` after `used` for `g` lists over `ranges` and returns the room one
-/// list gets: every candidate plus `PAD` per range (a list's last block stores a whole
-/// block past its end). Member `q` of a group writes from `used + q·room`, and its list is
-/// moved next to the one before it when the group is done.
+/// Makes room in the group scratch `buf` for `g` lists over `ranges` and returns the room
+/// one list gets: every candidate plus `PAD` per range (a list's last block stores a whole
+/// block past its end). Member `q` of a group writes from `q·room`, and the group's lists
+/// are appended to its chunk's when the group is done ([`Group::close`]).
 #[inline(always)]
-fn reserve_group(
-    buf: &mut Vec<u32>,
-    used: usize,
-    g: usize,
-    ranges: &super::grid::CellRanges,
-) -> usize {
+fn reserve_group(buf: &mut Vec<u32>, g: usize, ranges: &super::grid::CellRanges) -> usize {
     let room: usize = ranges
         .as_slice()
         .iter()
         .map(|&(s, e)| (e - s) as usize + PAD)
         .sum();
-    let need = used + g * room;
+    let need = g * room;
     if buf.len() < need {
-        // Grown by a quarter, not doubled: a chunk's lists change little from one step to
-        // the next, so a warm buffer rarely grows, and its capacity stays within a quarter
-        // (plus one group's room) of the pairs it holds. At 105,350 particles (the step
-        // bench's dam break, 27.8 neighbours) doubling held 195 bytes per particle for 111
-        // bytes of lists, this holds 169. An eighth held 160 but grew again in a settling
-        // pool (tests/no_alloc.rs: a warm step allocates nothing).
-        let grown = need + need / 4;
-        buf.reserve_exact(grown - buf.len());
-        buf.resize(grown, 0);
+        // One scratch per thread, grown to a power of two (at least 32 KiB): it reaches its
+        // size in the first steps and is reused after (a warm step allocates nothing).
+        buf.resize(need.next_power_of_two().max(SCRATCH_MIN), 0);
     }
     room
+}
+
+/// Entries the group scratch starts with (four members over 27 cells of 8 particles each,
+/// their padding included, take ~1,500).
+const SCRATCH_MIN: usize = 8192;
+
+std::thread_local! {
+    /// Each thread's group scratch (see [`reserve_group`]): the lists of a group are
+    /// written here, each member in a room for all its candidates, then appended to the
+    /// chunk's lists at their exact length. Writing them in place would leave a group's
+    /// room (~20 % of the pairs at 27.8 neighbours) unused at the end of every chunk.
+    static GROUP_SCRATCH: std::cell::RefCell<Vec<u32>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Appends `lists` to `indices`, growing it by a quarter beyond what it needs when it is
+/// full: a chunk's lists change little from one step to the next, so a warm buffer rarely
+/// grows, and its capacity stays within a quarter of the pairs it holds. (Doubling held 195
+/// bytes per particle for 111 bytes of lists in the step bench's dam break at 105,350
+/// particles; an eighth grew again in a settling pool: tests/no_alloc.rs, a warm step
+/// allocates nothing.)
+#[inline(always)]
+fn append_list(indices: &mut Vec<u32>, list: &[u32]) {
+    let need = indices.len() + list.len();
+    if indices.capacity() < need {
+        indices.reserve_exact(need + need / 4 - indices.len());
+    }
+    indices.extend_from_slice(list);
 }
 
 /// The candidate ranges of the cell last asked for (consecutive particles share a cell, and
@@ -329,11 +344,10 @@ impl CellCache {
 }
 
 /// Up to [`GROUP`] particles of one cell, from particle `i`, scanned together: member `q`'s
-/// list is written from `base + q·room` and ends at `cursor[q]` so far.
+/// list is written in the group scratch from `q·room` and ends at `cursor[q]` so far.
 struct Group {
     i: usize,
     g: usize,
-    base: usize,
     room: usize,
     cursor: [usize; GROUP],
 }
@@ -342,44 +356,31 @@ struct Group {
 #[allow(clippy::needless_range_loop)]
 impl Group {
     /// The group of `cell` from particle `i` (the chunk ending at `end`), its room reserved
-    /// in `buf` after `used` for lists over `ranges` (see [`reserve_group`]).
+    /// in the scratch `buf` for lists over `ranges` (see [`reserve_group`]).
     #[inline(always)]
     fn new(
         grid: &NeighborGrid,
         (i, end): (usize, usize),
         cell: u32,
         buf: &mut Vec<u32>,
-        used: usize,
         ranges: &CellRanges,
     ) -> Self {
         let g = group_len(grid, i, end, cell);
-        let room = reserve_group(buf, used, g, ranges);
+        let room = reserve_group(buf, g, ranges);
         let mut cursor = [0usize; GROUP];
         for q in 0..g {
-            cursor[q] = used + q * room;
+            cursor[q] = q * room;
         }
-        Self {
-            i,
-            g,
-            base: used,
-            room,
-            cursor,
-        }
+        Self { i, g, room, cursor }
     }
 
-    /// Member 0's list is in place; each next one moves down next to the one before, and
-    /// each list's end goes to `offsets`. Returns the end of the group's lists.
+    /// Appends each member's list to the chunk's `indices` and its end to `offsets`.
     #[inline(always)]
-    fn close(&self, buf: &mut [u32], offsets: &mut Vec<u32>) -> usize {
-        let mut end_of_lists = self.cursor[0];
-        offsets.push(end_of_lists as u32);
-        for q in 1..self.g {
-            let begin = self.base + q * self.room;
-            buf.copy_within(begin..self.cursor[q], end_of_lists);
-            end_of_lists += self.cursor[q] - begin;
-            offsets.push(end_of_lists as u32);
+    fn close(&self, buf: &[u32], chunk: &mut Chunk) {
+        for q in 0..self.g {
+            append_list(&mut chunk.indices, &buf[q * self.room..self.cursor[q]]);
+            chunk.offsets.push(chunk.indices.len() as u32);
         }
-        end_of_lists
     }
 }
 
@@ -387,15 +388,26 @@ impl Group {
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // indexed group loops, as in `scan_chunk_avx512`
 fn scan_chunk<S: Separation, const AVX2: bool>(c: usize, chunk: &mut Chunk, scan: &Scan<'_, S>) {
-    let grid = scan.grid;
     let start = c * CHUNK;
     let end = (start + CHUNK).min(scan.n);
     chunk.offsets.clear();
     chunk.offsets.push(0);
-    // `indices` is used as a buffer longer than its content: every block stores
-    // all its lanes and the end advances only over the accepted ones.
-    let buf = &mut chunk.indices;
-    let mut used = 0usize;
+    chunk.indices.clear();
+    // The scratch is a buffer longer than its content: every block stores all its lanes
+    // and the end advances only over the accepted ones.
+    GROUP_SCRATCH.with_borrow_mut(|buf| scan_groups::<S, AVX2>((start, end), chunk, scan, buf));
+}
+
+/// [`scan_chunk`]'s groups, particles `start..end`, through the group scratch `buf`.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // indexed group loops, as in `scan_chunk_avx512`
+fn scan_groups<S: Separation, const AVX2: bool>(
+    (start, end): (usize, usize),
+    chunk: &mut Chunk,
+    scan: &Scan<'_, S>,
+    buf: &mut Vec<u32>,
+) {
+    let grid = scan.grid;
     let mut cache = CellCache::new::<S>(grid, grid.cell_of(start));
     // Up to `GROUP` particles of one cell are tested against each block of candidates in
     // turn (the block stays in registers or L1).
@@ -403,7 +415,7 @@ fn scan_chunk<S: Separation, const AVX2: bool>(c: usize, chunk: &mut Chunk, scan
     while i < end {
         let cell = grid.cell_of(i);
         let ranges = cache.of::<S>(grid, cell);
-        let mut group = Group::new(grid, (i, end), cell, buf, used, ranges);
+        let mut group = Group::new(grid, (i, end), cell, buf, ranges);
         let Coords { xs, ys, zs } = scan.coords;
         let mut points = [(0.0, 0.0, 0.0); GROUP];
         for q in 0..group.g {
@@ -416,7 +428,7 @@ fn scan_chunk<S: Separation, const AVX2: bool>(c: usize, chunk: &mut Chunk, scan
                 j0 += BLOCK;
             }
         }
-        used = group.close(buf, &mut chunk.offsets);
+        group.close(buf, chunk);
         i += group.g;
     }
 }
@@ -475,27 +487,46 @@ fn scan_block<S: Separation, const AVX2: bool>(
 // search 12 % slower (217 → 244 µs at 2,500 particles on one thread).
 #[allow(clippy::needless_range_loop)]
 unsafe fn scan_chunk_avx512<S: Separation>(c: usize, chunk: &mut Chunk, scan: &Scan<'_, S>) {
-    use std::arch::x86_64::*;
     debug_assert!(!S::PERIODIC);
-    let (grid, n) = (scan.grid, scan.n);
+    let n = scan.n;
     let Coords { xs, ys, zs } = scan.coords;
     let start = c * CHUNK;
     let end = (start + CHUNK).min(n);
     chunk.offsets.clear();
     chunk.offsets.push(0);
-    let buf = &mut chunk.indices;
-    let mut used = 0usize;
-    let mut cache = CellCache::new::<S>(grid, grid.cell_of(start));
+    chunk.indices.clear();
     // Every load of `scan_wide_block` reads `WIDE` floats from `j0 < e ≤ n`: the arrays
     // hold `n + PAD`.
     assert!(xs.len() >= n + WIDE && ys.len() >= n + WIDE && zs.len() >= n + WIDE);
+    // SAFETY: AVX-512F is enabled here as there.
+    GROUP_SCRATCH
+        .with_borrow_mut(|buf| unsafe { scan_groups_avx512((start, end), chunk, scan, buf) });
+}
+
+/// [`scan_chunk_avx512`]'s groups, particles `start..end`, through the group scratch `buf`.
+///
+/// # Safety
+/// The CPU must support AVX-512F, and the coordinate arrays must hold `n + WIDE` entries.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[allow(clippy::needless_range_loop)] // indexed group loops (see `scan_chunk_avx512`)
+unsafe fn scan_groups_avx512<S: Separation>(
+    (start, end): (usize, usize),
+    chunk: &mut Chunk,
+    scan: &Scan<'_, S>,
+    buf: &mut Vec<u32>,
+) {
+    use std::arch::x86_64::*;
+    let grid = scan.grid;
+    let Coords { xs, ys, zs } = scan.coords;
+    let mut cache = CellCache::new::<S>(grid, grid.cell_of(start));
     // Up to `GROUP` particles of one cell are tested against each block of candidates at
     // once (one set of loads for all).
     let mut i = start;
     while i < end {
         let cell = grid.cell_of(i);
         let ranges = cache.of::<S>(grid, cell);
-        let mut group = Group::new(grid, (i, end), cell, buf, used, ranges);
+        let mut group = Group::new(grid, (i, end), cell, buf, ranges);
         let mut points = [(
             _mm512_setzero_ps(),
             _mm512_setzero_ps(),
@@ -511,15 +542,15 @@ unsafe fn scan_chunk_avx512<S: Separation>(c: usize, chunk: &mut Chunk, scan: &S
         for &(s, e) in ranges.as_slice() {
             let mut j0 = s as usize;
             while j0 < e as usize {
-                // SAFETY: `j0 < e ≤ n` and the arrays hold `n + WIDE` (asserted above);
-                // AVX-512F is enabled here as there.
+                // SAFETY: `j0 < e ≤ n` and the arrays hold `n + WIDE` (the caller's
+                // assertion); AVX-512F is enabled here as there.
                 unsafe {
                     scan_wide_block(scan, &mut group, &points, (j0, e as usize), buf);
                 }
                 j0 += WIDE;
             }
         }
-        used = group.close(buf, &mut chunk.offsets);
+        group.close(buf, chunk);
         i += group.g;
     }
 }
@@ -589,7 +620,7 @@ unsafe fn scan_wide_block<S: Separation>(
 impl NeighborLists {
     /// Rebuilds the lists for sorted `positions` over `grid` with support radius `h`.
     pub fn build(&mut self, grid: &NeighborGrid, positions: &[Vector], h: Real) {
-        self.build_with(grid, positions, h, Open, Isa::best(false));
+        self.build_owned(grid, positions, (h, Open), Isa::best(false));
     }
 
     /// [`Self::build`] in a periodic box, over a grid sorted by
@@ -602,29 +633,69 @@ impl NeighborLists {
         h: Real,
         domain: MinimumImage,
     ) {
-        self.build_with(grid, positions, h, domain, Isa::best(true));
+        self.build_owned(grid, positions, (h, domain), Isa::best(true));
     }
 
+    /// [`Self::build`] (or [`Self::build_periodic`] with a `domain`) with the coordinates'
+    /// flat copies in `scratch`, a buffer idle during the build, when it holds
+    /// [`Self::coords_len`] entries (else in a buffer of the lists' own).
+    pub(crate) fn build_in(
+        &mut self,
+        grid: &NeighborGrid,
+        positions: &[Vector],
+        (h, domain): (Real, Option<MinimumImage>),
+        scratch: &mut [Real],
+    ) {
+        let need = Self::coords_len(positions.len());
+        match (domain, scratch.len() >= need) {
+            (None, true) => self.build_with(grid, positions, (h, Open), Isa::best(false), scratch),
+            (Some(d), true) => self.build_with(grid, positions, (h, d), Isa::best(true), scratch),
+            (None, false) => self.build(grid, positions, h),
+            (Some(d), false) => self.build_periodic(grid, positions, h, d),
+        }
+    }
+
+    /// Entries of the coordinates' flat copies for `n` particles: three arrays of `n` and
+    /// [`PAD`] entries of padding.
+    pub(crate) fn coords_len(n: usize) -> usize {
+        3 * (n + PAD)
+    }
+
+    /// [`Self::build_with`] with the coordinates in the lists' own buffer.
+    fn build_owned<S: Separation>(
+        &mut self,
+        grid: &NeighborGrid,
+        positions: &[Vector],
+        (h, sep): (Real, S),
+        isa: Isa,
+    ) {
+        let mut coords = std::mem::take(&mut self.coords);
+        coords.resize(Self::coords_len(positions.len()), 0.0);
+        self.build_with(grid, positions, (h, sep), isa, &mut coords);
+        self.coords = coords;
+    }
+
+    /// Builds the lists with the coordinates' flat copies written to `coords` (at least
+    /// [`Self::coords_len`] entries; whatever they held is overwritten).
     #[inline(always)]
     fn build_with<S: Separation>(
         &mut self,
         grid: &NeighborGrid,
         positions: &[Vector],
-        h: Real,
-        sep: S,
+        (h, sep): (Real, S),
         isa: Isa,
+        coords: &mut [Real],
     ) {
         let n = positions.len();
         self.len = n;
         // Coordinates as three flat arrays, so the candidate test below runs on a block of
         // candidates at once (SIMD) instead of one 12-byte vector at a time. Each array has
         // PAD entries of padding at infinity, so a block may run past the last particle.
-        self.xs.resize(n + PAD, Real::INFINITY);
-        self.ys.resize(n + PAD, Real::INFINITY);
-        self.zs.resize(n + PAD, Real::INFINITY);
-        crate::par_chunks_mut!(self.xs[..n], CHUNK)
-            .zip(crate::par_chunks_mut!(self.ys[..n], CHUNK))
-            .zip(crate::par_chunks_mut!(self.zs[..n], CHUNK))
+        let (xs, rest) = coords[..Self::coords_len(n)].split_at_mut(n + PAD);
+        let (ys, zs) = rest.split_at_mut(n + PAD);
+        crate::par_chunks_mut!(xs[..n], CHUNK)
+            .zip(crate::par_chunks_mut!(ys[..n], CHUNK))
+            .zip(crate::par_chunks_mut!(zs[..n], CHUNK))
             .enumerate()
             .for_each(|(c, ((x, y), z))| {
                 for (k, p) in positions[c * CHUNK..c * CHUNK + x.len()].iter().enumerate() {
@@ -633,18 +704,14 @@ impl NeighborLists {
                     z[k] = p.z;
                 }
             });
-        for a in [&mut self.xs, &mut self.ys, &mut self.zs] {
+        for a in [&mut *xs, &mut *ys, &mut *zs] {
             a[n..].fill(Real::INFINITY);
         }
         self.chunks.resize_with(n.div_ceil(CHUNK), Chunk::default);
         let h2 = h * h;
         let scan = Scan {
             grid,
-            coords: Coords {
-                xs: &self.xs,
-                ys: &self.ys,
-                zs: &self.zs,
-            },
+            coords: Coords { xs, ys, zs },
             h2,
             sep: &sep,
             n,
@@ -706,7 +773,7 @@ impl NeighborLists {
             .map(|c| c.offsets.capacity() * 4 + c.indices.capacity() * 4)
             .sum::<usize>()
             + self.chunks.capacity() * std::mem::size_of::<Chunk>()
-            + (self.xs.capacity() + self.ys.capacity() + self.zs.capacity()) * 4
+            + self.coords.capacity() * 4
     }
 }
 
@@ -761,11 +828,11 @@ mod tests {
                 .collect();
             grid.build_cells();
             let mut portable = NeighborLists::default();
-            portable.build_with(&grid, &sorted, h, Open, Isa::Portable);
+            portable.build_owned(&grid, &sorted, (h, Open), Isa::Portable);
             assert!(portable.total_pairs() > 0);
             for isa in available() {
                 let mut wide = NeighborLists::default();
-                wide.build_with(&grid, &sorted, h, Open, isa);
+                wide.build_owned(&grid, &sorted, (h, Open), isa);
                 assert_eq!(wide.total_pairs(), portable.total_pairs(), "{isa:?}");
                 for i in 0..sorted.len() {
                     assert_eq!(

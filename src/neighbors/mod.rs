@@ -25,16 +25,15 @@ use crate::domain::MinimumImage;
 use crate::fluid::ParticlesMut;
 use crate::math::{Real, Vector};
 
-/// The neighbour search of one fluid: the grid, the lists, and the scratch the re-sort swaps
-/// arrays through (so a warm search allocates nothing).
+/// The neighbour search of one fluid: the grid and the lists. The re-sort swaps arrays
+/// through buffers that are idle at that moment and rewritten after it (so it holds no
+/// scratch of its own, and a warm search allocates nothing).
 #[derive(Clone, Debug, Default)]
 pub(crate) struct NeighbourSearch {
     /// Cells and the particles' sort order.
     pub grid: NeighborGrid,
     /// Neighbour lists of the current positions.
     pub lists: NeighborLists,
-    reals: Vec<Real>,
-    ids: Vec<u32>,
 }
 
 impl NeighbourSearch {
@@ -54,15 +53,18 @@ impl NeighbourSearch {
             Some(d) => self.grid.sort_periodic(particles.positions, h, d),
         };
         if reordered {
-            let perm = self.grid.permutation();
-            // The accelerations are rewritten by the stages after the search before they are
-            // read, so their buffer is the vectors' scratch (12 bytes per particle saved).
+            // Each array is gathered into a scratch buffer that is then swapped with it (or
+            // copied back). The scratch buffers are ones rewritten before they are read
+            // again: the accelerations (by the stages after the search) for the vectors,
+            // the grid's cell of each particle (by `build_cells`) for the ids and the
+            // attributes: 12 + 4 bytes per particle that no scratch of its own holds.
+            let (perm, cells) = self.grid.permutation_and_cells();
             let scratch = &mut *particles.accelerations;
             crate::par::permute(particles.positions, scratch, perm);
             crate::par::permute(particles.velocities, scratch, perm);
-            crate::par::permute(particles.ids, &mut self.ids, perm);
+            crate::par::permute(particles.ids, cells, perm);
             for values in particles.attributes.values_mut() {
-                crate::par::permute(values, &mut self.reals, perm);
+                permute_bits(values, cells, perm);
             }
             if let Some(previous) = previous {
                 crate::par::permute(previous, scratch, perm);
@@ -72,31 +74,39 @@ impl NeighbourSearch {
         self.build_lists(particles.positions, h, domain);
     }
 
-    /// The neighbour lists over the current cells.
+    /// The neighbour lists over the current cells (built first if need be), their flat
+    /// coordinates written to the idle sort keys ([`NeighborGrid::idle_keys`]).
     pub fn build_lists(&mut self, positions: &[Vector], h: Real, domain: Option<MinimumImage>) {
-        match domain {
-            None => self.lists.build(&self.grid, positions, h),
-            Some(d) => self.lists.build_periodic(&self.grid, positions, h, d),
-        }
+        self.grid.build_cells();
+        // The lists read the grid's cells, not its keys: the keys are lent beside them.
+        let mut keys = self.grid.take_idle_keys();
+        let scratch = grid::keys_as_reals(&mut keys);
+        self.lists
+            .build_in(&self.grid, positions, (h, domain), scratch);
+        self.grid.put_back_keys(keys);
     }
 
-    /// Reserves the re-sort's scratch for `capacity` particles (a fluid with a capacity then
-    /// never reallocates it while it fills up). A failed reservation is left to the arrays'
-    /// own growth.
+    /// Reserves the buffers the re-sort swaps the ids and attributes through for `capacity`
+    /// particles (they take the place of the fluid's own arrays, whose capacity they then
+    /// give it: a fluid with a capacity then never reallocates while it fills up). A failed
+    /// reservation is left to the arrays' own growth.
     pub fn reserve(&mut self, capacity: usize) {
-        let _ = self
-            .reals
-            .try_reserve_exact(capacity.saturating_sub(self.reals.len()));
-        let _ = self
-            .ids
-            .try_reserve_exact(capacity.saturating_sub(self.ids.len()));
+        self.grid.reserve(capacity);
     }
 
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
-        self.grid.heap_bytes()
-            + self.lists.heap_bytes()
-            + (self.reals.capacity() + self.ids.capacity()) * 4
+        self.grid.heap_bytes() + self.lists.heap_bytes()
+    }
+}
+
+/// `data[k] = data[perm[k].1]` for every `k` (all read before any is written), gathered
+/// as bits into `scratch` and copied back.
+fn permute_bits(data: &mut [Real], scratch: &mut Vec<u32>, perm: &[(u64, u32)]) {
+    scratch.clear();
+    scratch.extend(perm.iter().map(|&(_, i)| data[i as usize].to_bits()));
+    for (d, &b) in data.iter_mut().zip(scratch.iter()) {
+        *d = Real::from_bits(b);
     }
 }
 
