@@ -102,8 +102,10 @@ pub struct NeighborGrid {
     cell_starts: Vec<u32>,
     /// Cell index of each sorted particle.
     particle_cells: Vec<u32>,
-    /// Open-addressing hash table from cell key to cell index (`EMPTY` marks free slots).
-    table: Vec<(u64, u32)>,
+    /// Open-addressing hash table from cell key to cell index (`EMPTY` marks free slots):
+    /// a slot holds the index only, its key is `cell_keys[index]` (4 bytes a slot, not 16:
+    /// ~4 bytes per particle less at 7 particles a cell).
+    table: Vec<u32>,
     table_mask: usize,
     /// `64 − log2(table length)`: the hash keeps the product's top bits.
     table_shift: u32,
@@ -380,15 +382,15 @@ impl NeighborGrid {
 
         let capacity = (2 * self.cell_keys.len()).next_power_of_two().max(16);
         self.table.clear();
-        self.table.resize(capacity, (0, EMPTY));
+        self.table.resize(capacity, EMPTY);
         self.table_mask = capacity - 1;
         self.table_shift = 64 - capacity.trailing_zeros();
         for (c, &key) in self.cell_keys.iter().enumerate() {
             let mut slot = self.hash(key);
-            while self.table[slot].1 != EMPTY {
+            while self.table[slot] != EMPTY {
                 slot = (slot + 1) & self.table_mask;
             }
-            self.table[slot] = (key, c as u32);
+            self.table[slot] = c as u32;
         }
     }
 
@@ -408,11 +410,11 @@ impl NeighborGrid {
         }
         let mut slot = self.hash(key);
         loop {
-            let (k, c) = self.table[slot];
+            let c = self.table[slot];
             if c == EMPTY {
                 return None;
             }
-            if k == key {
+            if self.cell_keys[c as usize] == key {
                 return Some(c);
             }
             slot = (slot + 1) & self.table_mask;
@@ -572,7 +574,7 @@ impl NeighborGrid {
             + self.cell_keys.capacity() * 8
             + self.cell_starts.capacity() * 4
             + self.particle_cells.capacity() * 4
-            + self.table.capacity() * 16
+            + self.table.capacity() * 4
             + self.movers.capacity() * 16
     }
 }
