@@ -287,17 +287,18 @@ std::thread_local! {
     static GROUP_SCRATCH: std::cell::RefCell<Vec<u32>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
-/// Appends `lists` to `indices`, growing it by a quarter beyond what it needs when it is
+/// Appends `list` to `indices`, growing it by an eighth beyond what it needs when it is
 /// full: a chunk's lists change little from one step to the next, so a warm buffer rarely
-/// grows, and its capacity stays within a quarter of the pairs it holds. (Doubling held 195
+/// grows, and its capacity stays within an eighth of the pairs it holds. (Doubling held 195
 /// bytes per particle for 111 bytes of lists in the step bench's dam break at 105,350
-/// particles; an eighth grew again in a settling pool: tests/no_alloc.rs, a warm step
-/// allocates nothing.)
+/// particles. An eighth grew again in a settling pool, tests/no_alloc.rs, while the scan
+/// wrote in place and a chunk's buffer had to hold a whole group's candidates beyond its
+/// lists; the lists alone vary less.)
 #[inline(always)]
 fn append_list(indices: &mut Vec<u32>, list: &[u32]) {
     let need = indices.len() + list.len();
     if indices.capacity() < need {
-        indices.reserve_exact(need + need / 4 - indices.len());
+        indices.reserve_exact(need + need / 8 - indices.len());
     }
     indices.extend_from_slice(list);
 }
