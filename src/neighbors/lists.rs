@@ -237,8 +237,13 @@ struct Scan<'a, S> {
 /// The CPU must support AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn scan_chunk_avx2<S: Separation>(c: usize, chunk: &mut Chunk, scan: &Scan<'_, S>) {
-    scan_chunk::<S, true>(c, chunk, scan)
+unsafe fn scan_chunk_avx2<S: Separation>(
+    c: usize,
+    chunk: &mut Chunk,
+    scan: &Scan<'_, S>,
+    buf: &mut Vec<u32>,
+) {
+    scan_chunk::<S, true>(c, chunk, scan, buf)
 }
 
 /// Particles of one cell tested together against each block of candidates (they share the
@@ -388,15 +393,20 @@ impl Group {
 /// Builds the lists of chunk `c` (see [`NeighborLists::build`]).
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // indexed group loops, as in `scan_chunk_avx512`
-fn scan_chunk<S: Separation, const AVX2: bool>(c: usize, chunk: &mut Chunk, scan: &Scan<'_, S>) {
+fn scan_chunk<S: Separation, const AVX2: bool>(
+    c: usize,
+    chunk: &mut Chunk,
+    scan: &Scan<'_, S>,
+    buf: &mut Vec<u32>,
+) {
     let start = c * CHUNK;
     let end = (start + CHUNK).min(scan.n);
     chunk.offsets.clear();
     chunk.offsets.push(0);
     chunk.indices.clear();
-    // The scratch is a buffer longer than its content: every block stores all its lanes
+    // The group scratch `buf` is longer than its content: every block stores all its lanes
     // and the end advances only over the accepted ones.
-    GROUP_SCRATCH.with_borrow_mut(|buf| scan_groups::<S, AVX2>((start, end), chunk, scan, buf));
+    scan_groups::<S, AVX2>((start, end), chunk, scan, buf);
 }
 
 /// [`scan_chunk`]'s groups, particles `start..end`, through the group scratch `buf`.
@@ -487,7 +497,12 @@ fn scan_block<S: Separation, const AVX2: bool>(
 // Indexed loops over the group: the same loops with `zip`/`enumerate` made the neighbour
 // search 12 % slower (217 → 244 µs at 2,500 particles on one thread).
 #[allow(clippy::needless_range_loop)]
-unsafe fn scan_chunk_avx512<S: Separation>(c: usize, chunk: &mut Chunk, scan: &Scan<'_, S>) {
+unsafe fn scan_chunk_avx512<S: Separation>(
+    c: usize,
+    chunk: &mut Chunk,
+    scan: &Scan<'_, S>,
+    buf: &mut Vec<u32>,
+) {
     debug_assert!(!S::PERIODIC);
     let n = scan.n;
     let Coords { xs, ys, zs } = scan.coords;
@@ -500,8 +515,7 @@ unsafe fn scan_chunk_avx512<S: Separation>(c: usize, chunk: &mut Chunk, scan: &S
     // hold `n + PAD`.
     assert!(xs.len() >= n + WIDE && ys.len() >= n + WIDE && zs.len() >= n + WIDE);
     // SAFETY: AVX-512F is enabled here as there.
-    GROUP_SCRATCH
-        .with_borrow_mut(|buf| unsafe { scan_groups_avx512((start, end), chunk, scan, buf) });
+    unsafe { scan_groups_avx512((start, end), chunk, scan, buf) };
 }
 
 /// [`scan_chunk_avx512`]'s groups, particles `start..end`, through the group scratch `buf`.
@@ -719,16 +733,20 @@ impl NeighborLists {
         };
         // A periodic scan is always scalar (`Isa::best(true)`).
         let isa = if S::PERIODIC { Isa::Portable } else { isa };
+        // The group scratch is borrowed here, outside the functions compiled for AVX2 or
+        // AVX-512, so that the whole scan inlines into them.
         crate::par_iter_mut!(self.chunks)
             .enumerate()
-            .for_each(|(c, chunk)| match isa {
-                // SAFETY: `Isa::best` chose these after run-time detection (the unit test
-                // asks only for what the CPU has).
-                #[cfg(target_arch = "x86_64")]
-                Isa::Avx512 => unsafe { scan_chunk_avx512(c, chunk, &scan) },
-                #[cfg(target_arch = "x86_64")]
-                Isa::Avx2 => unsafe { scan_chunk_avx2(c, chunk, &scan) },
-                _ => scan_chunk::<S, false>(c, chunk, &scan),
+            .for_each(|(c, chunk)| {
+                GROUP_SCRATCH.with_borrow_mut(|buf| match isa {
+                    // SAFETY: `Isa::best` chose these after run-time detection (the unit
+                    // test asks only for what the CPU has).
+                    #[cfg(target_arch = "x86_64")]
+                    Isa::Avx512 => unsafe { scan_chunk_avx512(c, chunk, &scan, buf) },
+                    #[cfg(target_arch = "x86_64")]
+                    Isa::Avx2 => unsafe { scan_chunk_avx2(c, chunk, &scan, buf) },
+                    _ => scan_chunk::<S, false>(c, chunk, &scan, buf),
+                })
             });
     }
 
