@@ -41,14 +41,25 @@ fn floor_i64(x: f64) -> i64 {
     t.saturating_sub(((t as f64) > x) as i64)
 }
 
-/// The memory of `keys` (its `len · 16` bytes) as `4 · len` reals, whatever they then hold.
+/// The memory of `keys` (its `len · 16` bytes) as `4 · len` reals, zeroed.
+///
+/// A `(u64, u32)` entry has 4 bytes of padding, which need not be initialised; every byte
+/// is written with zero first so the reals are initialised values (16 bytes a particle
+/// written once per build: small beside the scan).
 pub(crate) fn keys_as_reals(keys: &mut Vec<(u64, u32)>) -> &mut [Real] {
     const _: () = assert!(std::mem::size_of::<(u64, u32)>() == 4 * std::mem::size_of::<Real>());
-    // SAFETY: the slice covers the initialised bytes of the vector's first `len` entries
-    // (16 bytes each, aligned to 8 ≥ 4) and borrows the vector mutably for as long as it
-    // lives. Any bit pattern is a valid `f32`, and is afterwards a valid `u64` or `u32` (a
-    // key's padding bytes may hold anything).
-    unsafe { std::slice::from_raw_parts_mut(keys.as_mut_ptr() as *mut Real, 4 * keys.len()) }
+    let len = keys.len();
+    let bytes = len * std::mem::size_of::<(u64, u32)>();
+    // SAFETY: the pointer is the vector's own allocation, valid for `len` entries; writing
+    // zero bytes through a byte pointer initialises every byte, padding included, and zero
+    // bytes are a valid `u64`, `u32` and `f32`. The slice then covers those `bytes`
+    // initialised bytes (aligned to 8 ≥ 4) and borrows the vector mutably for as long as it
+    // lives; any bit pattern the reals leave is a valid `u64` or `u32` for the next sort,
+    // which rewrites every entry.
+    unsafe {
+        std::ptr::write_bytes(keys.as_mut_ptr() as *mut u8, 0, bytes);
+        std::slice::from_raw_parts_mut(keys.as_mut_ptr() as *mut Real, 4 * len)
+    }
 }
 
 /// Contiguous particle index ranges covering the 27 cells around one cell.
@@ -114,7 +125,7 @@ pub struct NeighborGrid {
     /// Scratch: the particles that changed cell (see `merge_movers`).
     movers: Vec<(u64, u32)>,
     /// Set by [`Self::build_cells`], cleared by a sort: the cells are those of the sort
-    /// keys, which may then be overwritten ([`Self::idle_keys`]).
+    /// keys, which may then be overwritten ([`Self::take_idle_keys`]).
     cells_built: bool,
 }
 

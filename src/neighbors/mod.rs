@@ -75,7 +75,7 @@ impl NeighbourSearch {
     }
 
     /// The neighbour lists over the current cells (built first if need be), their flat
-    /// coordinates written to the idle sort keys ([`NeighborGrid::idle_keys`]).
+    /// coordinates written to the idle sort keys ([`NeighborGrid::take_idle_keys`]).
     pub fn build_lists(&mut self, positions: &[Vector], h: Real, domain: Option<MinimumImage>) {
         self.grid.build_cells();
         // The lists read the grid's cells, not its keys: the keys are lent beside them.
