@@ -17,7 +17,7 @@
 //!   ├─ 0 overlap relaxation  pipeline/relax.rs    only after particles were added or pushed out of a solid
 //!   ├─ 1 prediction          integrate.rs         PBF, Clavet: gravity, then x += dt·v
 //!   ├─ 2 neighbour search    neighbors/           sort by cell, hashed grid, flat neighbour lists
-//!   ├─ 3 wall density        boundary/wall.rs     colliders within h add ρ0·Φ (if enabled)
+//!   ├─ 3 wall density        boundary/wall/       colliders within h add ρ0·Φ (if enabled)
 //!   ├─ 4 the solver          solver/              one `PressureSolver` per fluid:
 //!   │    WCSPH (solver/wcsph.rs, the paper)   density.rs, pressure/eos.rs, pressure/wcsph.rs,
 //!   │                                         forces/viscosity.rs, forces/external.rs, integrate.rs

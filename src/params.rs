@@ -209,7 +209,7 @@ pub struct FluidParams {
     /// Viscosity constant `ε_w` (Pa·s) between the particles and the walls: the walls'
     /// solid volume acts as fluid moving with the wall in the viscosity term, so a particle
     /// next to a wall is dragged towards the wall's velocity (no-slip in the limit) and a
-    /// moving body feels the fluid's shear stress (see `src/boundary/wall.rs`). Needs
+    /// moving body feels the fluid's shear stress (see `src/boundary/wall/`). Needs
     /// [`Self::wall_density`] (the same half-space integrals); not available with the Clavet
     /// solver (its exchange with moving bodies drifted by 1.6 % of the momentum in a test).
     /// Both presets: 0 (free-slip walls; the stage is skipped).
@@ -264,7 +264,7 @@ pub struct FluidParams {
     /// paper preset: WCSPH (the paper's method).
     pub solver: Solver,
     /// Colliders near a particle add their volume's density to it and push with the
-    /// particle's pressure (see `src/boundary/wall.rs`), so particles do not cling to or
+    /// particle's pressure (see `src/boundary/wall/`), so particles do not cling to or
     /// clump along walls. Water preset: on, except with the Clavet solver (which by default
     /// meets walls through contact only: walls in its densities suit a fluid without
     /// cohesion, see [`crate::solver::clavet`]) unless asked for explicitly; paper preset:

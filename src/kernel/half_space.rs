@@ -172,7 +172,7 @@ impl HalfSpaceTable {
     /// space) is `M·n⊗n + Φ·(I − n⊗n)` for a wall of normal `n`: its tangential part equals
     /// `Φ` (per plane, `π∫|W'|(r² − z²)dr = 2π∫W r dr`), its normal part is
     /// `M(d) = Σ_k s·2π z_k² W(z_k)` over the rows `z_k = d + s/2 + k·s`. The wall's
-    /// hydrostatic pressure acts through it (see `src/boundary/wall.rs`).
+    /// hydrostatic pressure acts through it (see `src/boundary/wall/`).
     #[inline]
     pub fn eval_moment(&self, d: Real) -> (Real, Real) {
         self.lookup(d, &self.moment)

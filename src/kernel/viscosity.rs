@@ -34,7 +34,7 @@ impl ViscosityLaplacian {
 
     /// `∫ ∇²W dV` over the half-space lying `d` beyond the particle (`d < 0`: the particle is
     /// inside it): what a wall contributes to the viscosity sum in place of
-    /// `Σ_j m_j/ρ_j ∇²W_ij` (see `src/boundary/wall.rs`). A sphere of radius `r` around
+    /// `Σ_j m_j/ρ_j ∇²W_ij` (see `src/boundary/wall/`). A sphere of radius `r` around
     /// the particle has the cap area `2πr(r − d)` beyond the plane, so for `0 ≤ d < h`
     /// `∫ = 90/h⁶ ∫_d^h (h − r)·r·(r − d) dr`; the whole support integrates to `15/h²`, and
     /// `d < 0` is the whole minus the mirror half-space.

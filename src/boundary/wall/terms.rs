@@ -1,0 +1,379 @@
+//! The walls' terms of one particle: the solid's density fraction `Φ` and its gradient over
+//! every collider near (union of half-spaces), the walls' velocity and viscosity terms, the
+//! pinch test, and Clavet's two wall densities; evaluated per chunk of particles.
+
+use super::{Coupled, WallQuery};
+use crate::boundary::ContactWorkspace;
+use crate::boundary::bodies::{MovingCollider, entry_of};
+use crate::boundary::forces::{ParticleShares, Share, WallSink, Watch};
+use crate::kernel::HalfSpaceTable;
+use crate::math::{Real, Vector};
+use crate::neighbors::{NeighborGrid, NeighborLists};
+
+/// What [`WallWorkspace::update`] reads for every particle.
+pub(super) struct Terms<'a> {
+    pub(super) query: &'a WallQuery<'a>,
+    pub(super) grid: &'a NeighborGrid,
+    pub(super) neighbors: &'a NeighborLists,
+    pub(super) positions: &'a [Vector],
+    pub(super) candidates: &'a ContactWorkspace,
+    /// The coupling table of the substep (empty without moving bodies).
+    pub(super) table: &'a [MovingCollider],
+    /// Half-space tables of the density and force kernels, and their full values.
+    pub(super) td: &'a HalfSpaceTable,
+    pub(super) tf: &'a HalfSpaceTable,
+    pub(super) full: (Real, Real),
+    pub(super) lap: crate::kernel::ViscosityLaplacian,
+    /// Gravity, when the solver asked for the walls' hydrostatic pressure (else zero).
+    pub(super) gravity: Vector,
+    /// The hydrostatic terms are computed (asked for, under gravity).
+    pub(super) hydro: bool,
+    /// Some entry of the table is a dynamic body.
+    pub(super) any_dynamic: bool,
+}
+
+/// One particle's wall terms, summed over its walls as a union of independent half-spaces:
+/// `U' = 1 − (1 − U)(1 − a)`, `∇U' = ∇U·(1 − a) + ∇a·(1 − U)`.
+struct Sum {
+    /// Coverage `U`, its gradient (in units of the whole force kernel), `Σ v_wall·∇U`, and
+    /// the hydrostatic acceleration.
+    u: Real,
+    g: Vector,
+    m: Real,
+    hs: Vector,
+    /// The dynamic bodies' share of `g` and of `hs`, and `(|∇|², entry, point)` of the body
+    /// contributing most.
+    gc: Vector,
+    hc: Vector,
+    main: (Real, u32, Vector),
+    /// Viscous sums `Σ L_k` and `Σ L_k·v_k`: all walls, and the dynamic bodies' share.
+    ls: Real,
+    lv: Vector,
+    lc: Real,
+    lvc: Vector,
+}
+
+impl Terms<'_> {
+    /// The wall terms of sorted particle `i`; each wall's own terms go to `sink` as they are
+    /// united (`()`: nowhere; see `boundary::forces`).
+    #[inline(always)]
+    fn particle<W: WallSink>(&self, i: usize, sink: &mut W) -> Sum {
+        let x = self.positions[i];
+        let mut s = Sum {
+            u: 0.0,
+            g: Vector::ZERO,
+            m: 0.0,
+            hs: Vector::ZERO,
+            gc: Vector::ZERO,
+            hc: Vector::ZERO,
+            main: (0.0, u32::MAX, Vector::ZERO),
+            ls: 0.0,
+            lv: Vector::ZERO,
+            lc: 0.0,
+            lvc: Vector::ZERO,
+        };
+        let (_, colliders, _) = self.query.scene;
+        for &handle in self.candidates.of_cell(self.grid.cell_of(i)) {
+            if let Some(co) = colliders.get(handle) {
+                sink.begin(handle);
+                self.add_wall(&mut s, co, entry_of(self.table, handle), x, sink);
+            }
+        }
+        if self.hydro && s.g != Vector::ZERO {
+            // The neighbours' pressure is carried back to the particle by the hydrostatic
+            // difference from their weighted center (the same weights as DFSPH's average);
+            // ∇ρ_wall = g·ρ0·full_f.
+            let off = self.neighbour_center(i, -s.g.normalize());
+            let c = self.full.1 * self.gravity.dot(off);
+            s.hs += s.g * c;
+            sink.center(c);
+            if self.any_dynamic {
+                s.hc += s.gc * c;
+            }
+        }
+        s
+    }
+
+    /// Adds collider `co` (coupling-table entry `found`, if any) to the terms `s` of the
+    /// particle at `x`.
+    #[inline(always)]
+    fn add_wall<W: WallSink>(
+        &self,
+        s: &mut Sum,
+        co: &rapier3d::geometry::Collider,
+        found: Option<(u32, &MovingCollider)>,
+        x: Vector,
+        sink: &mut W,
+    ) {
+        let (h, predicted) = (self.query.params.smoothing_length, self.query.predicted);
+        let (full_d, full_f) = self.full;
+        // A moving body stands at its pose of the substep's start, or of its end for
+        // positions predicted to the end.
+        let entry = found.map(|(_, m)| m);
+        let pose = match entry {
+            Some(m) if m.moving && predicted => &m.stop,
+            Some(m) if m.moving => &m.start,
+            _ => co.position(),
+        };
+        let Some((d, normal, point)) = surface_near(co, pose, x, h) else {
+            return;
+        };
+        let (phi, _) = self.td.eval(d);
+        let (_, area) = self.tf.eval(d);
+        let a = (phi / full_d).min(1.0);
+        let lk = if self.query.viscous {
+            self.lap.half_space_integral(d) * (1.0 - s.u)
+        } else {
+            0.0
+        };
+        if a <= 0.0 && area <= 0.0 && lk <= 0.0 {
+            return;
+        }
+        let wall_velocity = self.wall_velocity(co, entry, point);
+        // ∇Φ = −A(d)·n (into the wall), in units of the whole kernel.
+        let ga = -normal * (area / full_f);
+        let gk = ga * (1.0 - s.u);
+        let mut hk = Vector::ZERO;
+        if self.hydro {
+            let gravity = self.gravity;
+            let (phi_f, mom) = self.tf.eval_moment(d);
+            let gn = normal * normal.dot(gravity);
+            hk = -(gn * mom + (gravity - gn) * phi_f) * (1.0 - s.u);
+            s.hs = s.hs * (1.0 - a) + hk;
+        }
+        let lv = wall_velocity.map_or(Vector::ZERO, |v| v * lk);
+        sink.wall(a, gk, hk, lk, lv, point);
+        s.g = s.g * (1.0 - a) + gk;
+        s.u = 1.0 - (1.0 - s.u) * (1.0 - a);
+        s.ls += lk;
+        if let Some(v) = wall_velocity {
+            s.lv += v * lk;
+        }
+        if self.any_dynamic {
+            s.gc *= 1.0 - a;
+            s.hc *= 1.0 - a;
+            if let Some((e, mc)) = found
+                && mc.dynamic
+            {
+                s.gc += gk;
+                s.hc += hk;
+                s.lc += lk;
+                s.lvc += wall_velocity.unwrap_or(Vector::ZERO) * lk;
+                let l = gk.length_squared();
+                // The first dynamic body always (its viscous share may come without a
+                // gradient at the support's edge), then the one with the largest gradient.
+                if l > s.main.0 || s.main.1 == u32::MAX {
+                    s.main = (l, e, point);
+                }
+            }
+        }
+        if let Some(v) = wall_velocity {
+            s.m += v.dot(gk);
+        }
+    }
+
+    /// The wall's velocity at its closest point `point` (static: none).
+    #[inline(always)]
+    fn wall_velocity(
+        &self,
+        co: &rapier3d::geometry::Collider,
+        entry: Option<&MovingCollider>,
+        point: Vector,
+    ) -> Option<Vector> {
+        let (_, _, bodies) = self.query.scene;
+        match entry {
+            Some(mc) if mc.moving && self.query.predicted => Some(mc.velocity_at_stop(point)),
+            Some(mc) if mc.moving => Some(mc.velocity_at_start(point)),
+            Some(_) => None,
+            None => co
+                .parent()
+                .and_then(|b| bodies.get(b))
+                .filter(|b| !b.is_fixed())
+                .map(|b| b.velocity_at_point(point)),
+        }
+    }
+
+    /// `x̄_i − x_i`, the center of the neighbours of sorted particle `i` weighted by
+    /// `max(0, ∇W_ij·û)` (the weights of the wall's pressure, see
+    /// [`WallWorkspace::neighbour_pressure`]); zero when none has weight, or in a periodic
+    /// grid (the separations would need the minimum image).
+    fn neighbour_center(&self, i: usize, away: Vector) -> Vector {
+        if self.grid.is_periodic() {
+            return Vector::ZERO;
+        }
+        let h = self.query.params.smoothing_length;
+        let positions = self.positions;
+        crate::with_kernel!(self.query.force_kernel, K => {
+            use crate::kernel::Kernel;
+            let k = K::new(h);
+            let xi = positions[i];
+            let (mut sw, mut sx) = (0.0, Vector::ZERO);
+            for &j in self.neighbors.of(i) {
+                let r = xi - positions[j as usize];
+                let d = r.length();
+                // Coincident particles have no direction.
+                if d >= h || d <= 0.0 {
+                    continue;
+                }
+                let w = (r * (k.dw(d) / d)).dot(away).max(0.0);
+                sw += w;
+                sx -= r * w;
+            }
+            if sw > 0.0 { sx / sw } else { Vector::ZERO }
+        })
+    }
+}
+
+/// The wall terms of the particles of one chunk (`first`: its first particle) into its
+/// rows; with `watch`, the watched colliders' shares too, into the chunk's own buffer `out`
+/// (so the shares stay in particle order). Returns how many particles have a wall near.
+#[inline]
+pub(super) fn update_chunk(
+    first: usize,
+    mut rows: Rows<'_>,
+    terms: &Terms<'_>,
+    watch: Option<&Watch>,
+    out: &mut Vec<Share>,
+) -> usize {
+    let Some(watch) = watch else {
+        return (0..rows.density.len())
+            .map(|k| rows.set(k, terms, &terms.particle(first + k, &mut ())))
+            .sum::<usize>();
+    };
+    (0..rows.density.len())
+        .map(|k| {
+            let mut sink = ParticleShares {
+                watch,
+                particle: (first + k) as u32,
+                first: out.len(),
+                out: &mut *out,
+                current: None,
+            };
+            rows.set(k, terms, &terms.particle(first + k, &mut sink))
+        })
+        .sum::<usize>()
+}
+
+/// One chunk of [`WallWorkspace`]'s per-particle arrays.
+pub(super) struct Rows<'c> {
+    pub(super) density: &'c mut [Real],
+    pub(super) gradient: &'c mut [Vector],
+    pub(super) motion: &'c mut [Real],
+    pub(super) coverage: &'c mut [Real],
+    pub(super) coupled: &'c mut [Coupled],
+    pub(super) hydrostatic: &'c mut [Vector],
+    pub(super) viscous: &'c mut [Real],
+    pub(super) viscous_velocity: &'c mut [Vector],
+}
+
+impl Rows<'_> {
+    /// Writes the terms `s` into row `k`; returns 1 when a wall is within the particle's
+    /// support, else 0.
+    #[inline(always)]
+    fn set(&mut self, k: usize, t: &Terms<'_>, s: &Sum) -> usize {
+        let rest_density = t.query.params.rest_density;
+        let (full_d, full_f) = t.full;
+        self.density[k] = rest_density * full_d * s.u;
+        self.gradient[k] = s.g * (rest_density * full_f);
+        self.motion[k] = s.m * rest_density * full_f;
+        self.coverage[k] = s.u;
+        self.hydrostatic[k] = s.hs;
+        if t.query.viscous {
+            self.viscous[k] = s.ls;
+            self.viscous_velocity[k] = s.lv;
+        }
+        if t.any_dynamic {
+            self.coupled[k] = Coupled {
+                gradient: s.gc * (rest_density * full_f),
+                hydrostatic: s.hc,
+                entry: s.main.1,
+                point: s.main.2,
+                viscous: s.lc,
+                viscous_velocity: s.lvc,
+            };
+        }
+        (s.u > 0.0 || s.g != Vector::ZERO || s.ls > 0.0) as usize
+    }
+}
+
+/// Clavet's two wall densities and their gradients at `x` from the static and kinematic
+/// colliders among `cands` (dynamic bodies are left to contact), with the tables `(t2, t3)`
+/// of the kernels `(1 − q)²` and `(1 − q)³`: the union of half-spaces per kernel, as in
+/// [`WallWorkspace::update`], per volume of the lattice rows behind the wall.
+#[inline(always)]
+pub(super) fn clavet_walls(
+    query: &WallQuery<'_>,
+    table: &[MovingCollider],
+    cands: &[rapier3d::geometry::ColliderHandle],
+    (t2, t3): (&HalfSpaceTable, &HalfSpaceTable),
+    x: Vector,
+) -> ([Real; 2], [Vector; 2]) {
+    let (_, colliders, bodies) = query.scene;
+    let (h, spacing) = (query.params.smoothing_length, query.params.particle_spacing);
+    // Number density of the lattice rows behind the wall.
+    let per_volume = 1.0 / (spacing * spacing * spacing);
+    let (full2, full3) = (t2.full(), t3.full());
+    let (mut u, mut g): ([Real; 2], [Vector; 2]) = ([0.0; 2], [Vector::ZERO; 2]);
+    for &handle in cands {
+        let Some(co) = colliders.get(handle) else {
+            continue;
+        };
+        let found = entry_of(table, handle).map(|(_, m)| m);
+        let dynamic = match found {
+            Some(m) => m.dynamic,
+            None => co
+                .parent()
+                .and_then(|b| bodies.get(b))
+                .is_some_and(|b| b.is_dynamic()),
+        };
+        if dynamic {
+            continue;
+        }
+        let pose = match found {
+            Some(m) if m.moving => &m.stop,
+            _ => co.position(),
+        };
+        let Some((d, normal, _)) = surface_near(co, pose, x, h) else {
+            continue;
+        };
+        for (t, (table, full)) in [(t2, full2), (t3, full3)].into_iter().enumerate() {
+            let (phi, area) = table.eval(d);
+            let a = (phi / full).min(1.0);
+            g[t] = g[t] * (1.0 - a) - normal * (area / full * (1.0 - u[t]));
+            u[t] = 1.0 - (1.0 - u[t]) * (1.0 - a);
+        }
+    }
+    (
+        [u[0] * full2 * per_volume, u[1] * full3 * per_volume],
+        [g[0] * (full2 * per_volume), g[1] * (full3 * per_volume)],
+    )
+}
+
+/// The surface of collider `co` (at `pose`) near `x`: the signed distance `d` to its closest
+/// point (negative inside the solid), the normal there pointing to the fluid side, and the
+/// point. `None` beyond `h`, or on the surface of a shape without a normal there.
+#[inline]
+pub(crate) fn surface_near(
+    co: &rapier3d::geometry::Collider,
+    pose: &crate::math::Pose,
+    x: Vector,
+    h: Real,
+) -> Option<(Real, Vector, Vector)> {
+    let proj = co.shape().project_point_with_max_dist(pose, x, false, h)?;
+    let offset = x - proj.point;
+    let dist = offset.length();
+    let normal = if dist > 1e-6 * h {
+        if proj.is_inside {
+            -offset / dist
+        } else {
+            offset / dist
+        }
+    } else {
+        // On the surface: the feature's normal, if the shape has one.
+        let local = pose.inverse_transform_point(x);
+        let (_, feature) = co.shape().project_local_point_and_get_feature(local);
+        pose.rotation * co.shape().feature_normal_at_point(0, feature, local)?
+    };
+    let d = if proj.is_inside { -dist } else { dist };
+    Some((d, normal, proj.point))
+}
