@@ -61,10 +61,6 @@ pub struct MovingCollider {
     /// rapier's substeps spread it, as an acceleration: the body's velocity `back` seconds
     /// before the frame's end is `vel − accel·back` (see [`Coupling::begin_frame`]).
     pub accel: Vector,
-    /// Rapier's velocity change over the frame (gravity, its contacts, user forces) divided by
-    /// the frame's length: the body's acceleration from everything but the fluid, which
-    /// [`Coupling::exchange`] solves together with the fluid's impulses.
-    pub rapier_rate: Vector,
     /// Seconds from the current substep's start and end to the frame's end.
     pub backs: (Real, Real),
     /// Inverse mass per axis (0 along locked axes; 0 for kinematic bodies).
@@ -329,7 +325,6 @@ impl Coupling {
                     linvel,
                     vel: linvel,
                     accel,
-                    rapier_rate: rapier_dv / dt,
                     backs: (0.0, 0.0),
                     inv_mass: if body.is_dynamic() {
                         body.mass_properties().effective_inv_mass
@@ -506,7 +501,7 @@ impl Coupling {
     /// `x` a particle from the center of mass and `g = x × n`, each such particle gains
     /// `δv = n·(n·Δu + g·Δω)` (the body's velocity where the particle is, along the normal)
     /// and the body gives that momentum up at the particle, which gives the 6 × 6 system
-    /// `Δu = M⁻¹(J − A Δu − B Δω) + a·dt`, `Δω = I⁻¹(L − Bᵀ Δu − C Δω)` with
+    /// `Δu = M⁻¹(J − A Δu − B Δω)`, `Δω = I⁻¹(L − Bᵀ Δu − C Δω)` with
     /// `A = Σ m n nᵀ`, `B = Σ m n gᵀ`, `C = Σ m g gᵀ`, `J` the impulses and `L` their moment
     /// (`AddedMass::solve`). A body of any mass, down to a balloon's, moves no faster than the
     /// water it pushes lets it (a 1 kg/m³ box dropped on water: 1.3–3.5 m/s with every solver,
@@ -520,15 +515,19 @@ impl Coupling {
     /// the angular momentum they exchanged, all of it the push-outs' (measured per frame);
     /// with them, 0.002 % and 0.008 %, round-off and the fluid's own.
     ///
-    /// The body's other forces over the substep (rapier's velocity change over the frame,
-    /// gravity mostly, at the substep's share: `a·dt`) enter the same solve: the particles
-    /// then move along with the body's whole velocity change, the body keeps
-    /// `J − Σ m δv = M·(Δu − a·dt)` from the fluid. Without it a body resting on water, whose
-    /// support `J` the fluid gives it in every substep while rapier takes its weight off once
-    /// per frame, would share a one-sided `Δu` with the particles under it every substep. `I⁻¹` is
-    /// the world inverse inertia at the frame's end. Both changes move the body from the next
-    /// substep on ([`Drift`]): the body moves with the substeps the fluid takes, not once per
-    /// frame.
+    /// The body's other forces (gravity, rapier's contacts and joints, user forces: rapier's
+    /// own velocity change over the frame, read against the velocity [`Coupling::apply`] left
+    /// the body with, the fluid's impulses included) take no part in the solve: they are
+    /// already in the motion the fluid sees (the path's [`MovingCollider::accel`] and the
+    /// velocity rapier's first substep adds), and contact reflects each particle against the
+    /// body's velocity at the substep's end, which holds the substep's share of them. Adding
+    /// that share `a·dt` to `Δu` as well counts it twice: the particles under a floating box
+    /// are dragged down with its weight's share every substep and the box is held up by it,
+    /// and the boxes of `tests/buoyancy.rs` float 4–5 % of their height too high (WCSPH 250 /
+    /// 500 / 750 kg/m³ submerged 0.201 / 0.449 / 0.714; 0.242 / 0.497 / 0.726 without it).
+    /// `I⁻¹` is the world inverse inertia at the frame's end. Both changes move the body from
+    /// the next substep on ([`Drift`]): the body moves with the substeps the fluid takes, not
+    /// once per frame.
     pub fn exchange(
         &mut self,
         records: &[Vec<ImpulseRecord>],
@@ -554,16 +553,7 @@ impl Coupling {
             if sums.count == 0 {
                 continue;
             }
-            // The body's other forces over the substep (rapier's velocity change, gravity
-            // mostly), on its free axes only.
-            let dt_sub = m.backs.0 - m.backs.1;
-            let free = Vector::new(
-                (m.inv_mass.x > 0.0) as u32 as Real,
-                (m.inv_mass.y > 0.0) as u32 as Real,
-                (m.inv_mass.z > 0.0) as u32 as Real,
-            );
-            let ext = m.rapier_rate * dt_sub * free;
-            let (du, dw) = sums.solve(m.inv_mass, &m.inv_inertia, ext);
+            let (du, dw) = sums.solve(m.inv_mass, &m.inv_inertia);
             let slot = match self.impulses.iter().position(|b| b.0 == body) {
                 Some(s) => s,
                 None => {
@@ -591,7 +581,7 @@ impl Coupling {
             }
             for c in self.candidates.iter_mut().chain(self.table.iter_mut()) {
                 if c.body == body {
-                    c.vel += du - ext;
+                    c.vel += du;
                     c.angvel += dw;
                 }
             }
@@ -618,6 +608,17 @@ impl Coupling {
             }
         }
         self.done = done;
+        self.teleports.record(bodies);
+        for (h, j, t) in self.impulses.drain(..) {
+            if let Some(body) = bodies.get_mut(h) {
+                let j = Vector::new(j[0] as Real, j[1] as Real, j[2] as Real);
+                let t = Vector::new(t[0] as Real, t[1] as Real, t[2] as Real);
+                body.apply_impulse(j, true);
+                body.apply_torque_impulse(t, true);
+            }
+        }
+        // The velocity rapier starts its next step from, the fluid's impulses included: its
+        // change over that step is then rapier's own (gravity, contacts, joints, user forces).
         self.left.clear();
         for c in &self.candidates {
             if c.dynamic
@@ -628,15 +629,6 @@ impl Coupling {
         }
         self.left.sort_by_key(|l| l.0.0);
         self.left.dedup_by_key(|l| l.0);
-        self.teleports.record(bodies);
-        for (h, j, t) in self.impulses.drain(..) {
-            if let Some(body) = bodies.get_mut(h) {
-                let j = Vector::new(j[0] as Real, j[1] as Real, j[2] as Real);
-                let t = Vector::new(t[0] as Real, t[1] as Real, t[2] as Real);
-                body.apply_impulse(j, true);
-                body.apply_torque_impulse(t, true);
-            }
-        }
         n
     }
 
@@ -682,18 +674,13 @@ impl AddedMass {
     }
 
     /// The body's velocity changes `(Δu, Δω)` from
-    /// `Δu = M⁻¹(J − A Δu − B Δω) + ext`, `Δω = I⁻¹(L − Bᵀ Δu − C Δω)`: the body and the
+    /// `Δu = M⁻¹(J − A Δu − B Δω)`, `Δω = I⁻¹(L − Bᵀ Δu − C Δω)`: the body and the
     /// particles it touched share one velocity change along each contact normal, linear and
     /// angular. `M⁻¹` per axis (a locked axis: 0), `I⁻¹` the world inverse inertia (a locked
     /// rotation: 0). The system `(1 + D·G)` has eigenvalues ≥ 1 (`D = diag(M⁻¹, I⁻¹)` and `G`
     /// are positive semi-definite), so it is solvable for any body mass; a light body is held
     /// back by the fluid it must push, as a real one is.
-    fn solve(
-        &self,
-        inv_mass: Vector,
-        inv_inertia: &AngularInertia,
-        ext: Vector,
-    ) -> (Vector, Vector) {
+    fn solve(&self, inv_mass: Vector, inv_inertia: &AngularInertia) -> (Vector, Vector) {
         let v = |x: Vector| nalgebra::Vector3::new(x.x as f64, x.y as f64, x.z as f64);
         let minv = nalgebra::Matrix3::from_diagonal(&v(inv_mass));
         let iinv = nalgebra::Matrix3::from_columns(&[
@@ -710,7 +697,7 @@ impl AddedMass {
             .copy_from(&(iinv * self.b.transpose()));
         k.fixed_view_mut::<3, 3>(3, 3)
             .copy_from(&(eye + iinv * self.c));
-        let top = minv * self.j + v(ext);
+        let top = minv * self.j;
         let bottom = iinv * self.l;
         let rhs = nalgebra::Vector6::new(top.x, top.y, top.z, bottom.x, bottom.y, bottom.z);
         let q = k
@@ -803,25 +790,12 @@ mod tests {
     use rapier3d::pipeline::PhysicsWorld;
 
     /// A ball in free fall whose frame ends with a fluid impulse `J` (`Coupling::apply`), then
-    /// one more rapier step: the velocity change `begin_frame` reads for that step should be
-    /// rapier's own (gravity: `rapier_rate = g`, `accel = g·(n − 1)/n`), as the fields' docs
-    /// say, not `g + J/(M·dt)`: the impulse changed the velocity rapier started from, before
-    /// its substeps.
-    ///
-    /// Not yet: `apply` records the velocity a body is left with before it applies the
-    /// impulses, so the next frame's `rapier_rate` and `accel` include them. Measured: with
-    /// `J = 5 m/s · M` at 60 Hz, `rapier_rate.y` = 290.19 m/s² (`g + J/(M·dt)`) instead of
-    /// −9.81. For a body the water holds up, `J/(M·dt) ≈ −g`, so the exchange has been
-    /// running with `rapier_rate ≈ 0`. Recording the velocity after the impulses (the fix
-    /// this test asks for) moves the floating boxes of `tests/buoyancy.rs` 5–7 % of their
-    /// height deeper, out of that test's bounds: WCSPH 250 / 500 / 750 kg/m³ submerged
-    /// 0.246 / 0.519 / 0.751 → 0.201 / 0.449 / 0.714, DFSPH 0.264 / 0.498 / 0.722 → 0.212 /
-    /// 0.457 / 0.708 (measured beside a contact change that alone left these figures as they
-    /// were). So the fix waits for the exchange's `ext` term (which the tuned figures met at
-    /// `rapier_rate ≈ 0`) to be revisited with the true rate.
+    /// one more rapier step: the velocity change `begin_frame` reads for that step is rapier's
+    /// own (gravity: `accel = g·(n − 1)/n`), not `g + J/(M·dt)`: the impulse changed the
+    /// velocity rapier started from, before its substeps. (Recording the velocity before the
+    /// impulses read 290.19 m/s² instead of −9.81 here, for `J = 5 m/s · M` at 60 Hz.)
     #[test]
-    #[ignore = "rapier_rate includes the fluid's last impulse; the fix moves buoyancy out of bounds (see the doc comment)"]
-    fn rapier_rate_leaves_out_the_fluids_last_impulse() {
+    fn rapier_change_leaves_out_the_fluids_last_impulse() {
         let mut world = PhysicsWorld::new();
         world.gravity = Vector::new(0.0, -9.81, 0.0);
         let dt = world.integration_parameters.dt;
@@ -840,20 +814,17 @@ mod tests {
             .impulses
             .push((body, [0.0, 5.0 * mass as f64, 0.0], [0.0; 3]));
         coupling.apply(&mut world.bodies);
+        // The velocity recorded for the next frame is the one rapier continues from.
+        assert_eq!(coupling.left_velocities()[0].1, world.bodies[body].linvel());
         world.step();
         coupling.begin_frame(dt, n, &world.bodies, &world.colliders);
         let c = &coupling.candidates[0];
         let g = -9.81;
         // f32 round-off of velocities near 5 m/s divided by dt: a few 1e-4 m/s².
         let tol = 64.0 * Real::EPSILON * 5.0 / dt;
-        assert!(
-            (c.rapier_rate.y - g).abs() < tol && c.rapier_rate.x == 0.0,
-            "rapier_rate {:?}, expected gravity {g}",
-            c.rapier_rate
-        );
         let spread = (n as Real - 1.0) / n as Real;
         assert!(
-            (c.accel.y - g * spread).abs() < tol,
+            (c.accel.y - g * spread).abs() < tol && c.accel.x == 0.0 && c.accel.z == 0.0,
             "accel {:?}, expected {}",
             c.accel,
             g * spread
