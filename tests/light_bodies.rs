@@ -189,12 +189,9 @@ fn very_light_bodies_float() {
     ]);
 }
 
-/// Drops 16 cm boxes much heavier than water (2,000 and 20,000 kg/m³: stone, tungsten) in the
-/// same tank with each solver; prints the figures and returns the outcomes.
-fn drop_heavy() -> Vec<(String, Outcome)> {
-    let (depth, drop) = (0.24, 0.05);
-    let (body_bound, water_bound) = speed_bounds(depth, drop);
-    let mut out = Vec::new();
+/// Every solver with the heavy densities (2,000 and 20,000 kg/m³: stone, tungsten).
+fn heavy_cases() -> Vec<(Solver, Real)> {
+    let mut cases = Vec::new();
     for solver in [
         Solver::Wcsph,
         Solver::dfsph(),
@@ -202,24 +199,36 @@ fn drop_heavy() -> Vec<(String, Outcome)> {
         Solver::Pbf(Pbf::default()),
     ] {
         for density in [2_000.0, 20_000.0] {
-            let o = drop_box(solver, density, drop, 1.5);
-            println!(
-                "{:6} {:5} kg/m³: body ≤ {:.2} m/s (bound {:.2}), water ≤ {:.2} m/s (bound \
-                 {:.2}), lowest corner {:+.4} m, inside {}, escaped {}, quarantined {}, cap {}",
-                solver.name(),
-                density,
-                o.body_speed,
-                body_bound,
-                o.water_speed,
-                water_bound,
-                o.lowest,
-                o.inside,
-                o.escaped,
-                o.quarantined,
-                o.cap_hit
-            );
-            out.push((format!("{} at {density} kg/m³", solver.name()), o));
+            cases.push((solver, density));
         }
+    }
+    cases
+}
+
+/// Drops 16 cm boxes much heavier than water (`cases`: solver and density) in the same tank;
+/// prints the figures and returns the outcomes.
+fn drop_heavy(cases: &[(Solver, Real)]) -> Vec<(String, Outcome)> {
+    let (depth, drop) = (0.24, 0.05);
+    let (body_bound, water_bound) = speed_bounds(depth, drop);
+    let mut out = Vec::new();
+    for &(solver, density) in cases {
+        let o = drop_box(solver, density, drop, 1.5);
+        println!(
+            "{:6} {:5} kg/m³: body ≤ {:.2} m/s (bound {:.2}), water ≤ {:.2} m/s (bound \
+             {:.2}), lowest corner {:+.4} m, inside {}, escaped {}, quarantined {}, cap {}",
+            solver.name(),
+            density,
+            o.body_speed,
+            body_bound,
+            o.water_speed,
+            water_bound,
+            o.lowest,
+            o.inside,
+            o.escaped,
+            o.quarantined,
+            o.cap_hit
+        );
+        out.push((format!("{} at {density} kg/m³", solver.name()), o));
     }
     out
 }
@@ -230,7 +239,7 @@ fn drop_heavy() -> Vec<(String, Outcome)> {
 #[test]
 fn heavy_bodies_sink_without_being_thrown() {
     let (body_bound, water_bound) = speed_bounds(0.24, 0.05);
-    let failures: Vec<String> = drop_heavy()
+    let failures: Vec<String> = drop_heavy(&heavy_cases())
         .into_iter()
         .filter(|(_, o)| {
             !(o.body_speed <= body_bound
@@ -248,37 +257,27 @@ fn heavy_bodies_sink_without_being_thrown() {
 /// center outside the box after every frame, and at the end the box's lowest corner at most
 /// a spacing and a quarter up (the last layer of particles under a landed box cannot be
 /// squeezed out, see `tests/buoyancy.rs`; a box still sinking or held by two layers would be
-/// higher) and not a quarter spacing into the floor.
+/// higher) and not a quarter spacing into the floor. Every solver but Clavet's 2,000 kg/m³
+/// case (see the next test).
 ///
-/// Not yet: measured (`cargo test --release --test light_bodies -- --ignored --nocapture`),
-/// the 20,000 kg/m³ boxes of WCSPH, DFSPH and Clavet and both of PBF's land on the particles
-/// under them: 4–9 particles, pinned on the floor (y < 1 mm) by contact's fallback for a
-/// particle caught between a moving body and a static wall, end 1–2 mm inside the box's
-/// bottom face and stay there; Clavet's 2,000 kg/m³ box does not sink (lowest corner at
-/// 0.121 m after 1.5, 3 and 5 s: its fluid holds it; its walls leave bodies to contact).
-///
-/// The mechanism, traced particle by particle: once the gap under the box is thinner than
-/// two contact radii, contact's step 2 cannot keep a particle one radius off both the box
-/// and the floor; step 3's fallback then rides it down with the box (the ride is checked for
-/// crossing a surface, not for the contact radius) until it reaches the floor's surface, and
-/// from then on keeps it at its start with no velocity. Its records give the box only
-/// `−m·Δv` of that particle, so nothing stops the box, which rapier's floor contact (blind to
-/// the particles) lets land over it. Squeezing such particles out sideways (moved along the
-/// box's bottom, away from its center, by the share of their way out that the box closes
-/// of the gap in the substep) made every case pass but Clavet's 2,000 kg/m³ one (inside 0,
-/// lowest corner −0.2 to −1.9 mm, water ≤ 1.9–11.8 m/s against the bound 15.3), but the
-/// squeezed particles land in the water beside the gap and the solvers turn that overlap
-/// into energy: `tests/buoyancy.rs`'s landing 5,000 and 7,850 kg/m³ boxes then gained 7–55 %
-/// (e.g. DFSPH 7,850: 440 → 681 J; none without it). Relaxing the overlap (the overlap
-/// relaxation, as for particles pushed out of a solid) cut the gain to 0.3–2.3 % (PBF
-/// 7,850: 440 → 450 J, the bound is 1 %) but moved the whole fluid's overlaps and a DFSPH
-/// 250 kg/m³ box floating against the tank's wall then floated at 0.314 of its height
-/// (0.262 without; bound 0.25 ± 0.05).
+/// Once the gap under a sinking box is thinner than two contact radii, contact cannot keep a
+/// particle a radius off both the box and the floor; its fallback used to ride the particle
+/// down with the box to the floor's surface and keep it there, giving the box only that
+/// particle's `−m·Δv`, so rapier's floor contact (blind to the particles) let the box land
+/// over it: 4–9 particles ended 1–2 mm inside the landed 20,000 kg/m³ boxes of every solver
+/// and PBF's and DFSPH's 2,000 kg/m³ ones. Contact now holds such a particle against the
+/// floor as the box's spacer (`contact::hold`): the box stops on the last layer, its lowest
+/// corner at 0.0400 m (two contact radii) with WCSPH, DFSPH and PBF at both densities and
+/// Clavet at 20,000 kg/m³, none inside (`cargo test --release --test light_bodies --
+/// --nocapture`).
 #[test]
-#[ignore = "pinned particles end inside landed heavy boxes; Clavet holds a 2,000 kg/m³ box up (see the doc comment)"]
 fn heavy_bodies_rest_on_the_floor_with_no_particle_inside() {
     let spacing = 0.04;
-    let failures: Vec<String> = drop_heavy()
+    let cases: Vec<_> = heavy_cases()
+        .into_iter()
+        .filter(|&(solver, density)| !(matches!(solver, Solver::Clavet(_)) && density == 2_000.0))
+        .collect();
+    let failures: Vec<String> = drop_heavy(&cases)
         .into_iter()
         .filter(|(_, o)| {
             !(o.inside == 0 && o.lowest <= 1.25 * spacing && o.lowest >= -0.25 * spacing)
@@ -286,4 +285,24 @@ fn heavy_bodies_rest_on_the_floor_with_no_particle_inside() {
         .map(|(name, _)| name)
         .collect();
     assert!(failures.is_empty(), "failed: {failures:?}");
+}
+
+/// Clavet's 2,000 kg/m³ box, on the bounds of the test above.
+///
+/// Not yet: it never reaches the floor (no particle inside it; lowest corner at 0.125 m after
+/// 1.5 s, 0.121 m after 1.5, 3 and 5 s before): Clavet's fluid holds it up. Its wall term
+/// leaves dynamic bodies out (`WallReaction::None`: they meet its fluid through contact
+/// only), so the body gets none of the wall pressure that carries the other solvers' boxes
+/// and their weight; what holds it is not this test's pinning but that coupling.
+#[test]
+#[ignore = "Clavet's fluid holds a 2,000 kg/m³ box up (its walls leave bodies to contact; see the doc comment)"]
+fn clavet_heavy_body_rests_on_the_floor() {
+    let spacing = 0.04;
+    let o = &drop_heavy(&[(Solver::clavet(), 2_000.0)])[0].1;
+    assert!(
+        o.inside == 0 && o.lowest <= 1.25 * spacing && o.lowest >= -0.25 * spacing,
+        "lowest corner {:.4} m, inside {}",
+        o.lowest,
+        o.inside
+    );
 }

@@ -545,10 +545,20 @@ impl Coupling {
             let body = m.body;
             done.push(body);
             let of_body = |r: &&ImpulseRecord| self.table[r.entry as usize].body == body;
+            // A record's mass in the solve and the factor on its impulse (a held one: a
+            // spacer of `HELD_MASS` body masses; none without a free axis).
+            let lightest = m.inv_mass.max_element();
+            let held = (lightest > 0.0).then(|| HELD_MASS / lightest);
+            let weigh = |r: &ImpulseRecord, mi: Real| match held {
+                Some(k) if r.held.is_some() => (k, k / mi),
+                _ => (mi, 1.0),
+            };
+            let mut back = Vector::ZERO;
             let mut sums = AddedMass::default();
             for r in records.iter().flatten().filter(of_body) {
                 let i = r.particle as usize;
-                sums.add(r, positions[i], m.com_stop, mass.of(i));
+                let (mi, scale) = weigh(r, mass.of(i));
+                sums.add(r, positions[i], m.com_stop, mi, scale as f64);
             }
             if sums.count == 0 {
                 continue;
@@ -570,20 +580,35 @@ impl Coupling {
                 let x = positions[i] - com;
                 let dv = r.normal * r.normal.dot(du + dw.cross(x));
                 velocities[i] += dv;
-                let mi = mass.of(i);
-                let impulse = r.impulse - dv * mi;
-                let torque = (r.point - com).cross(r.impulse) - r.moment - x.cross(dv * mi);
+                let (j, torque) = match weigh(r, mass.of(i)) {
+                    (mi, scale) if r.held.is_some() => {
+                        back = back_off(back, r);
+                        // In f64: the two terms nearly cancel.
+                        let (jr, taken) = (f64v(r.impulse) * scale as f64, f64v(dv) * mi as f64);
+                        let l = f64v(r.point - com).cross(&jr) - f64v(x).cross(&taken);
+                        (jr - taken, l - f64v(r.moment))
+                    }
+                    (mi, _) => {
+                        let impulse = r.impulse - dv * mi;
+                        let torque = (r.point - com).cross(r.impulse) - r.moment - x.cross(dv * mi);
+                        (f64v(impulse), f64v(torque))
+                    }
+                };
                 let b = &mut self.impulses[slot];
                 for c in 0..3 {
-                    b.1[c] += impulse[c] as f64;
-                    b.2[c] += torque[c] as f64;
+                    b.1[c] += j[c];
+                    b.2[c] += torque[c];
                 }
             }
+            let back = back * free_axes(m.inv_mass);
             for c in self.candidates.iter_mut().chain(self.table.iter_mut()) {
                 if c.body == body {
                     c.vel += du;
                     c.angvel += dw;
                 }
+            }
+            for c in self.candidates.iter_mut().filter(|c| c.body == body) {
+                c.drift.shift += back;
             }
         }
         self.done = done;
@@ -645,6 +670,36 @@ impl Coupling {
     }
 }
 
+/// The shift `back` moved so that it takes the body at least `r.held` away from held record
+/// `r`'s particle, along the record's normal (the records taken one after the other: a
+/// shift that already covers one is kept).
+#[inline]
+fn back_off(back: Vector, r: &ImpulseRecord) -> Vector {
+    let (n, d) = (-r.normal, r.held.unwrap_or(0.0));
+    let short = d - back.dot(n);
+    if short > 0.0 && short.is_finite() {
+        back + n * short
+    } else {
+        back
+    }
+}
+
+/// 1 along the free axes of a body of inverse masses `inv_mass`, 0 along locked ones.
+#[inline]
+fn free_axes(inv_mass: Vector) -> Vector {
+    Vector::new(
+        (inv_mass.x > 0.0) as u32 as Real,
+        (inv_mass.y > 0.0) as u32 as Real,
+        (inv_mass.z > 0.0) as u32 as Real,
+    )
+}
+
+/// `x` in f64.
+#[inline(always)]
+fn f64v(x: Vector) -> nalgebra::Vector3<f64> {
+    nalgebra::Vector3::new(x.x as f64, x.y as f64, x.z as f64)
+}
+
 /// The sums of one body's added-mass solve (see [`Coupling::exchange`]), in f64: the impulse
 /// `J` and its moment `L` about the center of mass (each impulse at its contact point), and
 /// `Σ m·[n; g][n; g]ᵀ` with `g = x × n` (`x` the particle from the center of mass) as its
@@ -660,13 +715,21 @@ struct AddedMass {
 }
 
 impl AddedMass {
-    fn add(&mut self, r: &ImpulseRecord, particle: Vector, com: Vector, mass: Real) {
-        let v = |x: Vector| nalgebra::Vector3::new(x.x as f64, x.y as f64, x.z as f64);
+    /// Adds record `r` of a particle at `particle` of mass `mass` in the solve, its impulse
+    /// times `scale`.
+    fn add(&mut self, r: &ImpulseRecord, particle: Vector, com: Vector, mass: Real, scale: f64) {
+        let v = f64v;
         let x = particle - com;
         let (n, g) = (v(r.normal), v(x.cross(r.normal)));
         let m = mass as f64;
-        self.j += v(r.impulse);
-        self.l += v((r.point - com).cross(r.impulse) - r.moment);
+        if r.held.is_some() {
+            let j = v(r.impulse) * scale;
+            self.j += j;
+            self.l += v(r.point - com).cross(&j) - v(r.moment);
+        } else {
+            self.j += v(r.impulse);
+            self.l += v((r.point - com).cross(r.impulse) - r.moment);
+        }
         self.a += n * n.transpose() * m;
         self.b += n * g.transpose() * m;
         self.c += g * g.transpose() * m;
@@ -768,7 +831,20 @@ pub struct ImpulseRecord {
     /// the body gives up: contact moving a particle of momentum `p` out of the body by `Δx`
     /// gives it `Δx × p` (zero for the walls' records).
     pub moment: Vector,
+    /// For a particle another surface holds against the body (see `contact::hold`): how
+    /// much thinner than two contact radii the gap is (m). In the added-mass solve it
+    /// stands for a rigid spacer of [`HELD_MASS`] times the body's mass (`impulse` is its
+    /// real mass's share), and the body is moved back by that much (no velocity). `None`
+    /// for every other record.
+    pub held: Option<Real>,
 }
+
+/// The mass a held particle (caught in a gap thinner than two contact radii between a body
+/// closing in and another surface, see `contact::hold`) takes in the added-mass solve, in
+/// units of the body's mass (of its lightest free axis): the other surface holds it, so the
+/// body's approach there stops as against a rigid contact (`1 − 1/(1 + HELD_MASS)` of it,
+/// 99.9 %; the rest is the round-off's order for the body's momentum in `f32`).
+pub const HELD_MASS: Real = 1.0e3;
 
 /// The coupling-table entry of collider `h`, if any: `(index, entry)`.
 #[inline]

@@ -55,6 +55,7 @@ pub(crate) fn apply(
                 impulse: -dv * c.mass.of(i),
                 point: positions[i],
                 moment: Vector::ZERO,
+                held: None,
             });
         }
     }

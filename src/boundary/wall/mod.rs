@@ -539,6 +539,7 @@ impl WallWorkspace {
                     impulse,
                     point: super::bodies::on_line(at[i], cw.point, impulse),
                     moment: Vector::ZERO,
+                    held: None,
                 });
             }
         }
