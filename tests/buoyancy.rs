@@ -4,9 +4,9 @@
 //!
 //! Walls count in the density (`wall_density(true)`; WCSPH and DFSPH, the water preset's
 //! default), so the water's pressure pushes the body (contact alone transmits too little: the
-//! boxes float 5–12 % too deep). Measured (4 cm, the 3rd second): WCSPH 0.242 / 0.497 /
-//! 0.726, corners 0.048 / 0.042 / 0.044 g; DFSPH (hydrostatic walls) 0.258 / 0.501 / 0.751,
-//! 0.196 / 0.050 / 0.040 g; the 2000 kg/m³ box's lowest corner 0.0400 m up with both (it
+//! boxes float 5–12 % too deep). Measured (4 cm, the 3rd second): WCSPH 0.241 / 0.502 /
+//! 0.726, corners 0.050 / 0.040 / 0.043 g; DFSPH (hydrostatic walls) 0.257 / 0.503 / 0.761,
+//! 0.062 / 0.051 / 0.044 g; the 2000 kg/m³ box's lowest corner 0.0400 m up with both (it
 //! rests on the last particle layer, held against the floor by contact: `contact::hold`).
 //!
 //! The suite's test is lean (4 cm particles, a box 5 particles tall, ~1 800 particles, a few
@@ -22,7 +22,7 @@
 //! `cubes_float_at_the_right_depth`, about two minutes: the finer measurement with 16 cm cubes
 //! (2.5 cm particles) in 0.3 m of water: the tilted 750 kg/m³ cube's lowest edge floats
 //! 0.146 m deep, so shallower water would leave it within the floor's kernel reach. Measured:
-//! 0.234 / 0.478 / 0.725 for 250 / 500 / 750 kg/m³ (`cargo run --release --example buoyancy
+//! 0.235 / 0.485 / 0.733 for 250 / 500 / 750 kg/m³ (`cargo run --release --example buoyancy
 //! -- --cubes`).
 //! `dense_boxes_land_and_rest_without_gaining_energy` (~15 s): boxes of 5,000 and 7,850 kg/m³
 //! land on the floor and rest, with WCSPH, DFSPH and PBF, the total energy never above its
@@ -198,7 +198,7 @@ fn pbf_boxes_float_within_5_percent_of_archimedes() {
     assert!(failures.is_empty(), "{failures:?}");
 }
 
-/// About two minutes on two cores (measured: 0.234 / 0.478 / 0.725 for 250 / 500 /
+/// About two minutes on two cores (measured: 0.235 / 0.485 / 0.733 for 250 / 500 /
 /// 750 kg/m³).
 #[test]
 fn cubes_float_at_the_right_depth() {
