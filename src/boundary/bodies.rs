@@ -61,6 +61,10 @@ pub struct MovingCollider {
     /// rapier's substeps spread it, as an acceleration: the body's velocity `back` seconds
     /// before the frame's end is `vel − accel·back` (see [`Coupling::begin_frame`]).
     pub accel: Vector,
+    /// Rapier's own velocity change over the frame (gravity, its contacts, user forces) divided
+    /// by the frame's length: the rate [`Coupling::exchange`] adds to the added-mass solve of
+    /// records taken with the body at its substep's end (`with_rapier`).
+    pub rapier_rate: Vector,
     /// Seconds from the current substep's start and end to the frame's end.
     pub backs: (Real, Real),
     /// Inverse mass per axis (0 along locked axes; 0 for kinematic bodies).
@@ -325,6 +329,7 @@ impl Coupling {
                     linvel,
                     vel: linvel,
                     accel,
+                    rapier_rate: rapier_dv / dt,
                     backs: (0.0, 0.0),
                     inv_mass: if body.is_dynamic() {
                         body.mass_properties().effective_inv_mass
@@ -517,14 +522,21 @@ impl Coupling {
     ///
     /// The body's other forces (gravity, rapier's contacts and joints, user forces: rapier's
     /// own velocity change over the frame, read against the velocity [`Coupling::apply`] left
-    /// the body with, the fluid's impulses included) take no part in the solve: they are
-    /// already in the motion the fluid sees (the path's [`MovingCollider::accel`] and the
-    /// velocity rapier's first substep adds), and contact reflects each particle against the
-    /// body's velocity at the substep's end, which holds the substep's share of them. Adding
-    /// that share `a·dt` to `Δu` as well counts it twice: the particles under a floating box
-    /// are dragged down with its weight's share every substep and the box is held up by it,
-    /// and the boxes of `tests/buoyancy.rs` float 4–5 % of their height too high (WCSPH 250 /
-    /// 500 / 750 kg/m³ submerged 0.201 / 0.449 / 0.714; 0.242 / 0.497 / 0.726 without it).
+    /// the body with, the fluid's impulses included) enter the solve only for records a solver
+    /// took with the body at its substep's *end* (`with_rapier`: PBF's wall reaction, whose
+    /// position solve stands the body at its end pose, after the substep's share `a·dt` of
+    /// them, as the particles stand after their gravity's `g·dt`): the records then hold no
+    /// part of that share (body and particles moved by it together), and the particles must
+    /// share the body's whole velocity change, `Δu = M⁻¹(J − A Δu − B Δω) + a·dt`, the body
+    /// keeping `J − Σ m δv = M·(Δu − a·dt)` from the fluid. Records taken against the body's
+    /// motion at the substep's *start* (WCSPH's and DFSPH's walls, whose particles took their
+    /// gravity against a body that had not yet taken its own) and contact's (which reflects
+    /// each particle against the body's velocity at the substep's end) already hold that share
+    /// as relative motion: adding it to them counts it twice, and the boxes of
+    /// `tests/buoyancy.rs` float 4–5 % of their height too high (WCSPH 250 / 500 / 750 kg/m³
+    /// submerged 0.201 / 0.449 / 0.714; 0.242 / 0.497 / 0.726 without it). Left out of PBF's,
+    /// its 2.5 cm boxes float too deep: 250 / 500 / 750 kg/m³ submerged 0.266 / 0.513 / 0.766
+    /// (0.258 / 0.502 / 0.757 with it; `cargo test --release --test buoyancy pbf_boxes`).
     /// `I⁻¹` is the world inverse inertia at the frame's end. Both changes move the body from
     /// the next substep on ([`Drift`]): the body moves with the substeps the fluid takes, not
     /// once per frame.
@@ -534,6 +546,7 @@ impl Coupling {
         positions: &[Vector],
         velocities: &mut [Vector],
         mass: ParticleMass<'_>,
+        with_rapier: bool,
     ) {
         let mut done = std::mem::take(&mut self.done);
         done.clear();
@@ -563,7 +576,14 @@ impl Coupling {
             if sums.count == 0 {
                 continue;
             }
-            let (du, dw) = sums.solve(m.inv_mass, &m.inv_inertia);
+            // Rapier's share of the substep, on the free axes, for records taken with the
+            // body at its substep's end (see `with_rapier`).
+            let ext = if with_rapier {
+                m.rapier_rate * (m.backs.0 - m.backs.1) * free_axes(m.inv_mass)
+            } else {
+                Vector::ZERO
+            };
+            let (du, dw) = sums.solve(m.inv_mass, &m.inv_inertia, ext);
             let slot = match self.impulses.iter().position(|b| b.0 == body) {
                 Some(s) => s,
                 None => {
@@ -603,7 +623,7 @@ impl Coupling {
             let back = back * free_axes(m.inv_mass);
             for c in self.candidates.iter_mut().chain(self.table.iter_mut()) {
                 if c.body == body {
-                    c.vel += du;
+                    c.vel += du - ext;
                     c.angvel += dw;
                 }
             }
@@ -743,7 +763,12 @@ impl AddedMass {
     /// rotation: 0). The system `(1 + D·G)` has eigenvalues ≥ 1 (`D = diag(M⁻¹, I⁻¹)` and `G`
     /// are positive semi-definite), so it is solvable for any body mass; a light body is held
     /// back by the fluid it must push, as a real one is.
-    fn solve(&self, inv_mass: Vector, inv_inertia: &AngularInertia) -> (Vector, Vector) {
+    fn solve(
+        &self,
+        inv_mass: Vector,
+        inv_inertia: &AngularInertia,
+        ext: Vector,
+    ) -> (Vector, Vector) {
         let v = |x: Vector| nalgebra::Vector3::new(x.x as f64, x.y as f64, x.z as f64);
         let minv = nalgebra::Matrix3::from_diagonal(&v(inv_mass));
         let iinv = nalgebra::Matrix3::from_columns(&[
@@ -760,7 +785,7 @@ impl AddedMass {
             .copy_from(&(iinv * self.b.transpose()));
         k.fixed_view_mut::<3, 3>(3, 3)
             .copy_from(&(eye + iinv * self.c));
-        let top = minv * self.j;
+        let top = minv * self.j + v(ext);
         let bottom = iinv * self.l;
         let rhs = nalgebra::Vector6::new(top.x, top.y, top.z, bottom.x, bottom.y, bottom.z);
         let q = k

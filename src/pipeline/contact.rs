@@ -101,7 +101,7 @@ pub(super) fn collider_contact(
         && !c.table().is_empty()
     {
         report.timed(Stage::Contact, || {
-            c.exchange(impulses, positions, velocities, masses)
+            c.exchange(impulses, positions, velocities, masses, false)
         });
         let m = (masses, true);
         forces.after_exchange(scene.watch, c.table(), impulses, velocities, m);

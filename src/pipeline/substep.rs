@@ -584,7 +584,13 @@ fn wall_reaction(
         &mut records[0],
     );
     records[0].append(viscous);
-    coupling.exchange(records, ctx.positions, ctx.velocities, m);
+    coupling.exchange(
+        records,
+        ctx.positions,
+        ctx.velocities,
+        m,
+        solver.predicts_positions(),
+    );
     ctx.report.timings.add(Stage::Contact, t0.elapsed());
     true
 }

@@ -22,7 +22,9 @@ impl PressureSolver for PbfState {
     const PREDICTS_POSITIONS: bool = true;
     // The reaction goes through the added-mass solve as WCSPH's and DFSPH's: explicit, it
     // threw a 1 kg/m³ box at 2·10⁶ m/s (`tests/light_bodies.rs`) once the coupling stopped
-    // counting the last frame's impulse as rapier's acceleration.
+    // counting the last frame's impulse as rapier's acceleration. Its walls stand the body at
+    // its substep's end pose, so the exchange adds rapier's share of the substep to the solve
+    // (`Coupling::exchange`, `with_rapier`).
     const WALL_REACTION: WallReaction = WallReaction::Impulse { added_mass: true };
 
     fn walls(settings: &Pbf, params: &FluidParams) -> WallRequest {
