@@ -912,7 +912,7 @@ impl Press {
 ///
 /// Here the other surface holds the particle, so it is the body's spacer: its record is
 /// marked held ([`ImpulseRecord::held`]) and the added-mass solve gives it
-/// [`super::bodies::HELD_MASS`] times the body's mass, moving at the other surface's
+/// `HELD_MASS` (`bodies::exchange`) times the body's mass, moving at the other surface's
 /// velocity: the body's approach there stops, as against a rigid contact (inelastic: the
 /// body loses that velocity, the other surface takes the momentum). The particle moves with
 /// the body along the normal (the solve then brings both to the other surface's velocity);
