@@ -180,6 +180,13 @@ pub(crate) struct PairChunk {
     pub grad: Vec<Vec3A>,
     /// `∇²W_v(|x_i − x_j|)`; empty when the fluid is not viscous.
     pub laplacian: Vec<Real>,
+    /// Hydrostatic walls: each pair's weight `max(0, ∇W_ij·û_i)` in the wall's pressure value
+    /// (DFSPH's wall pressure value `π̂_i`), constant over a substep, so the solves' iterations read
+    /// it instead of recomputing it; empty without hydrostatic walls. 4 bytes per pair.
+    pub wall_weight: Vec<Real>,
+    /// Hydrostatic walls: each particle's sum of its pairs' `wall_weight` (0 where the wall
+    /// takes no pressure from the neighbours); empty without hydrostatic walls.
+    pub wall_weight_sum: Vec<Real>,
 }
 
 impl PairGradients {
@@ -200,7 +207,13 @@ impl PairGradients {
     pub fn heap_bytes(&self) -> usize {
         self.chunks
             .iter()
-            .map(|c| c.grad.capacity() * std::mem::size_of::<Vec3A>() + c.laplacian.capacity() * 4)
+            .map(|c| {
+                c.grad.capacity() * std::mem::size_of::<Vec3A>()
+                    + (c.laplacian.capacity()
+                        + c.wall_weight.capacity()
+                        + c.wall_weight_sum.capacity())
+                        * 4
+            })
             .sum::<usize>()
             + self.chunks.capacity() * std::mem::size_of::<PairChunk>()
     }

@@ -2,7 +2,7 @@
 //! over the pairs, with the pair gradients kept for the solves.
 
 use super::super::pairs::{Block, KernelSums, PairGradients, PairSink, kernel_sums};
-use super::{WarmPush, to_vectors};
+use super::{WarmPush, to_vectors, wall_weights};
 use crate::boundary::WallWorkspace;
 use crate::domain::Separation;
 use crate::kernel::{Kernel, ViscosityLaplacian};
@@ -60,6 +60,8 @@ pub(crate) fn density_and_factors<K: Kernel, S: Separation>(
     let n = positions.len();
     assert_eq!(pushed.len(), n, "one pushed velocity per particle");
     let grad_chunks = grads.chunks_mut(n);
+    // Hydrostatic walls: the pairs' weights of the wall's pressure value, once per substep.
+    let averaged = wall.is_some_and(|w| w.neighbour_pressure);
     crate::par_chunks_mut!(densities, CHUNK)
         .zip(crate::par_chunks_mut!(inv_densities, CHUNK))
         .zip(crate::par_chunks_mut!(alpha, CHUNK))
@@ -75,6 +77,10 @@ pub(crate) fn density_and_factors<K: Kernel, S: Separation>(
                     let in_chunk = offsets[dens.len()] as usize;
                     gc.grad.resize(in_chunk, Vec3A::ZERO);
                     gc.laplacian.resize(viscosity.map_or(0, |_| in_chunk), 0.0);
+                    gc.wall_weight
+                        .resize(if averaged { in_chunk } else { 0 }, 0.0);
+                    gc.wall_weight_sum
+                        .resize(if averaged { dens.len() } else { 0 }, 0.0);
                     for k in 0..dens.len() {
                         let i = base + k;
                         let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
@@ -91,6 +97,15 @@ pub(crate) fn density_and_factors<K: Kernel, S: Separation>(
                         };
                         let KernelSums { w: wsum, g, g2 } =
                             kernel_sums(pairs, &kernel, i, nb, &mut store);
+                        let sw = match wall {
+                            Some(w) if averaged => {
+                                wall_weights(out, w.gradient[i], &mut gc.wall_weight[s..e])
+                            }
+                            _ => 0.0,
+                        };
+                        if averaged {
+                            gc.wall_weight_sum[k] = sw;
+                        }
                         let mut rho = self_term + mass * wsum;
                         let grad = g * mass;
                         // Own pressure's effect on own density: the push Σm∇W + γ∇ρ_wall dotted with the
@@ -103,7 +118,12 @@ pub(crate) fn density_and_factors<K: Kernel, S: Separation>(
                         }
                         if let Some((push, pusher)) = &push {
                             let v = Vec3A::from(push.velocities[i]);
-                            pushed[k] = v - pusher.push(nb, out, push.pi, i);
+                            let weights = (&gc.wall_weight[..], sw);
+                            let weights = match averaged {
+                                true => (&weights.0[s..e], sw),
+                                false => (&[][..], 0.0),
+                            };
+                            pushed[k] = v - pusher.push((nb, out), weights, push.pi, i);
                         }
                         dens[k] = rho;
                         inv[k] = 1.0 / rho;

@@ -320,18 +320,30 @@ struct Pusher<'a> {
 
 impl Pusher<'_> {
     /// `dt·(Σ_j m (π_i + π_j) ∇W_ij + γ π_i ∇ρ_wall,i)`: how much the pressure values `pi`
-    /// change particle `i`'s velocity over `dt` (subtracted), from its neighbours `nb` and
-    /// their gradients `g`.
+    /// change particle `i`'s velocity over `dt` (subtracted), from its neighbours `nb`, their
+    /// gradients `g` and, with hydrostatic walls, the pairs' wall weights `weights` and
+    /// their sum (see [`wall_weights`]; empty slices without).
     #[inline(always)]
-    fn push(&self, nb: &[u32], g: &[Vec3A], pi: &[Real], i: usize) -> Vec3A {
+    fn push(
+        &self,
+        (nb, g): (&[u32], &[Vec3A]),
+        weights: (&[Real], Real),
+        pi: &[Real],
+        i: usize,
+    ) -> Vec3A {
         let pii = pi[i];
-        let f = pair_sum(nb, g, |j, g| g * (pii + pi[j]));
+        let average = self.neighbour && self.wall.is_some_and(|w| w.neighbour_pressure);
+        let (f, swp) = if average && weights.1 > 0.0 {
+            pair_sum_weighted(nb, g, weights.0, pi, pii)
+        } else {
+            (pair_sum(nb, g, |j, g| g * (pii + pi[j])), 0.0)
+        };
         let mut dv = Vector::from(f) * (self.dt * self.mass);
         if let Some(wall) = self.wall {
             let gw = wall.gradient[i];
             let mut wall_pi = wall.mirror * pii;
-            if self.neighbour && wall.neighbour_pressure {
-                wall_pi += neighbour_average(nb, g, gw, |j| pi[j]);
+            if average {
+                wall_pi += weighted_average(swp, weights.1);
             }
             dv += gw * (wall_pi * self.dt);
         }
@@ -342,22 +354,61 @@ impl Pusher<'_> {
     }
 }
 
-/// The wall's pressure value `π̂_i` with hydrostatic walls: the average of the neighbours'
-/// values `pi(j)` weighted by `max(0, ∇W_ij·û)`, `û = −∇ρ_wall/|∇ρ_wall|` pointing away from
-/// the walls (the neighbours on the fluid side of the particle; on a lattice at `h = 2s`
-/// next to a flat wall, the row one spacing further from it). 0 without wall or weight.
+/// [`pair_sum`] of `g·(π_i + π_j)` (the same accumulators and order, the same bits) and, in
+/// the same loop, `Σ_t w_t·π_j` in pair order (the wall's neighbour average's numerator, see
+/// [`weighted_average`]): each neighbour's value is gathered once.
 #[inline(always)]
-fn neighbour_average(nb: &[u32], g: &[Vec3A], gw: Vector, pi: impl Fn(usize) -> Real) -> Real {
+fn pair_sum_weighted(nb: &[u32], g: &[Vec3A], w: &[Real], pi: &[Real], pii: Real) -> (Vec3A, Real) {
+    let mut acc = [Vec3A::ZERO; ACC];
+    let mut swp: Real = 0.0;
+    let full = nb.len() / ACC * ACC;
+    for ((j, gv), wv) in nb[..full]
+        .chunks_exact(ACC)
+        .zip(g[..full].chunks_exact(ACC))
+        .zip(w[..full].chunks_exact(ACC))
+    {
+        for l in 0..ACC {
+            let p = pi[j[l] as usize];
+            acc[l] += gv[l] * (pii + p);
+            swp += wv[l] * p;
+        }
+    }
+    let rest = nb[full..].iter().zip(&g[full..]).zip(&w[full..]);
+    for (l, ((&j, &gv), &wv)) in rest.enumerate() {
+        let p = pi[j as usize];
+        acc[l] += gv * (pii + p);
+        swp += wv * p;
+    }
+    ((acc[0] + acc[1]) + (acc[2] + acc[3]), swp)
+}
+
+/// The weights of the wall's pressure value `π̂_i` with hydrostatic walls, written into `out`
+/// pair by pair: `max(0, ∇W_ij·û)`, `û = −∇ρ_wall/|∇ρ_wall|` pointing away from the walls
+/// (the neighbours on the fluid side of the particle; on a lattice at `h = 2s` next to a
+/// flat wall, the row one spacing further from it); returns their sum, 0 without wall
+/// gradient. `π̂_i` is then the neighbours' values averaged with them
+/// ([`weighted_average`]). They depend on the substep's gradients only: computed once by the
+/// density pass ([`density_and_factors`]), read by every iteration.
+#[inline(always)]
+fn wall_weights(g: &[Vec3A], gw: Vector, out: &mut [Real]) -> Real {
     if gw == Vector::ZERO {
+        out.fill(0.0);
         return 0.0;
     }
     let away = Vec3A::from(-gw.normalize());
-    let (mut sw, mut swp) = (0.0, 0.0);
-    for (&j, &g) in nb.iter().zip(g) {
+    let mut sw = 0.0;
+    for (o, &g) in out.iter_mut().zip(g) {
         let w = g.dot(away).max(0.0);
+        *o = w;
         sw += w;
-        swp += w * pi(j as usize);
     }
+    sw
+}
+
+/// `π̂_i = Σ_t w_t·π_j / Σ_t w_t` from the numerator `swp` and the weights' sum `sw` (see
+/// [`wall_weights`]); 0 without weight.
+#[inline(always)]
+fn weighted_average(swp: Real, sw: Real) -> Real {
     if sw > 0.0 { swp / sw } else { 0.0 }
 }
 
@@ -379,12 +430,12 @@ pub(crate) fn wall_neighbour_pressure(
     let (c, k) = (i / CHUNK, i % CHUNK);
     let (offsets, indices) = neighbors.chunk(c);
     let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
-    neighbour_average(
-        &indices[s..e],
-        &grads.chunk(c).grad[s..e],
-        wall.gradient[i],
-        pi,
-    )
+    let gc = grads.chunk(c);
+    let mut swp: Real = 0.0;
+    for (&j, &w) in indices[s..e].iter().zip(&gc.wall_weight[s..e]) {
+        swp += w * pi(j as usize);
+    }
+    weighted_average(swp, gc.wall_weight_sum[k])
 }
 
 /// Pass B of an iteration: `v_i −= dt·(Σ_j m (π_i + π_j) ∇W_ij + π_i ∇ρ_wall,i)` (the walls'
@@ -404,10 +455,16 @@ fn apply_pressure(ctx: &SolveContext<'_>, neighbour: bool, pi: &[Real], velociti
                 #[inline(always)]
                 || {
                     let (offsets, indices) = ctx.neighbors.chunk(c);
-                    let gc = &ctx.gradients.chunk(c).grad;
+                    let gc = ctx.gradients.chunk(c);
+                    let weighted = !gc.wall_weight_sum.is_empty();
                     for (k, v) in out.iter_mut().enumerate() {
                         let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
-                        *v -= pusher.push(&indices[s..e], &gc[s..e], pi, c * CHUNK + k);
+                        let weights = match weighted {
+                            true => (&gc.wall_weight[s..e], gc.wall_weight_sum[k]),
+                            false => (&[][..], 0.0),
+                        };
+                        let pairs = (&indices[s..e], &gc.grad[s..e]);
+                        *v -= pusher.push(pairs, weights, pi, c * CHUNK + k);
                     }
                 },
             );
