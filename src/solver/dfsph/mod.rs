@@ -439,8 +439,16 @@ pub(crate) fn wall_neighbour_pressure(
 }
 
 /// Pass B of an iteration: `v_i −= dt·(Σ_j m (π_i + π_j) ∇W_ij + π_i ∇ρ_wall,i)` (the walls'
-/// neighbour part with `neighbour`).
-fn apply_pressure(ctx: &SolveContext<'_>, neighbour: bool, pi: &[Real], velocities: &mut [Vec3A]) {
+/// neighbour part with `neighbour`), and `sum[i] += π_i` for each of `sums` given (the
+/// solve's summed values, the walls' applied ones) in the same parallel pass: as serial loops
+/// after it they left one thread idle.
+fn apply_pressure(
+    ctx: &SolveContext<'_>,
+    neighbour: bool,
+    pi: &[Real],
+    velocities: &mut [Vec3A],
+    sums: (Option<&mut [Real]>, Option<&mut [Real]>),
+) {
     let pusher = Pusher {
         mass: ctx.mass,
         wall: ctx.wall,
@@ -448,27 +456,46 @@ fn apply_pressure(ctx: &SolveContext<'_>, neighbour: bool, pi: &[Real], velociti
         dt: ctx.dt,
         ratio: ctx.ratio,
     };
-    crate::par_chunks_mut!(velocities, CHUNK)
-        .enumerate()
-        .for_each(|(c, out)| {
-            crate::par::wide(
-                #[inline(always)]
-                || {
-                    let (offsets, indices) = ctx.neighbors.chunk(c);
-                    let gc = ctx.gradients.chunk(c);
-                    let weighted = !gc.wall_weight_sum.is_empty();
-                    for (k, v) in out.iter_mut().enumerate() {
-                        let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
-                        let weights = match weighted {
-                            true => (&gc.wall_weight[s..e], gc.wall_weight_sum[k]),
-                            false => (&[][..], 0.0),
-                        };
-                        let pairs = (&indices[s..e], &gc.grad[s..e]);
-                        *v -= pusher.push(pairs, weights, pi, c * CHUNK + k);
-                    }
-                },
-            );
-        });
+    let chunk = |c: usize, out: &mut [Vec3A], a: Option<&mut [Real]>, b: Option<&mut [Real]>| {
+        crate::par::wide(
+            #[inline(always)]
+            || {
+                let (offsets, indices) = ctx.neighbors.chunk(c);
+                let gc = ctx.gradients.chunk(c);
+                let weighted = !gc.wall_weight_sum.is_empty();
+                for (k, v) in out.iter_mut().enumerate() {
+                    let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
+                    let weights = match weighted {
+                        true => (&gc.wall_weight[s..e], gc.wall_weight_sum[k]),
+                        false => (&[][..], 0.0),
+                    };
+                    let pairs = (&indices[s..e], &gc.grad[s..e]);
+                    *v -= pusher.push(pairs, weights, pi, c * CHUNK + k);
+                }
+            },
+        );
+        let own = &pi[c * CHUNK..][..out.len()];
+        for sum in [a, b].into_iter().flatten() {
+            for (s, &p) in sum.iter_mut().zip(own) {
+                *s += p;
+            }
+        }
+    };
+    let chunks = crate::par_chunks_mut!(velocities, CHUNK);
+    match sums {
+        (Some(a), Some(b)) => chunks
+            .zip(crate::par_chunks_mut!(a, CHUNK))
+            .zip(crate::par_chunks_mut!(b, CHUNK))
+            .enumerate()
+            .for_each(|(c, ((out, a), b))| chunk(c, out, Some(a), Some(b))),
+        (Some(a), None) | (None, Some(a)) => chunks
+            .zip(crate::par_chunks_mut!(a, CHUNK))
+            .enumerate()
+            .for_each(|(c, (out, a))| chunk(c, out, Some(a), None)),
+        (None, None) => chunks
+            .enumerate()
+            .for_each(|(c, out)| chunk(c, out, None, None)),
+    }
 }
 
 /// Adds the viscosity acceleration (Müller et al. 2003, as

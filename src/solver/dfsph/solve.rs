@@ -185,17 +185,25 @@ impl<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync> Jacobi<'_, F> {
     /// Pass A into `π` (see [`rate_pass`]).
     fn rate(&mut self) {
         let (alpha, finish) = (self.alpha, &self.finish);
-        rate_pass(self.ctx, self.wide, self.pi, self.partials, |i, r| {
-            finish(alpha, i, r)
-        });
+        rate_pass(
+            self.ctx,
+            self.wide,
+            self.pi,
+            self.partials,
+            #[inline(always)]
+            |i, r| finish(alpha, i, r),
+        );
     }
 
     /// Pass B with the previous step's `values` (the walls' neighbour part included).
     fn apply_warm(&mut self, values: &[Real]) {
-        apply_pressure(self.ctx, true, values, self.wide);
-        if let Some(a) = self.applied.as_deref_mut() {
-            add_to(a, values);
-        }
+        apply_pressure(
+            self.ctx,
+            true,
+            values,
+            self.wide,
+            (None, self.applied.as_deref_mut()),
+        );
     }
 
     /// The warm start (see [`WarmStart`]), applied to the velocities.
@@ -285,13 +293,8 @@ impl<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync> Jacobi<'_, F> {
                     *p = p.max(-w);
                 }
             }
-            apply_pressure(ctx, neighbour, self.pi, self.wide);
-            for (w, p) in warm.iter_mut().zip(self.pi.iter()) {
-                *w += p;
-            }
-            if neighbour && let Some(a) = self.applied.as_deref_mut() {
-                add_to(a, self.pi);
-            }
+            let applied = self.applied.as_deref_mut().filter(|_| neighbour);
+            apply_pressure(ctx, neighbour, self.pi, self.wide, (Some(warm), applied));
             stats.iterations += 1;
         }
         stats
@@ -309,13 +312,6 @@ impl<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync> Jacobi<'_, F> {
                 *p *= omega;
             }
         }
-    }
-}
-
-/// `sum[i] += values[i]`.
-fn add_to(sum: &mut [Real], values: &[Real]) {
-    for (s, v) in sum.iter_mut().zip(values) {
-        *s += v;
     }
 }
 
@@ -356,24 +352,33 @@ pub(crate) fn divergence_solve(
         gain: 1.0 / dt,
         projected: false,
     };
-    jacobi(ctx, solve, buffers, warm, velocities, |alpha, i, rate| {
-        if ctx.closed {
-            return (rate, rate);
-        }
-        // Surface particles (few neighbours, walls counted by their coverage) are left
-        // out: their density deficit is not compression.
-        let count = ctx.neighbors.of(i).len() as Real + coverage.map_or(0.0, |c| c[i] * expected);
-        // Pinched particles (see `WallWorkspace::pinched`) are left out too.
-        let pinched = ctx
-            .wall
-            .is_some_and(|w| w.pinched(i, ctx.self_density, ctx.rest_density));
-        let r = if count < 0.6 * expected || pinched {
-            0.0
-        } else {
-            rate.max(0.0)
-        };
-        (r * alpha[i] / dt, r)
-    })
+    jacobi(
+        ctx,
+        solve,
+        buffers,
+        warm,
+        velocities,
+        #[inline(always)]
+        |alpha, i, rate| {
+            if ctx.closed {
+                return (rate, rate);
+            }
+            // Surface particles (few neighbours, walls counted by their coverage) are left
+            // out: their density deficit is not compression.
+            let count =
+                ctx.neighbors.of(i).len() as Real + coverage.map_or(0.0, |c| c[i] * expected);
+            // Pinched particles (see `WallWorkspace::pinched`) are left out too.
+            let pinched = ctx
+                .wall
+                .is_some_and(|w| w.pinched(i, ctx.self_density, ctx.rest_density));
+            let r = if count < 0.6 * expected || pinched {
+                0.0
+            } else {
+                rate.max(0.0)
+            };
+            (r * alpha[i] / dt, r)
+        },
+    )
 }
 
 /// Constant-density solve (Alg. 3): corrects the predicted `velocities` until the density they
@@ -409,28 +414,36 @@ pub(crate) fn density_solve(
         gain: inv_dt2,
         projected,
     };
-    jacobi(ctx, solve, buffers, warm, velocities, |alpha, i, rate| {
-        if ctx.closed {
-            let e = densities[i] + dt * rate - rho0;
-            return (e, e);
-        }
-        // A pinched particle (see `WallWorkspace::pinched`) is left out.
-        if ctx
-            .wall
-            .is_some_and(|w| w.pinched(i, ctx.self_density, rho0))
-        {
-            return (0.0, 0.0);
-        }
-        // Predicted density. Only compression is an error (a free surface is allowed to be
-        // under-dense); projected, under-density lowers the pressure (not below zero, see
-        // `Solve::projected`), else only compression is corrected.
-        let predicted = densities[i] + dt * rate - rho0;
-        if projected {
-            return (predicted * alpha[i] * inv_dt2, predicted.max(0.0));
-        }
-        let excess = predicted.max(0.0);
-        (excess * alpha[i] * inv_dt2, excess)
-    })
+    jacobi(
+        ctx,
+        solve,
+        buffers,
+        warm,
+        velocities,
+        #[inline(always)]
+        |alpha, i, rate| {
+            if ctx.closed {
+                let e = densities[i] + dt * rate - rho0;
+                return (e, e);
+            }
+            // A pinched particle (see `WallWorkspace::pinched`) is left out.
+            if ctx
+                .wall
+                .is_some_and(|w| w.pinched(i, ctx.self_density, rho0))
+            {
+                return (0.0, 0.0);
+            }
+            // Predicted density. Only compression is an error (a free surface is allowed to be
+            // under-dense); projected, under-density lowers the pressure (not below zero, see
+            // `Solve::projected`), else only compression is corrected.
+            let predicted = densities[i] + dt * rate - rho0;
+            if projected {
+                return (predicted * alpha[i] * inv_dt2, predicted.max(0.0));
+            }
+            let excess = predicted.max(0.0);
+            (excess * alpha[i] * inv_dt2, excess)
+        },
+    )
 }
 
 /// Relaxation `ω` of the closed-box Jacobi update (see `SolveContext::closed`). With signed
