@@ -390,7 +390,7 @@ impl<'a, K: Kernel, S: Separation> Passes<'a, K, S> {
     /// `first` iteration, added to after). Per particle: `Σ_j (λ_i + λ_j + s_corr) ∇W_ij`,
     /// [`LANES`] neighbours at a time, and with hydrostatic walls the fluid-side neighbours'
     /// average λ, weighted by `max(0, ∇W_ij·û)`, `û` away from the walls (DFSPH's
-    /// `neighbour_average`, gathered in the same loop).
+    /// wall pressure value, `solver::dfsph`'s `wall_weights`, gathered in the same loop).
     fn corrections(
         &self,
         positions: &[Vector],
