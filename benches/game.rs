@@ -31,7 +31,12 @@
 //! default 0.1,1): it runs untimed until the water falls asleep (at most 20 s; the row says
 //! "never slept" otherwise), then `--seconds` of frames are timed as the others. The row
 //! gives when it fell asleep and what falling asleep dropped (the particles' kinetic energy,
-//! the fastest particle's speed) and the density error it froze.
+//! the fastest particle's speed) and the density error it froze; after its timed frames a
+//! 5 cm ball is dropped from 0.3 m above the water, and the row says after how many frames
+//! the water woke (and how far above the surface the ball's bottom was then).
+//!
+//! `--hull none` runs every row without the hull (the water it displaced put back): the
+//! pool a floating hull does not keep moving (see docs/performance.md, "Sleeping water").
 //!
 //! Each case settles for 0.5 s (not timed), then runs `--seconds` (default 2 s) of frames.
 //! "mean density error" is the frames' mean compression (`StepReport::mean_density_error`)
@@ -85,7 +90,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     let row = pool.install(|| run(n, preset, mode, &args))?;
                     row.print(threads);
                     if let Some(s) = row.slept {
-                        slept.push((preset.name(), row.particles, threads, s));
+                        slept.push((preset.name(), row.particles, threads, s, row.woke));
                     }
                 }
             }
@@ -93,19 +98,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     println!();
     println!(
-        "asleep rows (drift thresholds {:?} spacings): | preset | particles | threads | fell asleep after (s) | kinetic energy dropped (J) | fastest particle stopped (m/s) | density error frozen |",
-        args.sleep_drift
+        "asleep rows (drift thresholds {:?} spacings, {}): | preset | particles | threads | fell asleep after (s) | kinetic energy dropped (J) | fastest particle stopped (m/s) | density error frozen | a ball dropped in woke it after (frames; its bottom above the surface, m) |",
+        args.sleep_drift,
+        if args.hull {
+            "with the hull"
+        } else {
+            "no hull"
+        }
     );
-    for (preset, n, threads, s) in slept {
+    for (preset, n, threads, s, woke) in slept {
         match s {
             Some((t, info)) => println!(
-                "| {preset} | {n} | {threads} | {t:.2} | {:.3e} | {:.3} | {:.3} % |",
+                "| {preset} | {n} | {threads} | {t:.2} | {:.3e} | {:.3} | {:.3} % | {} ({:+.3}) |",
                 info.dropped_kinetic_energy,
                 info.dropped_max_speed,
-                100.0 * info.density_error_at_sleep
+                100.0 * info.density_error_at_sleep,
+                woke.map_or(0, |w| w.0),
+                woke.map_or(Real::NAN, |w| w.1),
             ),
             None => {
-                println!("| {preset} | {n} | {threads} | never slept in {SLEEP_WAIT} s | | | |")
+                println!("| {preset} | {n} | {threads} | never slept in {SLEEP_WAIT} s | | | | |")
             }
         }
     }
@@ -166,6 +178,8 @@ struct Args {
     seconds: Real,
     /// `Sleep::mean_drift` and `Sleep::max_drift` of the `asleep` rows.
     sleep_drift: (Real, Real),
+    /// `false` with `--hull none`: the pool without its hull (water in its place).
+    hull: bool,
 }
 
 impl Args {
@@ -235,6 +249,7 @@ impl Args {
                     Some((a.parse().ok()?, b.parse().ok()?))
                 })
                 .unwrap_or((Sleep::default().mean_drift, Sleep::default().max_drift)),
+            hull: value("--hull").as_deref() != Some("none"),
         }
     }
 }
@@ -246,6 +261,8 @@ struct Row {
     mode: Mode,
     /// The `asleep` rows: when the water fell asleep and what that dropped (`None`: never).
     slept: Option<Option<(Real, SleepInfo)>>,
+    /// The `asleep` rows that slept: see [`ball_wakes`].
+    woke: Option<(usize, Real)>,
     frame_ms: (f64, f64, f64),
     cpu_ms: f64,
     substeps: f64,
@@ -287,6 +304,9 @@ fn run(n: usize, preset: Preset, mode: Mode, args: &Args) -> SphResult<Row> {
         config.paddle.0 = 0.0;
     }
     let mut pool = WavePool::new(config)?;
+    if !args.hull {
+        remove_hull(&mut pool)?;
+    }
     for _ in 0..30 {
         pool.frame()?;
     }
@@ -321,9 +341,18 @@ fn run(n: usize, preset: Preset, mode: Mode, args: &Args) -> SphResult<Row> {
         } else {
             kinetic_energy.1 += ke / (frames - frames / 2) as f64;
         }
-        draft += pool.draft_ratio();
+        draft += if args.hull {
+            pool.draft_ratio()
+        } else {
+            Real::NAN
+        };
     }
     let cpu = cpu_seconds() - cpu0;
+    let outside = pool.outside();
+    let woke = match slept {
+        Some(Some(_)) => Some(ball_wakes(&mut pool)?),
+        _ => None,
+    };
     times.sort_by(f64::total_cmp);
     let pick = |q: f64| times[((times.len() - 1) as f64 * q).round() as usize];
     Ok(Row {
@@ -332,6 +361,7 @@ fn run(n: usize, preset: Preset, mode: Mode, args: &Args) -> SphResult<Row> {
         spacing: pool.spacing,
         mode,
         slept,
+        woke,
         frame_ms: (pick(0.1), pick(0.5), pick(0.9)),
         cpu_ms: cpu * 1e3 / frames as f64,
         substeps: substeps as f64 / frames as f64,
@@ -344,12 +374,50 @@ fn run(n: usize, preset: Preset, mode: Mode, args: &Args) -> SphResult<Row> {
         worst_error,
         largest_compression,
         kinetic_energy,
-        outside: pool.outside(),
+        outside,
         draft: draft / frames as Real,
         rapier_ms: rapier.as_secs_f64() * 1e3 / frames as f64,
         stages,
         frames,
     })
+}
+
+/// The pool without its hull: the hull removed and the water it displaced put back (the
+/// pool's block of water on the same lattice).
+fn remove_hull(pool: &mut WavePool) -> SphResult<()> {
+    pool.world.physics.remove_body(pool.hull);
+    let mut water = Fluid::new(pool.world.fluids[pool.water].params().clone())?;
+    let behind_paddle = WavePool::PADDLE_X + 0.02;
+    let size = Vector::new(
+        WavePool::SIZE.x - behind_paddle,
+        WavePool::DEPTH,
+        WavePool::SIZE.z,
+    );
+    water.add_block(Vector::new(behind_paddle, 0.0, 0.0), size)?;
+    pool.world.fluids.remove(pool.water)?;
+    pool.water = pool.world.fluids.insert(water);
+    Ok(())
+}
+
+/// Drops a 5 cm ball (500 kg/m³) from 0.3 m above the sleeping water: the frames until the
+/// water woke, and how far the ball's bottom was above the water's surface then (m).
+fn ball_wakes(pool: &mut WavePool) -> SphResult<(usize, Real)> {
+    use rapier_sph::rapier3d::prelude::{ColliderBuilder, RigidBodyBuilder};
+    let (r, at) = (0.05, Vector::new(1.0, WavePool::DEPTH + 0.3, 0.35));
+    let ball = pool
+        .world
+        .physics
+        .insert_body(RigidBodyBuilder::dynamic().translation(at));
+    let collider = ColliderBuilder::ball(r).density(500.0);
+    pool.world.physics.insert_collider(collider, Some(ball));
+    for frame in 1..=120 {
+        pool.frame()?;
+        if !pool.world.fluids[pool.water].is_sleeping() {
+            let y = pool.world.physics.bodies[ball].translation().y;
+            return Ok((frame, y - r - WavePool::DEPTH));
+        }
+    }
+    Ok((0, Real::NAN))
 }
 
 /// Lets the pool's water sleep (drift thresholds `drift`) and steps it until it does, at

@@ -1,0 +1,251 @@
+//! The still game pool's energy budget, frame by frame: the water's kinetic and potential
+//! energy, the hull's, their sum, and what keeps the pool from falling asleep (the sleep
+//! test's drift, here over the `--every` frames between lines, the hull's speed and turn
+//! rate, the water's center of mass, the hull's draft).
+//!
+//! ```text
+//! cargo run --release --example pool_energy -- --particles 2500 --seconds 30
+//! cargo run --release --example pool_energy -- --hull fixed --every 60
+//! cargo run --release --example pool_energy -- --hull none --every 60
+//! cargo run --release --example pool_energy -- --wall-density false --every 60
+//! ```
+//!
+//! `--preset water|game` (default water), `--particles N` (2500), `--seconds S` (30),
+//! `--every F` frames between lines (30), `--fps F` frames per second (60),
+//! `--hull-density D` (500 kg/m³), `--hull dynamic|fixed|none` (dynamic: the hull
+//! floats; fixed: it is held where it starts; none: no hull, the water fills its place),
+//! `--viscosity E`, `--wall-viscosity E`, `--wall-density true|false`, `--warm-start W`,
+//! `--min-iterations N`, `--hydrostatic-walls true|false`, `--max-density-error E` change
+//! the preset, `--sleep` lets the water fall asleep with `Sleep::default()`.
+//!
+//! Energies are in J, the potential ones (`Σ m g y`) and the total relative to the first
+//! frame's. The paddle stands still, so nothing does work on the pool: once the start's
+//! settling is over its total energy can only fall (viscosity, the pressure solve's
+//! projection), and its kinetic energy fall to the jitter of water at rest, unless
+//! something in the step feeds it. What it showed (docs/performance.md, "Sleeping water"):
+//! with the floating hull the water's kinetic energy stops falling at about 2 J (2,556
+//! particles) and the water never stops moving; held in place or removed, the hull leaves
+//! 0.3–0.5 J of jitter and the water meets the sleep thresholds.
+
+use rapier_sph::prelude::*;
+use rapier_sph::rapier3d::prelude::RigidBodyType;
+use rapier_sph::scenes::{WavePool, WavePoolConfig};
+use std::collections::HashMap;
+
+/// Per-run options from the command line.
+struct Options {
+    particles: usize,
+    seconds: Real,
+    every: usize,
+    hull: String,
+    sleep: bool,
+    /// Frame length (s).
+    dt: Real,
+}
+
+fn main() -> SphResult<()> {
+    let argv: Vec<String> = std::env::args().collect();
+    let value = |name: &str| argv.windows(2).find(|w| w[0] == name).map(|w| w[1].clone());
+    let o = Options {
+        particles: value("--particles")
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(2500),
+        seconds: value("--seconds")
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(30.0),
+        every: value("--every").and_then(|v| v.parse().ok()).unwrap_or(30),
+        hull: value("--hull").unwrap_or_else(|| "dynamic".into()),
+        sleep: argv.iter().any(|a| a == "--sleep"),
+        dt: 1.0
+            / value("--fps")
+                .and_then(|v| v.parse::<Real>().ok())
+                .unwrap_or(60.0),
+    };
+    let game = value("--preset").as_deref() == Some("game");
+    let config = WavePoolConfig {
+        particles: o.particles,
+        params: if game { game_params } else { water_params },
+        paddle: (0.0, 1.5),
+        hull_density: value("--hull-density")
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(500.0),
+        ..Default::default()
+    };
+    let mut pool = WavePool::new(config)?;
+    setup_hull(&mut pool, &o.hull)?;
+    run(&mut pool, &o)
+}
+
+fn water_params(s: Real) -> SphResult<FluidParams> {
+    edited(FluidParamsBuilder::water(s).build()?)
+}
+
+fn game_params(s: Real) -> SphResult<FluidParams> {
+    edited(FluidParamsBuilder::game_water(s).build()?)
+}
+
+/// The preset with the command line's changes.
+fn edited(mut p: FluidParams) -> SphResult<FluidParams> {
+    let argv: Vec<String> = std::env::args().collect();
+    let value = |name: &str| argv.windows(2).find(|w| w[0] == name).map(|w| w[1].clone());
+    let f = |name: &str| value(name).and_then(|v| v.parse::<Real>().ok());
+    if let Some(v) = f("--viscosity") {
+        p.viscosity = v;
+    }
+    if let Some(v) = f("--wall-viscosity") {
+        p.wall_viscosity = v;
+    }
+    if let Some(v) = value("--wall-density").and_then(|v| v.parse().ok()) {
+        p.wall_density = v;
+    }
+    if let Solver::Dfsph(d) = &mut p.solver {
+        if let Some(v) = f("--warm-start") {
+            d.warm_start = v;
+        }
+        if let Some(v) = f("--max-density-error") {
+            d.max_density_error = v;
+        }
+        if let Some(v) = value("--min-iterations").and_then(|v| v.parse().ok()) {
+            d.min_iterations = v;
+        }
+        if let Some(v) = value("--hydrostatic-walls").and_then(|v| v.parse().ok()) {
+            d.hydrostatic_walls = v;
+        }
+    }
+    if argv.iter().any(|a| a == "--sleep") {
+        p.sleep = Some(Sleep::default());
+    }
+    p.validate()?;
+    Ok(p)
+}
+
+/// `dynamic` leaves the hull floating, `fixed` holds it, `none` removes it and fills its
+/// place with water on the pool's lattice.
+fn setup_hull(pool: &mut WavePool, hull: &str) -> SphResult<()> {
+    match hull {
+        "fixed" => {
+            pool.world.physics.bodies[pool.hull].set_body_type(RigidBodyType::Fixed, true);
+        }
+        "none" => {
+            pool.world.physics.remove_body(pool.hull);
+            let params = pool.world.fluids[pool.water].params().clone();
+            let mut water = Fluid::new(params)?;
+            let behind_paddle = WavePool::PADDLE_X + 0.02;
+            water.add_block(
+                Vector::new(behind_paddle, 0.0, 0.0),
+                Vector::new(
+                    WavePool::SIZE.x - behind_paddle,
+                    WavePool::DEPTH,
+                    WavePool::SIZE.z,
+                ),
+            )?;
+            pool.world.fluids.remove(pool.water)?;
+            pool.water = pool.world.fluids.insert(water);
+        }
+        _ => {}
+    }
+    Ok(())
+}
+
+/// The pool's energies (J): water kinetic, water potential, hull kinetic, hull potential.
+fn energies(pool: &WavePool) -> [f64; 4] {
+    let f = &pool.world.fluids[pool.water];
+    let g = 9.81f64;
+    let m = f.params().particle_mass as f64;
+    let pe: f64 = f.positions().iter().map(|x| m * g * x.y as f64).sum();
+    let (hk, hp) = match pool.world.physics.bodies.get(pool.hull) {
+        Some(b) if b.is_dynamic() => (
+            b.kinetic_energy() as f64,
+            b.mass() as f64 * g * b.center_of_mass().y as f64,
+        ),
+        _ => (0.0, 0.0),
+    };
+    [f.kinetic_energy(), pe, hk, hp]
+}
+
+fn run(pool: &mut WavePool, o: &Options) -> SphResult<()> {
+    let s = pool.spacing;
+    println!(
+        "{} particles at {:.1} mm, hull {}, sleep {}",
+        pool.world.fluids[pool.water].len(),
+        s * 1e3,
+        o.hull,
+        o.sleep
+    );
+    println!(
+        "t (s) | water KE | water PE | hull KE | hull PE | total (J, from frame 0) | 0.5 s drift rms / max (spacings) | hull |v| (m/s), |ω| (rad/s) | water COM x, z (mm from frame 0) | mean density error | substeps, iterations | hull draft / expected | asleep"
+    );
+    let e0 = energies(pool);
+    let com = |pool: &WavePool| {
+        let f = &pool.world.fluids[pool.water];
+        let n = f.len().max(1) as f64;
+        let sum = f.positions().iter().fold((0.0f64, 0.0f64), |a, x| {
+            (a.0 + x.x as f64, a.1 + x.z as f64)
+        });
+        (sum.0 / n, sum.1 / n)
+    };
+    let c0 = com(pool);
+    let mut anchor: HashMap<u32, Vector> = HashMap::new();
+    let frames = (o.seconds / o.dt).round() as usize;
+    let (mut substeps, mut iterations) = (0usize, 0usize);
+    for frame in 1..=frames {
+        pool.world.physics.integration_parameters.dt = o.dt;
+        pool.world.physics.step();
+        pool.world.step_fluids()?;
+        let report = pool.world.pipeline.report();
+        substeps += report.substeps as usize;
+        iterations += report.solver_iterations as usize;
+        if frame % o.every != 0 {
+            continue;
+        }
+        let e = energies(pool);
+        let d: Vec<f64> = (0..4).map(|k| e[k] - e0[k]).collect();
+        let f = &pool.world.fluids[pool.water];
+        let drift: Vec<Real> = f
+            .ids()
+            .iter()
+            .zip(f.positions())
+            .filter_map(|(id, x)| Some((*x - *anchor.get(id)?).length() / s))
+            .collect();
+        let rms = (drift.iter().map(|d| d * d).sum::<Real>() / drift.len().max(1) as Real).sqrt();
+        let max = drift.iter().copied().fold(0.0, Real::max);
+        let (v, w) = match pool.world.physics.bodies.get(pool.hull) {
+            Some(b) => (b.linvel().length(), b.angvel().length()),
+            None => (0.0, 0.0),
+        };
+        let c = com(pool);
+        println!(
+            "{:5.1} | {:.4} | {:+.4} | {:.4} | {:+.4} | {:+.4} | {:.3} / {:.3} | {:.4}, {:.4} | {:+.2}, {:+.2} | {:.3} % | {:.2}, {:.2} | {:.3} | {}",
+            frame as Real * o.dt,
+            e[0],
+            d[1],
+            e[2],
+            d[3],
+            d.iter().sum::<f64>(),
+            rms,
+            max,
+            v,
+            w,
+            (c.0 - c0.0) * 1e3,
+            (c.1 - c0.1) * 1e3,
+            100.0 * report.mean_density_error,
+            substeps as f64 / o.every as f64,
+            iterations as f64 / substeps.max(1) as f64,
+            if o.hull == "dynamic" {
+                pool.draft_ratio()
+            } else {
+                Real::NAN
+            },
+            if f.is_sleeping() { "asleep" } else { "awake" },
+        );
+        (substeps, iterations) = (0, 0);
+        let f = &pool.world.fluids[pool.water];
+        anchor = f
+            .ids()
+            .iter()
+            .copied()
+            .zip(f.positions().iter().copied())
+            .collect();
+    }
+    Ok(())
+}
