@@ -366,3 +366,109 @@ fn a_snapshot_carries_the_sleep_state() {
     }
     assert_eq!(hashes[0], hashes[1]);
 }
+
+/// The game pool (`scenes::WavePool`, 2,604 particles at 5.8 cm, the water preset) with its
+/// paddle still and, unless `hull`, its hull removed and the water it displaced put back;
+/// the water may sleep with the default thresholds.
+fn still_pool(hull: bool) -> rapier_sph::scenes::WavePool {
+    use rapier_sph::scenes::{WavePool, WavePoolConfig};
+    let config = WavePoolConfig {
+        particles: 2500,
+        params: |s| FluidParamsBuilder::water(s).sleep(Sleep::default()).build(),
+        paddle: (0.0, 1.5),
+        ..Default::default()
+    };
+    let mut pool = WavePool::new(config).unwrap();
+    if !hull {
+        pool.world.physics.remove_body(pool.hull);
+        let params = pool.world.fluids[pool.water].params().clone();
+        let mut water = Fluid::new(params).unwrap();
+        let behind_paddle = WavePool::PADDLE_X + 0.02;
+        let size = Vector::new(
+            WavePool::SIZE.x - behind_paddle,
+            WavePool::DEPTH,
+            WavePool::SIZE.z,
+        );
+        water
+            .add_block(Vector::new(behind_paddle, 0.0, 0.0), size)
+            .unwrap();
+        pool.world.fluids.remove(pool.water).unwrap();
+        pool.water = pool.world.fluids.insert(water);
+    }
+    pool
+}
+
+/// Frames until the pool's water falls asleep (at most `limit`; `None`: it did not).
+fn pool_asleep_after(pool: &mut rapier_sph::scenes::WavePool, limit: usize) -> Option<usize> {
+    (1..=limit).find(|_| {
+        pool.frame().unwrap();
+        pool.world.fluids[pool.water].is_sleeping()
+    })
+}
+
+/// The still game pool without its hull settles (the start's slosh dies out) and falls
+/// asleep with the default thresholds (after about 8.5 s here, docs/performance.md); a ball
+/// dropped from 0.3 m above it wakes it before it reaches the water (within the margin the
+/// wake test looks around the fluid: a kernel support, a particle radius and a frame's
+/// fall), not earlier: the water sleeps through every frame before.
+#[test]
+fn the_still_game_pool_falls_asleep_and_a_falling_ball_wakes_it() {
+    let mut pool = still_pool(false);
+    let frames = pool_asleep_after(&mut pool, 20 * 60);
+    assert!(frames.is_some(), "the pool did not fall asleep in 20 s");
+    let info = pool.world.fluids[pool.water].sleep_info();
+    assert!(info.density_error_at_sleep <= Sleep::default().density_error);
+    let (r, s) = (0.05, pool.spacing);
+    let top = |pool: &rapier_sph::scenes::WavePool| {
+        let f = &pool.world.fluids[pool.water];
+        f.positions().iter().map(|x| x.y).fold(Real::MIN, Real::max)
+    };
+    let surface = top(&pool);
+    let at = Vector::new(1.0, surface + 0.3 + r, 0.35);
+    let ball = pool
+        .world
+        .physics
+        .insert_body(RigidBodyBuilder::dynamic().translation(at));
+    let collider = ColliderBuilder::ball(r).density(500.0);
+    pool.world.physics.insert_collider(collider, Some(ball));
+    let p = pool.world.fluids[pool.water].params().clone();
+    let dt: Real = 1.0 / 60.0;
+    let margin = p.smoothing_length + p.particle_radius + 9.81 * dt * dt;
+    let mut woke = None;
+    for frame in 1..=60 {
+        pool.frame().unwrap();
+        if !pool.world.fluids[pool.water].is_sleeping() {
+            woke = Some(frame);
+            break;
+        }
+        // Asleep: its particles have not moved.
+        assert_eq!(top(&pool), surface);
+    }
+    assert!(woke.is_some(), "the ball did not wake the pool");
+    // rapier moved the ball before the fluid's step: its bottom at the frame it woke the
+    // water is above the water and within the margin (plus one frame's fall at most).
+    let bottom = pool.world.physics.bodies[ball].translation().y - r;
+    let speed = pool.world.physics.bodies[ball].linvel().length();
+    assert!(
+        bottom > surface - 0.5 * s && bottom - surface <= margin + speed * dt,
+        "woke with the ball's bottom {:.3} m above the top particle (margin {margin:.3})",
+        bottom - surface
+    );
+}
+
+/// The same pool with its hull floating should settle too: nothing does work on it. It does
+/// not: the water's kinetic energy stops falling at about 2 J (against 0.3–0.5 J with the
+/// hull held or removed) and the water keeps moving (0.4 spacings root-mean-square over 0.5
+/// s; `cargo run --release --example pool_energy`, docs/performance.md "Sleeping water"): the
+/// coupling feeds it. With the wall reaction's added-mass exchange left out, or the particles
+/// given the body's whole velocity change (rapier's share included), it settles, which
+/// points there. Ignored until that is fixed.
+#[test]
+#[ignore = "a floating hull keeps the pool moving (docs/performance.md, Sleeping water)"]
+fn the_still_game_pool_with_its_floating_hull_falls_asleep() {
+    let mut pool = still_pool(true);
+    assert!(
+        pool_asleep_after(&mut pool, 20 * 60).is_some(),
+        "the pool with its hull did not fall asleep in 20 s"
+    );
+}
