@@ -32,8 +32,9 @@
 //! "never slept" otherwise), then `--seconds` of frames are timed as the others. The row
 //! gives when it fell asleep and what falling asleep dropped (the particles' kinetic energy,
 //! the fastest particle's speed) and the density error it froze; after its timed frames a
-//! 5 cm ball is dropped from 0.3 m above the water, and the row says after how many frames
-//! the water woke (and how far above the surface the ball's bottom was then).
+//! ball of 5 cm radius is dropped, its center 0.3 m above the water's rest level
+//! (`WavePool::DEPTH`), and the row says after how many frames the water woke and how far
+//! above the rest level the ball's bottom was then.
 //!
 //! `--hull none` runs every row without the hull (the water it displaced put back): the
 //! pool a floating hull does not keep moving (see docs/performance.md, "Sleeping water").
@@ -98,7 +99,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     println!();
     println!(
-        "asleep rows (drift thresholds {:?} spacings, {}): | preset | particles | threads | fell asleep after (s) | kinetic energy dropped (J) | fastest particle stopped (m/s) | density error frozen | a ball dropped in woke it after (frames; its bottom above the surface, m) |",
+        "asleep rows (drift thresholds {:?} spacings, {}): | preset | particles | threads | fell asleep after (s) | kinetic energy dropped (J) | fastest particle stopped (m/s) | density error frozen | a ball dropped in woke it after (frames; its bottom above the rest level, m) |",
         args.sleep_drift,
         if args.hull {
             "with the hull"
@@ -399,8 +400,9 @@ fn remove_hull(pool: &mut WavePool) -> SphResult<()> {
     Ok(())
 }
 
-/// Drops a 5 cm ball (500 kg/m³) from 0.3 m above the sleeping water: the frames until the
-/// water woke, and how far the ball's bottom was above the water's surface then (m).
+/// Drops a ball of 5 cm radius (500 kg/m³), its center 0.3 m above the sleeping water's rest
+/// level: the frames until the water woke, and how far the ball's bottom was above the rest
+/// level then (m).
 fn ball_wakes(pool: &mut WavePool) -> SphResult<(usize, Real)> {
     use rapier_sph::rapier3d::prelude::{ColliderBuilder, RigidBodyBuilder};
     let (r, at) = (0.05, Vector::new(1.0, WavePool::DEPTH + 0.3, 0.35));
