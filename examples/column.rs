@@ -34,7 +34,8 @@
 //! It also prints the hydrostatic scene's pressure-profile RMS both ways: averaged over the
 //! samples' instantaneous profiles (as the scene reports it) and of the time-averaged profile.
 //! `--solver wcsph-walls` is WCSPH with walls counting in the density (the buoyancy tests'
-//! setting); `--radius r` sets the contact radius to `r` spacings (the preset's is 0.5);
+//! setting), `wcsph-adami` with Adami's wall pressure and the symmetric pressure force
+//! (`WcsphPressure::Adami`); `--radius r` sets the contact radius to `r` spacings (the preset's is 0.5);
 //! `--solver pbf-hydrostatic` is PBF with hydrostatic walls;
 //! `--support r` the kernel support to `r` spacings (the presets' is 2); `--solver clavet`
 //! runs Clavet's relaxation (walls by contact only; `clavet-walls`: walls in its densities),
@@ -97,7 +98,7 @@ fn main() {
                 step = 1;
             }
             other => exit(&format!(
-                "unknown argument {other} (--n, --spacing, --seconds, --solver default|wcsph|wcsph-walls|dfsph|pbf|pbf-hydrostatic|clavet|clavet-walls, \
+                "unknown argument {other} (--n, --spacing, --seconds, --solver default|wcsph|wcsph-walls|wcsph-adami|dfsph|pbf|pbf-hydrostatic|clavet|clavet-walls, \
                  --warm-start, --[no-]hydrostatic-walls, --threads, --radius (fraction of the spacing), --support (h in spacings), --cohesion (Clavet), --courant (adaptive substeps' Courant number, default 0.4), \
                  --trace)"
             )),
@@ -118,6 +119,12 @@ fn main() {
         "default" => {}
         "wcsph" => b = b.solver(Solver::Wcsph).wall_density(false),
         "wcsph-walls" => b = b.solver(Solver::Wcsph).wall_density(true),
+        "wcsph-adami" => {
+            b = b
+                .solver(Solver::Wcsph)
+                .wall_density(true)
+                .wcsph_pressure(rapier_sph::WcsphPressure::Adami)
+        }
         "dfsph" => b = b.solver(Solver::dfsph()).wall_density(true),
         "pbf" => b = b.solver(Solver::pbf()).wall_density(true),
         "pbf-hydrostatic" => {
@@ -174,6 +181,7 @@ fn main() {
             name: "probe",
             solver: params.solver,
             wall_density: params.wall_density,
+            wcsph_pressure: params.wcsph_pressure,
         };
         for res in validation {
             let r = Scene::Hydrostatic
@@ -488,6 +496,11 @@ impl WallBalance {
                 true,
             ),
             Solver::Dfsph(_) => (p.density_kernel, rapier_sph::solver::WALL_MIRROR, false),
+            Solver::Wcsph if p.wcsph_pressure == rapier_sph::WcsphPressure::Adami => (
+                p.pressure_kernel,
+                rapier_sph::solver::HYDROSTATIC_WALL_MIRROR,
+                true,
+            ),
             _ => (p.pressure_kernel, 0.5, false),
         };
         let h = p.smoothing_length;
@@ -499,7 +512,9 @@ impl WallBalance {
             hydrostatic,
             kernel,
             h,
-            wcsph: !matches!(p.solver, Solver::Dfsph(_)),
+            // Müller's form (the paper's WCSPH), or the symmetric one.
+            wcsph: !matches!(p.solver, Solver::Dfsph(_))
+                && p.wcsph_pressure == rapier_sph::WcsphPressure::Paper,
             rest: p.rest_density,
             mass: p.particle_mass,
             width,

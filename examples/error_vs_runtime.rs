@@ -60,6 +60,11 @@ struct Args {
     skip_scaling: bool,
     /// DFSPH with [`rapier_sph::solver::Dfsph::hydrostatic_walls`] (reported as `DFSPH-HW`).
     hydrostatic_walls: bool,
+    /// WCSPH with wall density and [`rapier_sph::WcsphPressure::Adami`] (reported as
+    /// `WCSPH-A`).
+    wcsph_adami: bool,
+    /// Only the methods whose name is listed (all if empty).
+    solvers: Vec<String>,
 }
 
 fn parse_args() -> Args {
@@ -69,6 +74,8 @@ fn parse_args() -> Args {
         scenes: Scene::ALL.to_vec(),
         skip_scaling: false,
         hydrostatic_walls: false,
+        wcsph_adami: false,
+        solvers: Vec::new(),
     };
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
@@ -86,10 +93,14 @@ fn parse_args() -> Args {
             }
             "--no-scaling" => args.skip_scaling = true,
             "--hydrostatic-walls" => args.hydrostatic_walls = true,
+            "--wcsph-adami" => args.wcsph_adami = true,
+            "--solver" => args.solvers.push(it.next().expect("--solver NAME")),
             "-h" | "--help" => {
                 println!(
                     "error_vs_runtime [--quick | --full] [--out DIR] [--scene NAME] [--no-scaling]\n\
                      \x20                [--hydrostatic-walls]   (DFSPH runs as DFSPH-HW, hydrostatic walls on)\n\
+                     \x20                [--wcsph-adami]   (WCSPH runs as WCSPH-A: wall density, Adami's wall pressure)\n\
+                     \x20                [--solver NAME]...   (only these methods, by their printed name)\n\
                      scenes: {}",
                     Scene::ALL.map(|s| s.name()).join(", ")
                 );
@@ -715,6 +726,19 @@ fn main() {
                 m.name = "DFSPH-HW";
             }
         }
+    }
+    if args.wcsph_adami {
+        for m in &mut methods {
+            if m.solver == rapier_sph::Solver::Wcsph {
+                m.wall_density = true;
+                m.wcsph_pressure = rapier_sph::WcsphPressure::Adami;
+                m.name = "WCSPH-A";
+            }
+        }
+    }
+    if !args.solvers.is_empty() {
+        methods.retain(|m| args.solvers.iter().any(|s| s == m.name));
+        assert!(!methods.is_empty(), "no method named {:?}", args.solvers);
     }
     let method_names: Vec<&'static str> = methods.iter().map(|m| m.name).collect();
     let mut plan = Vec::new();

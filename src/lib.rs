@@ -171,7 +171,7 @@ pub use params::{
 pub use pipeline::{FluidPipeline, TimeStepping};
 pub use query::{FluidAmount, FluidSampler, Region, RegionTracker, WaterColumn, WaterSurface};
 pub use sleep::{Sleep, SleepInfo};
-pub use solver::{Clavet, Dfsph, Pbf, Solver, Springs};
+pub use solver::{Clavet, Dfsph, Pbf, Solver, Springs, WcsphPressure};
 pub use world::FluidWorld;
 
 /// Re-export of the rapier version this crate is built on.
@@ -193,4 +193,6 @@ pub mod prelude {
     pub use crate::{ImplicitViscosity, ViscositySolve};
     // Sleeping water (off unless set in the parameters).
     pub use crate::{Sleep, SleepInfo};
+    // WCSPH's pressure force and wall pressure.
+    pub use crate::WcsphPressure;
 }

@@ -10,7 +10,7 @@
 use crate::error::{SphError, SphResult};
 use crate::kernel::KernelKind;
 use crate::math::Real;
-use crate::solver::settings::Solver;
+use crate::solver::settings::{Solver, WcsphPressure};
 use rapier3d::geometry::InteractionGroups;
 
 /// Most iterations a solver may run per substep: PBF's `iterations`
@@ -200,6 +200,10 @@ pub struct FluidParams {
     /// Clamp negative pressures to zero (default: true; paper preset: false). Negative
     /// pressure at the free surface makes particles clump (the tensile instability).
     pub clamp_negative_pressure: bool,
+    /// How WCSPH's pressures push, in the fluid and at the walls (see [`WcsphPressure`]);
+    /// other solvers ignore it. Both presets: [`WcsphPressure::Paper`].
+    #[cfg_attr(feature = "snapshot", serde(default))]
+    pub wcsph_pressure: WcsphPressure,
     /// Viscosity constant `ε` of the Müller/Unity viscosity force (Pa·s), 0 switches the
     /// viscosity stage off entirely. Water preset: 0.5 (a numerical viscosity that keeps
     /// weakly-compressible SPH calm at game resolutions, far above water's 0.001).
@@ -398,6 +402,13 @@ impl FluidParams {
                 "needs wall_density (the walls' viscous term uses its half-space integrals)",
             );
         }
+        if self.wcsph_pressure == WcsphPressure::Adami && !self.wall_density {
+            return invalid(
+                "wcsph_pressure",
+                1.0,
+                "Adami walls need wall_density (the wall pressure acts through it)",
+            );
+        }
         if self.wall_viscosity > 0.0 && matches!(self.solver, Solver::Clavet(_)) {
             // Measured in tests/moving_bodies.rs's sloshing box (Clavet without cohesion,
             // walls in its densities, ε_w = 0.5): the momentum of fluid + bodies drifted by
@@ -515,6 +526,7 @@ impl FluidParamsBuilder {
                     exponent: 7.0,
                 },
                 clamp_negative_pressure: true,
+                wcsph_pressure: WcsphPressure::Paper,
                 viscosity: 0.5,
                 wall_viscosity: 0.0,
                 viscosity_solve: ViscositySolve::Explicit,
@@ -579,6 +591,7 @@ impl FluidParamsBuilder {
                 smoothing_length: 0.4,
                 equation_of_state: EquationOfState::Linear { stiffness: 3.0 },
                 clamp_negative_pressure: false,
+                wcsph_pressure: WcsphPressure::Paper,
                 viscosity: 0.02,
                 wall_viscosity: 0.0,
                 viscosity_solve: ViscositySolve::Explicit,
@@ -686,6 +699,12 @@ impl FluidParamsBuilder {
     /// Clamp negative pressures to zero.
     pub fn clamp_negative_pressure(mut self, v: bool) -> Self {
         self.params.clamp_negative_pressure = v;
+        self
+    }
+
+    /// Sets [`FluidParams::wcsph_pressure`].
+    pub fn wcsph_pressure(mut self, v: WcsphPressure) -> Self {
+        self.params.wcsph_pressure = v;
         self
     }
     /// Viscosity constant ε (Pa·s); 0 switches the viscosity stage off.

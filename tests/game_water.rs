@@ -30,6 +30,7 @@ fn game_water_column_bottom_pressure() {
         name: "DFSPH (game_water)",
         solver: game_solver(),
         wall_density: true,
+        wcsph_pressure: rapier_sph::WcsphPressure::Paper,
     };
     let scene = Scene::Hydrostatic;
     let r = scene

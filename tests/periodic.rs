@@ -446,6 +446,7 @@ fn closed_box_dfsph_is_bitwise_identical_across_thread_counts() {
         name: "DFSPH",
         solver: Solver::dfsph(),
         wall_density: true,
+        wcsph_pressure: rapier_sph::WcsphPressure::Paper,
     };
     let run = || {
         let (mut world, h) = tg::world(&m, 8, 100).unwrap();

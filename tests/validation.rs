@@ -220,6 +220,7 @@ fn pbf_hydrostatic_walls_bring_the_bottom_pressure_within_5_percent() {
             ..Default::default()
         }),
         wall_density: true,
+        wcsph_pressure: rapier_sph::WcsphPressure::Paper,
     };
     for n in [8, 12] {
         let r = Scene::Hydrostatic

@@ -296,6 +296,7 @@ fn check_pair(a: &FluidParams, b: &FluidParams) -> SphResult<()> {
             "clamp_negative_pressure",
             a.clamp_negative_pressure == b.clamp_negative_pressure,
         ),
+        ("wcsph_pressure", a.wcsph_pressure == b.wcsph_pressure),
         ("solver", merge_solver(a.solver, b.solver).is_some()),
     ];
     for (field, ok) in shared {

@@ -119,3 +119,150 @@ pub fn pressure_accelerations<K: Kernel, S: Separation>(
             )
         });
 }
+
+/// What [`symmetric_accelerations`] reads.
+pub(crate) struct SymmetricInput<'a> {
+    /// Sorted particle positions.
+    pub positions: &'a [Vector],
+    /// `1/ρ` of every particle.
+    pub inv_densities: &'a [Real],
+    /// Pressures from the equation of state.
+    pub pressures: &'a [Real],
+    /// Neighbour lists of `positions`.
+    pub neighbors: &'a NeighborLists,
+    /// Particle mass and kernel support.
+    pub mass: Real,
+    pub h: Real,
+    /// The walls' density gradient `∇ρ_wall` (into the walls), with walls that count.
+    pub wall: Option<&'a [Vector]>,
+}
+
+/// Overwrites `accelerations[i]` with the symmetric SPH pressure acceleration (Monaghan
+/// 1992; Becker & Teschner 2007, eq. 6), `a_i = −Σ_j m (π_i + π_j) ∇W_ij`, `π = p/ρ²`:
+/// the gradient of the internal energy, so in a uniform fluid it reads `−∇p/ρ` (Müller's
+/// form, [`pressure_accelerations`], reads half of it).
+///
+/// With walls it adds Adami et al. (2012)'s wall pressure in the form of DFSPH's hydrostatic
+/// walls (`solver::dfsph`, [`crate::solver::HYDROSTATIC_WALL_MIRROR`]): the wall "particles"
+/// `b` of the walls' volume push with `−Σ_b m_b (π_i + π_b) ∇W_ib = −(π_i + π̂_i)·∇ρ_wall`,
+/// the wall's value `π̂_i` being the average of the fluid-side neighbours' `π_j` weighted
+/// by `max(0, ∇W_ij·û)`, `û = −∇ρ_wall/|∇ρ_wall|` (DFSPH's `neighbour_average`, gathered here
+/// in the force's own neighbour loop); `π̂_i` goes to `wall_pi[i]` (0 without wall or
+/// weight) for the walls' reaction on bodies. The hydrostatic difference `ρ0·g·(x_b − x̄_i)`
+/// is the wall stage's `WallWorkspace::hydrostatic`, which the solver adds with gravity.
+/// The pair terms are antisymmetric: momentum is conserved up to round-off, as with
+/// Müller's form. Each neighbour's `π_j` is formed in the loop (`p_j·(1/ρ_j)²`).
+pub(crate) fn symmetric_accelerations<K: Kernel, S: Separation>(
+    input: &SymmetricInput<'_>,
+    accelerations: &mut [Vector],
+    wall_pi: &mut [Real],
+    sep: S,
+) {
+    let kernel = K::new(input.h);
+    crate::par_chunks_mut!(accelerations, CHUNK)
+        .zip(crate::par_chunks_mut!(wall_pi, CHUNK))
+        .enumerate()
+        .for_each(|(c, (out, out_pi))| {
+            crate::par::wide(
+                #[inline(always)]
+                || {
+                    for (k, (a, wp)) in out.iter_mut().zip(out_pi.iter_mut()).enumerate() {
+                        let i = c * CHUNK + k;
+                        (*a, *wp) = symmetric_particle(input, &kernel, i, sep);
+                    }
+                },
+            )
+        });
+}
+
+/// The symmetric pressure acceleration of particle `i` and its wall's `π̂_i` (see
+/// [`symmetric_accelerations`]): [`LANES`] neighbours at a time, as
+/// [`pressure_accelerations`].
+#[inline(always)]
+fn symmetric_particle<K: Kernel, S: Separation>(
+    input: &SymmetricInput<'_>,
+    kernel: &K,
+    i: usize,
+    sep: S,
+) -> (Vector, Real) {
+    let (positions, inv, pressures) = (input.positions, input.inv_densities, input.pressures);
+    let xi = positions[i];
+    let pi_i = pressures[i] * inv[i] * inv[i];
+    let gw = input.wall.map_or(Vector::ZERO, |w| w[i]);
+    let walled = gw != Vector::ZERO;
+    let away = if walled {
+        -gw.normalize()
+    } else {
+        Vector::ZERO
+    };
+    let coincident = K::COINCIDENT_FRACTION * input.h;
+    let nb = input.neighbors.of(i);
+    let (mut fx, mut fy, mut fz) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+    let (mut sw, mut swp) = ([0.0; LANES], [0.0; LANES]);
+    let mut blocks = nb.chunks_exact(LANES);
+    for block in &mut blocks {
+        let (mut rx, mut ry, mut rz, mut d) =
+            ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
+        let mut pj = [0.0; LANES];
+        for l in 0..LANES {
+            let j = block[l] as usize;
+            let r = sep.sep(xi, positions[j]);
+            (rx[l], ry[l], rz[l]) = (r.x, r.y, r.z);
+            d[l] = r.length_squared();
+            pj[l] = pressures[j] * inv[j] * inv[j];
+        }
+        for l in 0..LANES {
+            d[l] = d[l].sqrt();
+        }
+        // ∇W_ij = r·g[l] for separated pairs, 0 for coincident ones (fixed up below).
+        let mut g = [0.0; LANES];
+        for l in 0..LANES {
+            let far = (d[l] > coincident) as u32 as Real;
+            g[l] = kernel.dw(d[l]) * (far / d[l].max(coincident));
+        }
+        for l in 0..LANES {
+            let c = g[l] * (pi_i + pj[l]);
+            fx[l] -= rx[l] * c;
+            fy[l] -= ry[l] * c;
+            fz[l] -= rz[l] * c;
+        }
+        if walled {
+            for l in 0..LANES {
+                let w = ((rx[l] * away.x + ry[l] * away.y + rz[l] * away.z) * g[l]).max(0.0);
+                sw[l] += w;
+                swp[l] += w * pj[l];
+            }
+        }
+        if d.iter().any(|&dl| dl <= coincident) {
+            for l in 0..LANES {
+                if d[l] <= coincident {
+                    let gr = kernel.gradient(Vector::ZERO, d[l], i as u32, block[l]);
+                    let f = gr * (pi_i + pj[l]);
+                    (fx[l], fy[l], fz[l]) = (fx[l] - f.x, fy[l] - f.y, fz[l] - f.z);
+                    let w = gr.dot(away).max(0.0);
+                    sw[l] += w;
+                    swp[l] += w * pj[l];
+                }
+            }
+        }
+    }
+    let mut f = Vector::new(lane_sum(fx), lane_sum(fy), lane_sum(fz));
+    let (mut sw, mut swp) = (lane_sum(sw), lane_sum(swp));
+    for &j in blocks.remainder() {
+        let ju = j as usize;
+        let r = sep.sep(xi, positions[ju]);
+        let gr = kernel.gradient(r, r.length(), i as u32, j);
+        let pj = pressures[ju] * inv[ju] * inv[ju];
+        f -= gr * (pi_i + pj);
+        let w = gr.dot(away).max(0.0);
+        sw += w;
+        swp += w * pj;
+    }
+    let mut a = f * input.mass;
+    if !walled {
+        return (a, 0.0);
+    }
+    let pi_wall = if sw > 0.0 { swp / sw } else { 0.0 };
+    a -= gw * (pi_i + pi_wall);
+    (a, pi_wall)
+}

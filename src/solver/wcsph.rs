@@ -10,14 +10,20 @@ use crate::domain::Separation;
 use crate::math::{Real, Vector};
 use crate::neighbors::Pairs;
 use crate::params::FluidParams;
+use crate::solver::settings::WcsphPressure;
 use crate::{density, forces, integrate, pressure};
 
-/// WCSPH keeps no state between substeps (only scratch for interacting fluids).
+/// WCSPH keeps no state between substeps (only scratch for interacting fluids and Adami's
+/// walls).
 #[derive(Clone, Debug, Default)]
 pub(crate) struct WcsphState {
     /// Interacting fluids: `1/ρ` times each particle's viscosity weight (see
     /// `solver::context::Phases`); empty for one fluid.
     viscous_inv_densities: Vec<Real>,
+    /// With [`WcsphPressure::Adami`] and walls: each particle's wall pressure value `π̂_i`
+    /// of the substep (see `pressure::wcsph::symmetric_accelerations`), for the walls'
+    /// reaction on bodies; empty otherwise.
+    wall_pi: Vec<Real>,
 }
 
 impl PressureSolver for WcsphState {
@@ -25,10 +31,11 @@ impl PressureSolver for WcsphState {
     const PREDICTS_POSITIONS: bool = false;
     const WALL_REACTION: WallReaction = WallReaction::Impulse { added_mass: true };
 
+    /// Adami's walls ([`WcsphPressure::Adami`]) ask for the walls' hydrostatic pressure.
     fn walls(_: &(), params: &FluidParams) -> WallRequest {
         WallRequest {
             force_kernel: params.pressure_kernel,
-            hydrostatic: false,
+            hydrostatic: params.wcsph_pressure == WcsphPressure::Adami,
             double_density: false,
         }
     }
@@ -36,13 +43,6 @@ impl PressureSolver for WcsphState {
     fn step<S: Separation>(&mut self, _: &(), ctx: &mut StepContext<'_>, sep: S) -> Outcome {
         let p = ctx.params;
         let wall = ctx.wall;
-        let pairs = Pairs {
-            positions: ctx.positions,
-            neighbors: ctx.neighbors,
-            mass: p.particle_mass,
-            h: p.smoothing_length,
-            sep,
-        };
         ctx.report.timed(Stage::Density, || {
             crate::with_kernel!(p.density_kernel, K => density::compute::<K, S>(
                 ctx.positions, ctx.neighbors, p.particle_mass, p.smoothing_length,
@@ -65,11 +65,14 @@ impl PressureSolver for WcsphState {
             }
         });
         // Overwrites the accelerations.
-        ctx.report.timed(Stage::PressureForce, || {
-            crate::with_kernel!(p.pressure_kernel, K => pressure::wcsph::pressure_accelerations::<K, S>(
-                ctx.positions, ctx.inv_densities, ctx.pressures, ctx.neighbors, p.particle_mass,
-                p.smoothing_length, wall.map(|w| &w.gradient[..]), ctx.accelerations, sep));
-        });
+        self.pressure_force(ctx, sep);
+        let pairs = Pairs {
+            positions: ctx.positions,
+            neighbors: ctx.neighbors,
+            mass: p.particle_mass,
+            h: p.smoothing_length,
+            sep,
+        };
         if p.explicit_viscosity() > 0.0 {
             let (phases, weighted) = (ctx.phases, &mut self.viscous_inv_densities);
             let inv = match phases {
@@ -96,7 +99,16 @@ impl PressureSolver for WcsphState {
         }
         if ctx.gravity != Vector::ZERO {
             ctx.report.timed(Stage::ExternalForces, || {
-                forces::external::add_gravity(ctx.gravity, ctx.accelerations)
+                forces::external::add_gravity(ctx.gravity, ctx.accelerations);
+                // Adami's walls: the hydrostatic part of the wall pressure (already per unit
+                // of each particle's own rest density, as DFSPH adds it).
+                if let Some(w) = wall
+                    && w.hydrostatic_on
+                {
+                    for (a, h) in ctx.accelerations.iter_mut().zip(&w.hydrostatic) {
+                        *a += *h;
+                    }
+                }
             });
         }
         ctx.report
@@ -112,10 +124,16 @@ impl PressureSolver for WcsphState {
             .into()
     }
 
-    /// The wall pressure force `−m·g_c·p/(2ρ²)` over the substep.
+    /// The wall pressure force over the substep: `−m·g_c·p/(2ρ²)` with the paper's forces,
+    /// `−m·g_c·(π_i + π̂_i)` with Adami's walls.
     fn wall_impulse_scale(&self, _: &(), ctx: &StepContext<'_>, i: usize) -> Real {
         let inv = ctx.inv_densities[i];
-        0.5 * ctx.pressures[i] * inv * inv * ctx.params.particle_mass * ctx.dt
+        let own = ctx.pressures[i] * inv * inv;
+        let pi = match ctx.params.wcsph_pressure {
+            WcsphPressure::Paper => 0.5 * own,
+            WcsphPressure::Adami => own + self.wall_pi.get(i).copied().unwrap_or(0.0),
+        };
+        pi * ctx.params.particle_mass * ctx.dt
     }
 
     /// The acoustic limit `dt ≤ courant · h / (c + v)`.
@@ -132,6 +150,39 @@ impl PressureSolver for WcsphState {
     }
 
     fn heap_bytes(&self) -> usize {
-        self.viscous_inv_densities.capacity() * std::mem::size_of::<Real>()
+        (self.viscous_inv_densities.capacity() + self.wall_pi.capacity())
+            * std::mem::size_of::<Real>()
+    }
+}
+
+impl WcsphState {
+    /// The pressure accelerations into `ctx.accelerations` (overwritten): the paper's
+    /// (Müller's form) or, with [`WcsphPressure::Adami`], the symmetric form with Adami's
+    /// wall pressure.
+    fn pressure_force<S: Separation>(&mut self, ctx: &mut StepContext<'_>, sep: S) {
+        let p = ctx.params;
+        let wall = ctx.wall.map(|w| &w.gradient[..]);
+        let wall_pi = &mut self.wall_pi;
+        ctx.report.timed(Stage::PressureForce, || match p.wcsph_pressure {
+            WcsphPressure::Paper => {
+                crate::with_kernel!(p.pressure_kernel, K => pressure::wcsph::pressure_accelerations::<K, S>(
+                    ctx.positions, ctx.inv_densities, ctx.pressures, ctx.neighbors, p.particle_mass,
+                    p.smoothing_length, wall, ctx.accelerations, sep));
+            }
+            WcsphPressure::Adami => {
+                let input = pressure::wcsph::SymmetricInput {
+                    positions: ctx.positions,
+                    inv_densities: ctx.inv_densities,
+                    pressures: ctx.pressures,
+                    neighbors: ctx.neighbors,
+                    mass: p.particle_mass,
+                    h: p.smoothing_length,
+                    wall,
+                };
+                wall_pi.resize(ctx.positions.len(), 0.0);
+                crate::with_kernel!(p.pressure_kernel, K => pressure::wcsph::symmetric_accelerations::<K, S>(
+                    &input, ctx.accelerations, wall_pi, sep));
+            }
+        });
     }
 }

@@ -225,6 +225,7 @@ impl Case {
         FluidParamsBuilder::water(self.width / resolution as Real)
             .solver(method.solver)
             .wall_density(method.wall_density)
+            .wcsph_pressure(method.wcsph_pressure)
             .build()
     }
 }

@@ -46,6 +46,7 @@ pub fn run(
     let params = FluidParamsBuilder::water(WIDTH / resolution as Real)
         .solver(method.solver)
         .wall_density(method.wall_density)
+        .wcsph_pressure(method.wcsph_pressure)
         .build()?;
     let n = resolution;
     let mut tank = HydrostaticTank::new(params.clone(), [n, 2 * n, n])?;

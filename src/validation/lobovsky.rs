@@ -285,6 +285,7 @@ impl Tank {
         let params = FluidParamsBuilder::water(H / resolution as Real)
             .solver(method.solver)
             .wall_density(method.wall_density)
+            .wcsph_pressure(method.wcsph_pressure)
             .build()?;
         let s = params.particle_spacing;
         let layers = super::dam_break::LAYERS;

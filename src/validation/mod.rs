@@ -48,6 +48,8 @@ pub struct Method {
     pub solver: Solver,
     /// [`crate::FluidParams::wall_density`].
     pub wall_density: bool,
+    /// [`crate::FluidParams::wcsph_pressure`] (WCSPH only).
+    pub wcsph_pressure: crate::WcsphPressure,
 }
 
 /// Every solver the crate has, as the report sweeps them. A new solver is one line here.
@@ -57,21 +59,25 @@ pub fn methods() -> Vec<Method> {
             name: Solver::Wcsph.name(),
             solver: Solver::Wcsph,
             wall_density: false,
+            wcsph_pressure: crate::WcsphPressure::Paper,
         },
         Method {
             name: Solver::dfsph().name(),
             solver: Solver::dfsph(),
             wall_density: true,
+            wcsph_pressure: crate::WcsphPressure::Paper,
         },
         Method {
             name: Solver::pbf().name(),
             solver: Solver::pbf(),
             wall_density: true,
+            wcsph_pressure: crate::WcsphPressure::Paper,
         },
         Method {
             name: Solver::clavet().name(),
             solver: Solver::clavet(),
             wall_density: false,
+            wcsph_pressure: crate::WcsphPressure::Paper,
         },
     ]
 }

@@ -97,6 +97,7 @@ pub fn params(method: &Method, resolution: usize, re: u32) -> SphResult<crate::F
         .viscosity(rho0 / re as Real)
         .solver(method.solver)
         .wall_density(method.wall_density)
+        .wcsph_pressure(method.wcsph_pressure)
         .periodic(Vector::ZERO, Vector::splat(BOX))
         .build()
 }
