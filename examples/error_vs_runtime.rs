@@ -60,8 +60,8 @@ struct Args {
     skip_scaling: bool,
     /// DFSPH with [`rapier_sph::solver::Dfsph::hydrostatic_walls`] (reported as `DFSPH-HW`).
     hydrostatic_walls: bool,
-    /// WCSPH with wall density and [`rapier_sph::WcsphPressure::Adami`] (reported as
-    /// `WCSPH-A`).
+    /// Adds WCSPH with wall density and [`rapier_sph::WcsphPressure::Adami`] (reported as
+    /// `WCSPH-A`) beside the report's WCSPH.
     wcsph_adami: bool,
     /// Only the methods whose name is listed (all if empty).
     solvers: Vec<String>,
@@ -99,7 +99,7 @@ fn parse_args() -> Args {
                 println!(
                     "error_vs_runtime [--quick | --full] [--out DIR] [--scene NAME] [--no-scaling]\n\
                      \x20                [--hydrostatic-walls]   (DFSPH runs as DFSPH-HW, hydrostatic walls on)\n\
-                     \x20                [--wcsph-adami]   (WCSPH runs as WCSPH-A: wall density, Adami's wall pressure)\n\
+                     \x20                [--wcsph-adami]   (adds WCSPH-A: WCSPH with wall density and Adami's wall pressure)\n\
                      \x20                [--solver NAME]...   (only these methods, by their printed name)\n\
                      scenes: {}",
                     Scene::ALL.map(|s| s.name()).join(", ")
@@ -728,12 +728,17 @@ fn main() {
         }
     }
     if args.wcsph_adami {
-        for m in &mut methods {
-            if m.solver == rapier_sph::Solver::Wcsph {
-                m.wall_density = true;
-                m.wcsph_pressure = rapier_sph::WcsphPressure::Adami;
-                m.name = "WCSPH-A";
-            }
+        let at = methods
+            .iter()
+            .position(|m| m.solver == rapier_sph::Solver::Wcsph);
+        if let Some(k) = at {
+            let adami = rapier_sph::validation::Method {
+                name: "WCSPH-A",
+                wall_density: true,
+                wcsph_pressure: rapier_sph::WcsphPressure::Adami,
+                ..methods[k]
+            };
+            methods.insert(k + 1, adami);
         }
     }
     if !args.solvers.is_empty() {

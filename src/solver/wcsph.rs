@@ -128,12 +128,14 @@ impl PressureSolver for WcsphState {
     /// `−m·g_c·(π_i + π̂_i)` with Adami's walls.
     fn wall_impulse_scale(&self, _: &(), ctx: &StepContext<'_>, i: usize) -> Real {
         let inv = ctx.inv_densities[i];
-        let own = ctx.pressures[i] * inv * inv;
-        let pi = match ctx.params.wcsph_pressure {
-            WcsphPressure::Paper => 0.5 * own,
-            WcsphPressure::Adami => own + self.wall_pi.get(i).copied().unwrap_or(0.0),
-        };
-        pi * ctx.params.particle_mass * ctx.dt
+        let (m, dt) = (ctx.params.particle_mass, ctx.dt);
+        match ctx.params.wcsph_pressure {
+            WcsphPressure::Paper => 0.5 * ctx.pressures[i] * inv * inv * m * dt,
+            WcsphPressure::Adami => {
+                let wall = self.wall_pi.get(i).copied().unwrap_or(0.0);
+                (ctx.pressures[i] * inv * inv + wall) * m * dt
+            }
+        }
     }
 
     /// The acoustic limit `dt ≤ courant · h / (c + v)`.
