@@ -11,9 +11,11 @@
 //! cargo run --release --example impact_probe -- SOLVER N FRAME_S [on|off]
 //! cargo run --release --example impact_probe -- DFSPH 15 0.0005
 //! cargo run --release --example impact_probe -- WCSPH 15 0.0005 on   # wall density on
+//! cargo run --release --example impact_probe -- WCSPH-A 15 0.0005     # WCSPH, Adami's walls
 //! ```
-//! `SOLVER` is a name of `validation::methods()` (WCSPH, DFSPH, PBF, Clavet), `N` the
-//! particles across H; the last argument overrides the method's wall density.
+//! `SOLVER` is a name of `validation::methods()` (WCSPH, DFSPH, PBF, Clavet) or `WCSPH-A`
+//! (WCSPH with wall density and `WcsphPressure::Adami`), `N` the particles across H; the
+//! last argument overrides the method's wall density.
 use rapier_sph::math::{Real, Vector};
 use rapier_sph::scenes::add_closed_box;
 use rapier_sph::validation::lobovsky::{COLUMN_LENGTH, H, TANK_HEIGHT, TANK_LENGTH, probe};
@@ -25,13 +27,20 @@ fn main() {
     let solver = a.get(1).map(String::as_str).unwrap_or("WCSPH");
     let n: usize = a.get(2).and_then(|s| s.parse().ok()).unwrap_or(15);
     let frame: Real = a.get(3).and_then(|s| s.parse().ok()).unwrap_or(0.0005);
-    let mut m = methods().into_iter().find(|m| m.name == solver).unwrap();
+    let adami = solver == "WCSPH-A";
+    let name = if adami { "WCSPH" } else { solver };
+    let mut m = methods().into_iter().find(|m| m.name == name).unwrap();
+    if adami {
+        m.wall_density = true;
+        m.wcsph_pressure = rapier_sph::WcsphPressure::Adami;
+    }
     if let Some(w) = a.get(4) {
         m.wall_density = w == "on";
     }
     let params = FluidParamsBuilder::water(H / n as Real)
         .solver(m.solver)
         .wall_density(m.wall_density)
+        .wcsph_pressure(m.wcsph_pressure)
         .build()
         .unwrap();
     let s = params.particle_spacing;
