@@ -176,8 +176,7 @@ pub(crate) fn symmetric_accelerations<K: Kernel, S: Separation>(
 }
 
 /// The symmetric pressure acceleration of particle `i` and its wall's `π̂_i` (see
-/// [`symmetric_accelerations`]): [`LANES`] neighbours at a time, as
-/// [`pressure_accelerations`].
+/// [`symmetric_accelerations`]).
 #[inline(always)]
 fn symmetric_particle<K: Kernel, S: Separation>(
     input: &SymmetricInput<'_>,
@@ -185,9 +184,8 @@ fn symmetric_particle<K: Kernel, S: Separation>(
     i: usize,
     sep: S,
 ) -> (Vector, Real) {
-    let (positions, inv, pressures) = (input.positions, input.inv_densities, input.pressures);
-    let xi = positions[i];
-    let pi_i = pressures[i] * inv[i] * inv[i];
+    let inv = input.inv_densities[i];
+    let pi_i = input.pressures[i] * inv * inv;
     let gw = input.wall.map_or(Vector::ZERO, |w| w[i]);
     let walled = gw != Vector::ZERO;
     let away = if walled {
@@ -195,11 +193,33 @@ fn symmetric_particle<K: Kernel, S: Separation>(
     } else {
         Vector::ZERO
     };
+    let (f, sw, swp) = pair_sums(input, kernel, (i, pi_i), away, sep);
+    let mut a = f * input.mass;
+    if !walled {
+        return (a, 0.0);
+    }
+    let pi_wall = if sw > 0.0 { swp / sw } else { 0.0 };
+    a -= gw * (pi_i + pi_wall);
+    (a, pi_wall)
+}
+
+/// Particle `i`'s pair sums, `(Σ_j −(π_i + π_j) ∇W_ij, Σ_j w_ij, Σ_j w_ij·π_j)` with
+/// `w_ij = max(0, ∇W_ij·away)` (`away` zero without walls): [`LANES`] neighbours at a time,
+/// as [`pressure_accelerations`].
+#[inline(always)]
+fn pair_sums<K: Kernel, S: Separation>(
+    input: &SymmetricInput<'_>,
+    kernel: &K,
+    (i, pi_i): (usize, Real),
+    away: Vector,
+    sep: S,
+) -> (Vector, Real, Real) {
+    let (positions, inv, pressures) = (input.positions, input.inv_densities, input.pressures);
+    let xi = positions[i];
     let coincident = K::COINCIDENT_FRACTION * input.h;
-    let nb = input.neighbors.of(i);
     let (mut fx, mut fy, mut fz) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
     let (mut sw, mut swp) = ([0.0; LANES], [0.0; LANES]);
-    let mut blocks = nb.chunks_exact(LANES);
+    let mut blocks = input.neighbors.of(i).chunks_exact(LANES);
     for block in &mut blocks {
         let (mut rx, mut ry, mut rz, mut d) =
             ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
@@ -208,30 +228,17 @@ fn symmetric_particle<K: Kernel, S: Separation>(
             let j = block[l] as usize;
             let r = sep.sep(xi, positions[j]);
             (rx[l], ry[l], rz[l]) = (r.x, r.y, r.z);
-            d[l] = r.length_squared();
+            d[l] = r.length_squared().sqrt();
             pj[l] = pressures[j] * inv[j] * inv[j];
         }
         for l in 0..LANES {
-            d[l] = d[l].sqrt();
-        }
-        // ∇W_ij = r·g[l] for separated pairs, 0 for coincident ones (fixed up below).
-        let mut g = [0.0; LANES];
-        for l in 0..LANES {
+            // ∇W_ij = r·g for separated pairs, 0 for coincident ones (fixed up below).
             let far = (d[l] > coincident) as u32 as Real;
-            g[l] = kernel.dw(d[l]) * (far / d[l].max(coincident));
-        }
-        for l in 0..LANES {
-            let c = g[l] * (pi_i + pj[l]);
-            fx[l] -= rx[l] * c;
-            fy[l] -= ry[l] * c;
-            fz[l] -= rz[l] * c;
-        }
-        if walled {
-            for l in 0..LANES {
-                let w = ((rx[l] * away.x + ry[l] * away.y + rz[l] * away.z) * g[l]).max(0.0);
-                sw[l] += w;
-                swp[l] += w * pj[l];
-            }
+            let g = kernel.dw(d[l]) * (far / d[l].max(coincident));
+            let c = g * (pi_i + pj[l]);
+            (fx[l], fy[l], fz[l]) = (fx[l] - rx[l] * c, fy[l] - ry[l] * c, fz[l] - rz[l] * c);
+            let w = ((rx[l] * away.x + ry[l] * away.y + rz[l] * away.z) * g).max(0.0);
+            (sw[l], swp[l]) = (sw[l] + w, swp[l] + w * pj[l]);
         }
         if d.iter().any(|&dl| dl <= coincident) {
             for l in 0..LANES {
@@ -240,8 +247,7 @@ fn symmetric_particle<K: Kernel, S: Separation>(
                     let f = gr * (pi_i + pj[l]);
                     (fx[l], fy[l], fz[l]) = (fx[l] - f.x, fy[l] - f.y, fz[l] - f.z);
                     let w = gr.dot(away).max(0.0);
-                    sw[l] += w;
-                    swp[l] += w * pj[l];
+                    (sw[l], swp[l]) = (sw[l] + w, swp[l] + w * pj[l]);
                 }
             }
         }
@@ -255,14 +261,7 @@ fn symmetric_particle<K: Kernel, S: Separation>(
         let pj = pressures[ju] * inv[ju] * inv[ju];
         f -= gr * (pi_i + pj);
         let w = gr.dot(away).max(0.0);
-        sw += w;
-        swp += w * pj;
+        (sw, swp) = (sw + w, swp + w * pj);
     }
-    let mut a = f * input.mass;
-    if !walled {
-        return (a, 0.0);
-    }
-    let pi_wall = if sw > 0.0 { swp / sw } else { 0.0 };
-    a -= gw * (pi_i + pi_wall);
-    (a, pi_wall)
+    (f, sw, swp)
 }
