@@ -146,7 +146,7 @@ pub(crate) struct SymmetricInput<'a> {
 /// walls (`solver::dfsph`, [`crate::solver::HYDROSTATIC_WALL_MIRROR`]): the wall "particles"
 /// `b` of the walls' volume push with `−Σ_b m_b (π_i + π_b) ∇W_ib = −(π_i + π̂_i)·∇ρ_wall`,
 /// the wall's value `π̂_i` being the average of the fluid-side neighbours' `π_j` weighted
-/// by `max(0, ∇W_ij·û)`, `û = −∇ρ_wall/|∇ρ_wall|` (DFSPH's `neighbour_average`, gathered here
+/// by `max(0, ∇W_ij·û)`, `û = −∇ρ_wall/|∇ρ_wall|` (DFSPH's `wall_weights`, gathered here
 /// in the force's own neighbour loop); `π̂_i` goes to `wall_pi[i]` (0 without wall or
 /// weight) for the walls' reaction on bodies. The hydrostatic difference `ρ0·g·(x_b − x̄_i)`
 /// is the wall stage's `WallWorkspace::hydrostatic`, which the solver adds with gravity.
