@@ -218,8 +218,8 @@ fn momentum_and_mass_are_conserved_across_fluids() {
 /// viscosity, so a checkerboard mix stays mostly mixed (`fluid::interaction`, "Why a fine mix
 /// stays mixed", `examples/layered_probe.rs`).
 ///
-/// WCSPH, whose pressures in this tank are twice the hydrostatic ones (its walls; see
-/// above), holds more of them: its interface settles at 0.136 m, 64 % of the way from the
+/// WCSPH, whose pressures in this tank are twice the hydrostatic ones (the paper's pressure
+/// force; see above), holds more of them: its interface settles at 0.136 m, 64 % of the way from the
 /// start's 0.200 m; asserted: more than half the way, and staying.
 #[test]
 fn oil_and_water_side_by_side_stratify_and_stay_stratified() {

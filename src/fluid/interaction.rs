@@ -54,7 +54,8 @@
 //! - oil (800) on water, DFSPH: the layers stay, the bottom pressure averaged over the second
 //!   second is +1.1 % off `ρ_oil·g·h_oil + ρ_water·g·h_water` (two waters: −0.6 %); water under
 //!   a liquid of 100 kg/m³: −0.7 %. WCSPH reads +117 % there, as it does with one fluid in
-//!   this tank (its walls mirror the particle's own pressure);
+//!   this tank (the paper's pressure force is half the pressure gradient), and +0.27 % with
+//!   `WcsphPressure::Adami`;
 //! - oil and water side by side (a lock exchange) stratify within 2 s; the interface settles
 //!   at 0.108 m for 0.100 with DFSPH (0.136 m with WCSPH). What is left are single particles of
 //!   one liquid caught in the other, and a mix at the particle scale does not separate (see
