@@ -96,7 +96,9 @@ mod shapes;
 mod sources;
 mod values;
 
-pub use build::{BuiltScene, scene_bounds};
+pub use build::BuiltScene;
+#[cfg(feature = "render")]
+pub use build::scene_bounds;
 pub use fluid::{
     BlockDesc, EosDesc, FluidDesc, KernelDesc, Preset, SleepDesc, SolverDesc, SpringsDesc,
     ViscositySolveDesc,
