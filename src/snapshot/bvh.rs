@@ -136,6 +136,16 @@ pub(crate) fn encode<T: Serialize>(mirror: &T) -> Vec<u8> {
     postcard::to_allocvec(mirror).expect("the mirror encodes")
 }
 
+/// The deepest tree (in wide nodes from the root) loading accepts. Parry's refit and its
+/// self-intersection walk (the broad phase's pair search) recurse once per level, so a crafted
+/// chain as deep as its leaf count would overflow the stack. A tree parry builds is a few
+/// times log2 of its leaf count deep (measured in `parry_builds_shallow_trees`: 17 levels for
+/// 4,000 colliders inserted one by one along a line), and a balanced tree 1,024 deep would
+/// hold 2^1024 leaves; a chain 1,024 deep refits and self-intersects on a 256 KiB stack
+/// (`a_chain_at_the_depth_bound_fits_a_small_stack`), an eighth of the 2 MiB Rust gives a
+/// spawned thread.
+pub(crate) const MAX_TREE_DEPTH: usize = 1024;
+
 /// What is wrong, and where: the wide node (or leaf key, or list position) concerned.
 type Fault = (usize, &'static str);
 
@@ -323,8 +333,11 @@ fn check_reachable(t: &Tree, leaf_keys: u64) -> Result<Reached, Fault> {
     let mut wide = vec![false; len];
     wide[0] = true;
     let mut leaves = 0;
-    let mut stack = vec![0usize];
-    while let Some(k) = stack.pop() {
+    let mut stack = vec![(0usize, 1usize)];
+    while let Some((k, depth)) = stack.pop() {
+        if depth > MAX_TREE_DEPTH {
+            return Err((k, "a tree is deeper than MAX_TREE_DEPTH (1024) wide nodes"));
+        }
         for right in [false, true] {
             let node = t.nodes[k].side(right);
             let here = 2 * k + right as usize;
@@ -358,7 +371,7 @@ fn check_reachable(t: &Tree, leaf_keys: u64) -> Result<Reached, Fault> {
             if node.leaf_count() as u64 != below {
                 return Err((c, "a leaf count is not the sum of its children's"));
             }
-            stack.push(c);
+            stack.push((c, depth + 1));
         }
     }
     Ok(Reached { wide, leaves })
@@ -532,5 +545,120 @@ mod tests {
             let key = t.nodes[leaf.0].side(leaf.1).children as usize;
             t.leaves.v[key] = Some(2 * leaf.0 + !leaf.1 as usize);
         });
+    }
+
+    /// The depth of a tree, in wide nodes from the root (a one-leaf tree: 1).
+    fn depth(t: &Tree) -> usize {
+        let mut deepest = 0;
+        let mut stack = vec![(0usize, 1usize)];
+        while let Some((k, d)) = stack.pop() {
+            deepest = deepest.max(d);
+            for right in [false, true] {
+                let n = t.nodes[k].side(right);
+                if n.leaf_count() > 1 {
+                    stack.push((n.children as usize, d + 1));
+                }
+            }
+        }
+        if t.nodes.is_empty() { 0 } else { deepest }
+    }
+
+    /// Trees parry builds stay far below [`MAX_TREE_DEPTH`]: rapier's broad phase with 4,000
+    /// colliders inserted ten a step along a line (the incremental insertion's worst order)
+    /// and a 20,000-triangle strip (the binned build). Prints the depths.
+    #[test]
+    fn parry_builds_shallow_trees() {
+        let mut w = PhysicsWorld::new();
+        for i in 0..4000 {
+            let at = Vector::new(i as Real * 0.5, 0.0, 0.0);
+            w.insert_collider(ColliderBuilder::ball(0.1).translation(at), None);
+            if i % 10 == 9 {
+                w.step();
+            }
+        }
+        w.step();
+        let (bp, _) = mirror_broad_phase(&w.broad_phase).unwrap();
+        let line = depth(&bp.tree);
+        let n = 10_000u32;
+        let vertices: Vec<_> = (0..=n)
+            .flat_map(|i| [0.0, 1.0].map(|z| Vector::new(i as Real * 0.1, 0.0, z)))
+            .collect();
+        let indices: Vec<_> = (0..n)
+            .flat_map(|i| [[2 * i, 2 * i + 2, 2 * i + 1], [2 * i + 1, 2 * i + 2, 2 * i + 3]])
+            .collect();
+        let mesh = TriMesh::new(vertices, indices).unwrap();
+        let (m, _) = mirror_tree(mesh.bvh()).unwrap();
+        let strip = depth(&m);
+        println!("depths: broad phase of 4,000 in a line {line}, strip of 20,000 triangles {strip}");
+        assert!(line > 12 && strip > 14, "a tree of that size is at least log2(n) deep");
+        assert!(line < MAX_TREE_DEPTH / 8 && strip < MAX_TREE_DEPTH / 8);
+        check_tree(&bp.tree, u64::MAX).unwrap();
+        check_tree(&m, 2 * n as u64).unwrap();
+    }
+
+    /// A chain of wide nodes `d` deep (each holding one leaf and the next node), as a file
+    /// could craft it, with the root parent and optimiser state of a real tree.
+    fn chain(d: usize, like: &Tree) -> Tree {
+        let leaf = |key: usize| Node {
+            mins: [key as Real; 3],
+            children: key as u32,
+            maxs: [key as Real + 1.5; 3],
+            data: 1,
+        };
+        let nodes = (0..d)
+            .map(|k| {
+                let right = if k + 1 == d {
+                    leaf(d)
+                } else {
+                    Node {
+                        mins: [(k + 1) as Real; 3],
+                        children: (k + 1) as u32,
+                        maxs: [d as Real + 1.5; 3],
+                        data: (d - k) as u32,
+                    }
+                };
+                Wide { left: leaf(k), right }
+            })
+            .collect();
+        let parents = (0..d).map(|k| if k == 0 { like.parents[0] } else { 2 * (k - 1) + 1 });
+        let mut v: Vec<_> = (0..d).map(|k| Some(2 * k)).collect();
+        v.push(Some(2 * (d - 1) + 1));
+        Tree {
+            nodes,
+            parents: parents.collect(),
+            leaves: LeafMap { n: d + 1, v },
+            optimization: like.optimization,
+            free_wide_nodes: Vec::new(),
+        }
+    }
+
+    /// A chain exactly [`MAX_TREE_DEPTH`] deep passes the checks, one level more is refused,
+    /// and parry refits and self-intersects the deepest accepted chain on a thread with a
+    /// 256 KiB stack (an eighth of a spawned thread's 2 MiB): the bound leaves parry's
+    /// recursions that margin.
+    #[test]
+    fn a_chain_at_the_depth_bound_fits_a_small_stack() {
+        let w = busy_world(|_| {});
+        let (real, _) = mirror_broad_phase(&w.broad_phase).unwrap();
+        let deepest = chain(MAX_TREE_DEPTH, &real.tree);
+        check_tree(&deepest, u64::MAX).unwrap();
+        assert_eq!(depth(&deepest), MAX_TREE_DEPTH);
+        let (_, reason) = check_tree(&chain(MAX_TREE_DEPTH + 1, &real.tree), u64::MAX).unwrap_err();
+        assert!(reason.contains("deeper"), "{reason}");
+        let mut bvh: Bvh = postcard::from_bytes(&encode(&deepest)).expect("parry reads the chain");
+        let pairs = std::thread::Builder::new()
+            .stack_size(256 << 10)
+            .spawn(move || {
+                let mut ws = rapier3d::parry::partitioning::BvhWorkspace::default();
+                bvh.refit(&mut ws);
+                let mut pairs = 0;
+                bvh.traverse_bvtt_single_tree::<false>(&mut ws, &mut |_, _| pairs += 1);
+                pairs
+            })
+            .unwrap()
+            .join()
+            .expect("no overflow");
+        // Each leaf's box overlaps the next one's only.
+        assert_eq!(pairs, MAX_TREE_DEPTH);
     }
 }

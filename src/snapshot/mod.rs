@@ -55,6 +55,7 @@
 #![cfg_attr(docsrs, doc(cfg(feature = "snapshot")))]
 
 mod bvh;
+mod islands;
 
 use crate::error::SphError;
 use crate::fluid::snapshot::FluidState;
@@ -321,6 +322,7 @@ fn check_physics(p: &PhysicsWorld) -> Result<(), SphError> {
     check_bodies(p)?;
     check_colliders(p)?;
     check_references(p)?;
+    islands::check_islands(p)?;
     bvh::check_broad_phase(&p.broad_phase)?;
     bvh::check_collider_shapes(&p.colliders)
 }
