@@ -139,8 +139,8 @@ pub(crate) fn encode<T: Serialize>(mirror: &T) -> Vec<u8> {
 /// The deepest tree (in wide nodes from the root) loading accepts. Parry's refit and its
 /// self-intersection walk (the broad phase's pair search) recurse once per level, so a crafted
 /// chain as deep as its leaf count would overflow the stack. A tree parry builds is a few
-/// times log2 of its leaf count deep (measured in `parry_builds_shallow_trees`: 17 levels for
-/// 4,000 colliders inserted one by one along a line), and a balanced tree 1,024 deep would
+/// times log2 of its leaf count deep (measured in `parry_builds_shallow_trees`: 16 levels for
+/// 4,000 colliders inserted ten a step along a line, 58 for a strip of 20,000 triangles), and a balanced tree 1,024 deep would
 /// hold 2^1024 leaves; a chain 1,024 deep refits and self-intersects on a 256 KiB stack
 /// (`a_chain_at_the_depth_bound_fits_a_small_stack`), an eighth of the 2 MiB Rust gives a
 /// spawned thread.
@@ -584,13 +584,23 @@ mod tests {
             .flat_map(|i| [0.0, 1.0].map(|z| Vector::new(i as Real * 0.1, 0.0, z)))
             .collect();
         let indices: Vec<_> = (0..n)
-            .flat_map(|i| [[2 * i, 2 * i + 2, 2 * i + 1], [2 * i + 1, 2 * i + 2, 2 * i + 3]])
+            .flat_map(|i| {
+                [
+                    [2 * i, 2 * i + 2, 2 * i + 1],
+                    [2 * i + 1, 2 * i + 2, 2 * i + 3],
+                ]
+            })
             .collect();
         let mesh = TriMesh::new(vertices, indices).unwrap();
         let (m, _) = mirror_tree(mesh.bvh()).unwrap();
         let strip = depth(&m);
-        println!("depths: broad phase of 4,000 in a line {line}, strip of 20,000 triangles {strip}");
-        assert!(line > 12 && strip > 14, "a tree of that size is at least log2(n) deep");
+        println!(
+            "depths: broad phase of 4,000 in a line {line}, strip of 20,000 triangles {strip}"
+        );
+        assert!(
+            line > 12 && strip > 14,
+            "a tree of that size is at least log2(n) deep"
+        );
         assert!(line < MAX_TREE_DEPTH / 8 && strip < MAX_TREE_DEPTH / 8);
         check_tree(&bp.tree, u64::MAX).unwrap();
         check_tree(&m, 2 * n as u64).unwrap();
@@ -617,10 +627,19 @@ mod tests {
                         data: (d - k) as u32,
                     }
                 };
-                Wide { left: leaf(k), right }
+                Wide {
+                    left: leaf(k),
+                    right,
+                }
             })
             .collect();
-        let parents = (0..d).map(|k| if k == 0 { like.parents[0] } else { 2 * (k - 1) + 1 });
+        let parents = (0..d).map(|k| {
+            if k == 0 {
+                like.parents[0]
+            } else {
+                2 * (k - 1) + 1
+            }
+        });
         let mut v: Vec<_> = (0..d).map(|k| Some(2 * k)).collect();
         v.push(Some(2 * (d - 1) + 1));
         Tree {

@@ -185,7 +185,10 @@ impl Bodies {
         let mut ids = Vec::new();
         for (h, rb) in set.iter() {
             let (i, g) = h.into_raw_parts();
-            let id = body_ids(rb).ok_or((i as usize, "a body's layout is not the one this build reads (rapier upgraded)"))?;
+            let id = body_ids(rb).ok_or((
+                i as usize,
+                "a body's layout is not the one this build reads (rapier upgraded)",
+            ))?;
             if ids.len() <= i as usize {
                 ids.resize(i as usize + 1, None);
             }
@@ -222,7 +225,8 @@ pub(crate) fn check_islands(p: &PhysicsWorld) -> Result<(), SphError> {
 /// that place; every body whose ids name an island is listed there; the
 /// awake island and the free ids are consistent with the map.
 fn check_active(m: &Islands, bodies: &Bodies) -> Result<(), Fault> {
-    m.islands.check(&m.free_islands.iter().map(|&f| f as u64).collect::<Vec<_>>())?;
+    m.islands
+        .check(&m.free_islands.iter().map(|&f| f as u64).collect::<Vec<_>>())?;
     if let Some(a) = m.awake_island
         && m.islands.get(a).is_none()
     {
@@ -335,7 +339,11 @@ fn check_links(p: &Persistent, bodies: &Bodies) -> Result<(), Fault> {
             }
         }
     }
-    let located = p.contact_link_locs.iter().filter(|&&l| l != (NONE, NONE)).count();
+    let located = p
+        .contact_link_locs
+        .iter()
+        .filter(|&&l| l != (NONE, NONE))
+        .count();
     if located != contacts {
         return Err((located, "a contact location names no link"));
     }
@@ -367,7 +375,10 @@ fn check_body_colliders(bodies: &RigidBodySet, colliders: &ColliderSet) -> Resul
         }
         listed += own.len();
     }
-    let attached = colliders.iter().filter(|(_, c)| c.parent().is_some()).count();
+    let attached = colliders
+        .iter()
+        .filter(|(_, c)| c.parent().is_some())
+        .count();
     if attached != listed {
         return Err((attached, "a collider is not in its body's list"));
     }
@@ -444,12 +455,19 @@ mod tests {
                     assert_eq!(Some(ids.active_island_id as usize), m.awake_island);
                 }
             }
-            slept += m.islands.iter().filter(|(k, _)| Some(*k) != m.awake_island).count();
+            slept += m
+                .islands
+                .iter()
+                .filter(|(k, _)| Some(*k) != m.awake_island)
+                .count();
             persistent += m.persistent.islands.n;
             checked += 1;
         });
         assert_eq!(checked, 404);
-        assert!(slept > 0, "no island fell asleep: the sleeping paths were not checked");
+        assert!(
+            slept > 0,
+            "no island fell asleep: the sleeping paths were not checked"
+        );
         assert!(persistent > 0);
     }
 
@@ -487,7 +505,13 @@ mod tests {
         refused(&|m| m.islands.n += 1);
         refused(&|m| m.awake_island = Some(m.islands.v.len()));
         refused(&|m| m.free_islands.push(awake));
-        refused(&|m| m.persistent.islands.v[pk].as_mut().unwrap().bodies.reverse());
+        refused(&|m| {
+            m.persistent.islands.v[pk]
+                .as_mut()
+                .unwrap()
+                .bodies
+                .reverse()
+        });
         refused(&|m| {
             m.persistent.islands.v[pk].as_mut().unwrap().bodies.clear();
         });
@@ -495,11 +519,19 @@ mod tests {
         refused(&|m| m.persistent.free_islands.push(pk as u32));
         refused(&|m| m.persistent.contact_link_locs.push((0, 0)));
         refused(&|m| {
-            let l = m.persistent.contact_link_locs.iter_mut().find(|l| l.0 != NONE);
+            let l = m
+                .persistent
+                .contact_link_locs
+                .iter_mut()
+                .find(|l| l.0 != NONE);
             l.expect("a contact link").1 += 1;
         });
         refused(&|m| {
-            let l = m.persistent.joint_link_locs.first_mut().expect("a joint link");
+            let l = m
+                .persistent
+                .joint_link_locs
+                .first_mut()
+                .expect("a joint link");
             l.1.1 += 1;
         });
     }
