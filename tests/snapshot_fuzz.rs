@@ -5,11 +5,12 @@
 //! checksum refuses them), and random bytes changed in the fluids' part of the payload with
 //! the header's length and checksum rewritten to match, as a file crafted to pass the checksum
 //! would be (the decoder and the state's validation must then refuse it, or the state must
-//! step). The same, resealed, in rapier's broad phase: loading's tree checks refuse it or the
-//! world steps. `resealed_corruption_outcomes` (ignored; `PART=physics N=2000 cargo test
-//! --release --features snapshot --test snapshot_fuzz -- --ignored --nocapture`, fixed seed;
-//! `PART` = `fluids`, `physics`, `broad_phase` or the whole payload when unset) counts what
-//! resealed corruptions do: none of 2,000 panicked in `physics` or `broad_phase` runs.
+//! step). The same, resealed, in rapier's broad phase, its island manager and bodies, and
+//! anywhere in the payload: loading's checks refuse it or the world steps.
+//! `resealed_corruption_outcomes` (ignored; `PART=physics N=2000 cargo test --release
+//! --features snapshot --test snapshot_fuzz -- --ignored --nocapture`, fixed seed; `PART` =
+//! `fluids`, `physics`, `broad_phase`, `islands`, `bodies` or the whole payload when unset)
+//! counts what resealed corruptions do.
 #![cfg(feature = "snapshot")]
 
 use proptest::prelude::*;
@@ -83,19 +84,41 @@ fn fluid_end() -> usize {
     })
 }
 
-/// Where rapier's broad phase (its tree, pairs and counters) lies in the file: its own
-/// encoding, found once in the payload.
+/// Where a part of rapier's world lies in the file: its own encoding, found once after the
+/// fluids.
+fn span_of(part: Vec<u8>) -> (usize, usize) {
+    let bytes = snapshot_bytes();
+    let mut at =
+        (fluid_end()..=bytes.len() - part.len()).filter(|&i| bytes[i..].starts_with(&part));
+    let start = at.next().expect("the part's bytes are in the file");
+    assert!(at.next().is_none(), "found twice");
+    (start, start + part.len())
+}
+
+/// Where rapier's broad phase (its tree, pairs and counters) lies in the file.
 fn broad_phase_span() -> (usize, usize) {
     static SPAN: OnceLock<(usize, usize)> = OnceLock::new();
     *SPAN.get_or_init(|| {
         let world = snapshot::from_bytes(snapshot_bytes()).unwrap();
-        let bp = postcard::to_allocvec(&world.physics.broad_phase).unwrap();
-        let bytes = snapshot_bytes();
-        let mut at =
-            (fluid_end()..=bytes.len() - bp.len()).filter(|&i| bytes[i..].starts_with(&bp));
-        let start = at.next().expect("the broad phase's bytes are in the file");
-        assert!(at.next().is_none(), "found twice");
-        (start, start + bp.len())
+        span_of(postcard::to_allocvec(&world.physics.broad_phase).unwrap())
+    })
+}
+
+/// Where rapier's island manager (active and persistent islands) lies in the file.
+fn islands_span() -> (usize, usize) {
+    static SPAN: OnceLock<(usize, usize)> = OnceLock::new();
+    *SPAN.get_or_init(|| {
+        let world = snapshot::from_bytes(snapshot_bytes()).unwrap();
+        span_of(postcard::to_allocvec(&world.physics.islands).unwrap())
+    })
+}
+
+/// Where rapier's bodies lie in the file.
+fn bodies_span() -> (usize, usize) {
+    static SPAN: OnceLock<(usize, usize)> = OnceLock::new();
+    *SPAN.get_or_init(|| {
+        let world = snapshot::from_bytes(snapshot_bytes()).unwrap();
+        span_of(postcard::to_allocvec(&world.physics.bodies).unwrap())
     })
 }
 
@@ -253,6 +276,73 @@ proptest! {
     }
 }
 
+/// Random bytes changed in `from..to` of the file, the header rewritten to match.
+fn resealed(from: usize, to: usize, edits: &[Edit]) -> Vec<u8> {
+    let mut bytes = snapshot_bytes().to_vec();
+    let mut tail = bytes.split_off(to);
+    apply(&mut bytes, from, edits);
+    bytes.append(&mut tail);
+    reseal(&mut bytes);
+    bytes
+}
+
+/// Byte edits only (no cuts or insertions), as a crafted file keeps its layout.
+fn byte_edits() -> impl Strategy<Value = Vec<Edit>> {
+    prop::collection::vec(edit(), 1..4).prop_map(|v| {
+        v.into_iter()
+            .filter(|e| matches!(e, Edit::Set(..) | Edit::Flip(..)))
+            .collect::<Vec<_>>()
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    /// Random edits (changed, cut or inserted bytes) anywhere in the payload, the header
+    /// rewritten to match: loading refuses the file with a typed error, or the world steps
+    /// without panic. This holds only because loading checks what rapier and parry index
+    /// without checks (trees, islands, bodies' ids and colliders).
+    #[test]
+    fn resealed_payload_corruptions_never_panic(edits in prop::collection::vec(edit(), 1..4)) {
+        let _ = load_and_step(&resealed(HEADER, snapshot_bytes().len(), &edits));
+    }
+
+    /// Random bytes changed in rapier's island manager or bodies, the header rewritten to
+    /// match: refused, or the world steps without panic.
+    #[test]
+    fn resealed_island_and_body_corruptions_never_panic(edits in byte_edits(), bodies in any::<bool>()) {
+        let (from, to) = if bodies { bodies_span() } else { islands_span() };
+        let _ = load_and_step(&resealed(from, to, &edits));
+    }
+}
+
+/// A resealed file whose dynamic body's place in the active set is outside it (rapier's
+/// solver would index its arrays out of bounds in the first step) is refused, naming the
+/// island manager.
+#[test]
+fn a_body_outside_the_active_set_is_refused() {
+    let world = snapshot::from_bytes(snapshot_bytes()).unwrap();
+    let (_, ball) = world
+        .physics
+        .bodies
+        .iter()
+        .find(|(_, b)| b.is_dynamic())
+        .expect("the ball");
+    let (start, _) = span_of(postcard::to_allocvec(ball).unwrap());
+    let mut bytes = snapshot_bytes().to_vec();
+    // The body's ids lead its encoding: its active island, then its place in it (one byte
+    // each in a world this small).
+    assert!(bytes[start] < 128 && bytes[start + 1] < 128);
+    bytes[start + 1] = 113;
+    reseal(&mut bytes);
+    match snapshot::from_bytes(&bytes) {
+        Err(SnapshotError::Invalid(rapier_sph::SphError::InvalidParameter { field, .. })) => {
+            assert_eq!(field, "islands");
+        }
+        other => panic!("expected a refused body, got {:?}", other.map(|_| ())),
+    }
+}
+
 /// The world before corruption loads and steps.
 #[test]
 fn the_fuzzed_snapshot_loads() {
@@ -291,6 +381,8 @@ fn resealed_corruption_outcomes() {
             Ok("fluids") => (HEADER, fluid_end()),
             Ok("physics") => (fluid_end(), snapshot_bytes().len()),
             Ok("broad_phase") => broad_phase_span(),
+            Ok("islands") => islands_span(),
+            Ok("bodies") => bodies_span(),
             _ => (HEADER, snapshot_bytes().len()),
         };
         let mut tail = bytes.split_off(to);

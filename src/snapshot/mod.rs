@@ -41,16 +41,23 @@
 //!   narrow phase's pairs naming colliders of the set and the joints bodies of the set;
 //!   rapier's broad-phase tree and the trees of colliders' triangle meshes, polylines and
 //!   compounds well formed (every child, parent link, leaf and free slot inside its array,
-//!   no cycle, leaf counts the sums of their children's, boxes finite), a mesh's or
-//!   polyline's vertex indices inside its vertices, a mesh's pseudo-normals, topology and
-//!   connected components of its sizes. Parry follows these without bounds checks and keeps
-//!   them private, so they are read through a mirror of their serde layout (the `bvh`
-//!   module); rebuilding the broad phase instead would change the order in which rapier
-//!   finds pairs, and with it the bitwise equality of a restored run.
+//!   no cycle, leaf counts the sums of their children's, boxes finite, at most
+//!   `MAX_TREE_DEPTH` = 1,024 levels deep, as parry's refit and pair search recurse once per
+//!   level), a mesh's or polyline's vertex indices inside its vertices, a mesh's
+//!   pseudo-normals, topology and connected components of its sizes; rapier's islands
+//!   consistent with its bodies (each body's place in the active set and in its persistent
+//!   island where the islands list it, both ways; the awake island, free island ids and the
+//!   pending split existing; every contact and joint link where its location table says);
+//!   each body's colliders attached to it and every attached collider in its body's list.
+//!   Parry and rapier follow these without bounds checks and keep them private, so they are
+//!   read through mirrors of their serde layouts (the `bvh` and `islands` modules);
+//!   rebuilding them instead would change the order in which rapier finds pairs and solves
+//!   bodies, and with it the bitwise equality of a restored run.
 //!
-//! Rapier's other internal structures (islands, contact graph) are restored as rapier wrote
-//! them and not checked further: the checksum guards them against corruption, not against a
-//! file crafted to pass it.
+//! Not checked beyond the references above: the narrow phase's contact and intersection
+//! graphs (their nodes' and edges' private links), the joint sets' graphs and multibodies,
+//! soft bodies, and the trees inside voxel shapes (private in parry): the checksum guards them
+//! against corruption, not against a file crafted to pass it.
 
 #![cfg_attr(docsrs, doc(cfg(feature = "snapshot")))]
 
