@@ -48,20 +48,24 @@
 //!   consistent with its bodies (each body's place in the active set and in its persistent
 //!   island where the islands list it, both ways; the awake island, free island ids and the
 //!   pending split existing; every contact and joint link where its location table says);
-//!   each body's colliders attached to it and every attached collider in its body's list.
+//!   each body's colliders attached to it and every attached collider in its body's list;
+//!   the narrow phase's contact and intersection graphs well formed (every edge in its
+//!   source's outgoing and its target's incoming list once, back links matching, no cycle)
+//!   and its collider → node map consistent with the nodes.
 //!   Parry and rapier follow these without bounds checks and keep them private, so they are
-//!   read through mirrors of their serde layouts (the `bvh` and `islands` modules);
+//!   read through mirrors of their serde layouts (the `bvh`, `islands` and `graphs` modules);
 //!   rebuilding them instead would change the order in which rapier finds pairs and solves
 //!   bodies, and with it the bitwise equality of a restored run.
 //!
-//! Not checked beyond the references above: the narrow phase's contact and intersection
-//! graphs (their nodes' and edges' private links), the joint sets' graphs and multibodies,
-//! soft bodies, and the trees inside voxel shapes (private in parry): the checksum guards them
-//! against corruption, not against a file crafted to pass it.
+//! Not checked beyond the references above: the narrow phase's solver caches (per-pair solver
+//! hints, the solver contact graph's colour buckets, the force-event lists), the joint sets'
+//! graphs and multibodies, soft bodies, and the trees inside voxel shapes (private in parry):
+//! the checksum guards them against corruption, not against a file crafted to pass it.
 
 #![cfg_attr(docsrs, doc(cfg(feature = "snapshot")))]
 
 mod bvh;
+mod graphs;
 mod islands;
 
 use crate::error::SphError;
@@ -329,6 +333,7 @@ fn check_physics(p: &PhysicsWorld) -> Result<(), SphError> {
     check_bodies(p)?;
     check_colliders(p)?;
     check_references(p)?;
+    graphs::check_narrow_phase(&p.narrow_phase, &p.colliders)?;
     islands::check_islands(p)?;
     bvh::check_broad_phase(&p.broad_phase)?;
     bvh::check_collider_shapes(&p.colliders)
