@@ -7,6 +7,9 @@
 //! cargo run --release --example coil -- --nu 100 --height 8 # the viscous regime
 //! ```
 //!
+//! At the defaults it ends with about 7,560 particles (the nozzle releases 2,520 a second, the
+//! floor keeps them) after 3,190 substeps: 76 s of CPU on one thread (`RAYON_NUM_THREADS=1`).
+//!
 //! It does not coil steadily (docs/solvers.md, "Rope coiling", has the figures): at the
 //! defaults (gravitational by the numbers below) the rope lays loops and breaks; in the
 //! viscous regime it swells instead of buckling.
