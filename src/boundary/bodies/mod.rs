@@ -311,11 +311,15 @@ impl Coupling {
                     Ok(k) if body.is_dynamic() && !body.is_sleeping() => linvel - self.left[k].1,
                     _ => Vector::ZERO,
                 };
-                let mut accel = rapier_dv * spread;
+                let (mut accel, mut rapier_rate) = (rapier_dv * spread, rapier_dv / dt);
                 let (mut linvel, mut angvel) = (linvel, angvel);
                 if self.teleports.holds_still(bh) {
-                    // A marked move: the body jumped, it did not sweep through the water.
+                    // A marked move: the body jumped, it did not sweep through the water; nor
+                    // does rapier's change of its velocity move it during the frame (the
+                    // added-mass solve of PBF's walls would otherwise give the water rapier's
+                    // share of a velocity the body never had here).
                     (linvel, angvel, accel) = (Vector::ZERO, Vector::ZERO, Vector::ZERO);
+                    rapier_rate = Vector::ZERO;
                 }
                 let aabb = co.compute_aabb();
                 let com = body.center_of_mass();
@@ -333,7 +337,7 @@ impl Coupling {
                     linvel,
                     vel: linvel,
                     accel,
-                    rapier_rate: rapier_dv / dt,
+                    rapier_rate,
                     backs: (0.0, 0.0),
                     inv_mass: if body.is_dynamic() {
                         body.mass_properties().effective_inv_mass
