@@ -895,10 +895,8 @@ impl Press {
     fn caught(&self, table: &[MovingCollider]) -> Option<Caught> {
         let body = self.body?;
         let other = self.other?;
-        let same = other
-            .0
-            .is_some_and(|o| table[o as usize].body == table[body.0 as usize].body);
-        (!same && body.1.dot(other.1) < -0.5).then_some(Caught { body, other })
+        let dynamic = other.0.is_some_and(|o| table[o as usize].dynamic);
+        (!dynamic && body.1.dot(other.1) < -0.5).then_some(Caught { body, other })
     }
 }
 

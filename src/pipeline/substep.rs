@@ -449,10 +449,7 @@ fn wall_impulses(
         inv_densities: ctx.inv_densities,
         viscous_total: &wall.viscous,
     };
-    let scale = |i| match solver.wall_reaction() {
-        WallReaction::None => 0.0,
-        WallReaction::Impulse { .. } => solver.wall_impulse_scale(ctx, i),
-    };
+    let scale = |i| solver.wall_impulse_scale(ctx, i);
     forces.wall_impulses(watch, terms, scale);
 }
 
@@ -566,9 +563,7 @@ fn wall_reaction(
     viscous: &mut Vec<ImpulseRecord>,
     coupling: &mut Coupling,
 ) -> bool {
-    let WallReaction::Impulse { added_mass } = solver.wall_reaction() else {
-        return false;
-    };
+    let WallReaction::Impulse { added_mass } = solver.wall_reaction();
     let Some(w) = ctx.wall.filter(|w| w.coupled_any) else {
         return false;
     };
@@ -576,9 +571,9 @@ fn wall_reaction(
     let (m, dt) = (ctx.masses(), ctx.dt);
     records.resize_with(1, Vec::new);
     records[0].clear();
-    let scale = |i| solver.wall_impulse_scale(ctx, i);
+    let impulse = |i, gradient_c| solver.wall_impulse(ctx, i, gradient_c);
     w.reaction(
-        scale,
+        impulse,
         (added_mass, m, dt),
         ctx.previous_positions,
         &mut records[0],

@@ -75,8 +75,6 @@ impl WallRequest {
 /// How the impulse a particle's wall term gave it goes back to a dynamic body.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub(crate) enum WallReaction {
-    /// The solver's walls leave dynamic bodies to contact (Clavet).
-    None,
     /// As an impulse; with `added_mass` the particle moves along with the body in the
     /// direction its wall term pushed it (the added-mass solve of
     /// `boundary::bodies::Coupling::exchange`, as for contact).
@@ -115,6 +113,20 @@ pub(crate) trait PressureSolver {
         ctx: &StepContext<'_>,
         i: usize,
     ) -> Real;
+    /// The impulse particle `i`'s wall term gave the dynamic bodies this substep (N·s, on
+    /// the bodies), `gradient_c` the dynamic bodies' share of the wall density's gradient:
+    /// `gradient_c · scale` ([`PressureSolver::wall_impulse_scale`]) unless the solver's
+    /// wall term is not along it (Clavet's two densities; read after
+    /// [`PressureSolver::step`]).
+    fn wall_impulse(
+        &self,
+        settings: &Self::Settings,
+        ctx: &StepContext<'_>,
+        i: usize,
+        gradient_c: Vector,
+    ) -> Vector {
+        gradient_c * self.wall_impulse_scale(settings, ctx, i)
+    }
     /// The solver's own stability limit on the substep (s), beyond the CFL and viscous limits
     /// every solver shares; `speed` is the fluid's largest speed.
     fn time_step_limit(
@@ -247,6 +259,12 @@ impl SolverState {
     pub fn wall_impulse_scale(&self, ctx: &StepContext<'_>, i: usize) -> Real {
         dispatch!(self, &ctx.params.solver, |st, settings| st
             .wall_impulse_scale(settings, ctx, i))
+    }
+
+    /// See [`PressureSolver::wall_impulse`].
+    pub fn wall_impulse(&self, ctx: &StepContext<'_>, i: usize, gradient_c: Vector) -> Vector {
+        dispatch!(self, &ctx.params.solver, |st, settings| st
+            .wall_impulse(settings, ctx, i, gradient_c))
     }
 
     /// See [`PressureSolver::time_step_limit`].
