@@ -289,19 +289,16 @@ fn heavy_bodies_rest_on_the_floor_with_no_particle_inside() {
 
 /// Clavet's 2,000 kg/m³ box, on the bounds of the test above.
 ///
-/// Not yet: it never reaches the floor (no particle inside it; lowest corner at 0.163 m after
-/// 1.5 s; dropped with its center at 0.21 m, it falls to 0.19 m, then rises to 0.246 m and
-/// stays there, about 45 % submerged). Dynamic bodies meet Clavet's fluid through contact only
-/// (`WallReaction::None`), so the water next to the box lacks its share of the densities as
-/// at a free surface: the box is non-wetting for the cohesive relaxation, and the cohesion's
-/// surface tension carries it (the contact records give it about 84 N against its 80 N
-/// weight, where Archimedes gives about 20 N). Measured with the same drop: without cohesion
-/// (`Clavet { cohesion: 0.0, .. }`) the box lands at 0.0400 m, at cohesion 0.1 at 0.041 m;
-/// counting dynamic bodies in Clavet's densities with their reaction (neutral wetting, as its
-/// static walls) lands it at 0.080 m (two layers, held by the default cohesion) but fails
-/// `tests/moving_bodies.rs`'s momentum bound (docs/coupling.md, "Known limits").
+/// Not yet: it rests on two layers of particles, not one (lowest corner 0.0801 m after 1.5 s,
+/// none inside; it stays there, 0.083 m for the box's bottom after 4 s): the default cohesion's
+/// lattice does not let the last two layers be squeezed out. Measured with the same drop: at
+/// cohesion 0.1 it lands at 0.041 m, without cohesion at 0.0400 m. Before dynamic bodies
+/// counted in Clavet's densities the box was non-wetting for the cohesion, whose surface
+/// tension carried it at the surface (lowest corner 0.163 m, about 45 % submerged: the contact
+/// records gave it about 84 N against its 80 N weight, where Archimedes gives about 20 N;
+/// docs/coupling.md, "Known limits").
 #[test]
-#[ignore = "Clavet's cohesion holds a 2,000 kg/m³ box at its surface (bodies are non-wetting for it; see the doc comment)"]
+#[ignore = "Clavet's default cohesion holds a 2,000 kg/m³ box on two layers (see the doc comment)"]
 fn clavet_heavy_body_rests_on_the_floor() {
     let spacing = 0.04;
     let o = &drop_heavy(&[(Solver::clavet(), 2_000.0)])[0].1;

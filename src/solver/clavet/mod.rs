@@ -60,8 +60,9 @@
 //! the particle's pressures into the wall would give. Mirrored fully, a column at rest in a
 //! closed tank gains energy and never settles (no cohesion: still 1.0 m/s after 2 s at
 //! `h = 2s`, 5.3 m/s at `3s`), as WCSPH's walls do with the full pressure
-//! (`src/pressure/wcsph.rs`). Dynamic bodies are left to contact, whose impulses they
-//! receive (momentum stays exact). Walls counted this way are *neutral* for the cohesion
+//! (`src/pressure/wcsph.rs`). Dynamic bodies count as the other walls do and take the
+//! reaction of their share of the wall term, `−m·Δx_b/dt` (the velocity the displacement gave
+//! the particle), through the coupling's added-mass solve. Walls counted this way are *neutral* for the cohesion
 //! (a contact angle of 90°: the liquid next to them lacks no density, so it has no surface
 //! energy there; contact-only walls are non-wetting, 180°). They do not remove what throws a
 //! cohesive fluid spawned on a lattice (its free surface is far from the relaxation's
