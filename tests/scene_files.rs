@@ -743,6 +743,16 @@ fn solvers_come_from_the_file() {
     }
     let walls = SceneFile::parse(&with("wall_density: true,"), "s.ron").unwrap();
     assert!(walls.fluids[0].params().unwrap().wall_density);
+    // WCSPH's pressure forces: Adami's walls need the walls' density, refused without it.
+    let adami = "solver: Wcsph, wall_density: true, wcsph_pressure: Adami,";
+    let scene = SceneFile::parse(&with(adami), "s.ron").unwrap();
+    assert_eq!(
+        scene.fluids[0].params().unwrap().wcsph_pressure,
+        rapier_sph::WcsphPressure::Adami
+    );
+    let no_walls = "solver: Wcsph, wall_density: false, wcsph_pressure: Adami,";
+    let (_, _, _, message) = parse_err(&with(no_walls));
+    assert!(message.contains("wcsph_pressure"), "{message}");
     // A negative value: refused by its type, at its line.
     let (line, _, field, _) = parse_err(&with("solver: Dfsph(warm_start: -0.5),"));
     assert_eq!(line, 5);

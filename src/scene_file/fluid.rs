@@ -21,6 +21,24 @@ pub enum Preset {
     Paper,
 }
 
+/// WCSPH's pressure forces, as in [`crate::WcsphPressure`].
+#[derive(Copy, Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum WcsphPressureDesc {
+    /// The Unity paper's forces as printed (the default).
+    Paper,
+    /// The symmetric force with Adami et al. (2012)'s wall pressure (needs `wall_density`).
+    Adami,
+}
+
+impl From<WcsphPressureDesc> for crate::WcsphPressure {
+    fn from(d: WcsphPressureDesc) -> Self {
+        match d {
+            WcsphPressureDesc::Paper => crate::WcsphPressure::Paper,
+            WcsphPressureDesc::Adami => crate::WcsphPressure::Adami,
+        }
+    }
+}
+
 /// How the viscosity is integrated ([`crate::ViscositySolve`]); omitted settings take the
 /// implicit solve's defaults ([`crate::ImplicitViscosity`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -377,6 +395,11 @@ pub struct FluidDesc {
     /// preset's (water: on, except with the Clavet solver; paper: off).
     #[serde(default)]
     pub wall_density: Option<bool>,
+    /// How WCSPH turns pressures into forces ([`crate::WcsphPressure`]): `Paper` (the
+    /// default) or `Adami` (the symmetric force with Adami et al. 2012's wall pressure; needs
+    /// `wall_density`). Other solvers ignore it.
+    #[serde(default)]
+    pub wcsph_pressure: Option<WcsphPressureDesc>,
     /// Interacts with every other fluid of the scene that says so (`fluid_groups` all; see
     /// [`crate::fluid::interaction`]). Default: no.
     #[serde(default)]
@@ -480,6 +503,9 @@ impl FluidDesc {
         }
         if let Some(v) = self.wall_density {
             b = b.wall_density(v);
+        }
+        if let Some(v) = self.wcsph_pressure {
+            b = b.wcsph_pressure(v.into());
         }
         if self.interacts == Some(true) {
             b = b.fluid_groups(rapier3d::geometry::InteractionGroups::all());

@@ -101,7 +101,7 @@ pub use build::BuiltScene;
 pub use build::scene_bounds;
 pub use fluid::{
     BlockDesc, EosDesc, FluidDesc, KernelDesc, Preset, SleepDesc, SolverDesc, SpringsDesc,
-    ViscositySolveDesc,
+    ViscositySolveDesc, WcsphPressureDesc,
 };
 pub use shapes::{CompoundPart, ShapeDesc};
 pub use sources::{
