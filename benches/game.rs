@@ -306,7 +306,7 @@ fn run(n: usize, preset: Preset, mode: Mode, args: &Args) -> SphResult<Row> {
     }
     let mut pool = WavePool::new(config)?;
     if !args.hull {
-        remove_hull(&mut pool)?;
+        pool.remove_hull()?;
     }
     for _ in 0..30 {
         pool.frame()?;
@@ -381,23 +381,6 @@ fn run(n: usize, preset: Preset, mode: Mode, args: &Args) -> SphResult<Row> {
         stages,
         frames,
     })
-}
-
-/// The pool without its hull: the hull removed and the water it displaced put back (the
-/// pool's block of water on the same lattice).
-fn remove_hull(pool: &mut WavePool) -> SphResult<()> {
-    pool.world.physics.remove_body(pool.hull);
-    let mut water = Fluid::new(pool.world.fluids[pool.water].params().clone())?;
-    let behind_paddle = WavePool::PADDLE_X + 0.02;
-    let size = Vector::new(
-        WavePool::SIZE.x - behind_paddle,
-        WavePool::DEPTH,
-        WavePool::SIZE.z,
-    );
-    water.add_block(Vector::new(behind_paddle, 0.0, 0.0), size)?;
-    pool.world.fluids.remove(pool.water)?;
-    pool.water = pool.world.fluids.insert(water);
-    Ok(())
 }
 
 /// Drops a ball of 5 cm radius (500 kg/m³), its center 0.3 m above the sleeping water's rest

@@ -126,22 +126,7 @@ fn setup_hull(pool: &mut WavePool, hull: &str) -> SphResult<()> {
         "fixed" => {
             pool.world.physics.bodies[pool.hull].set_body_type(RigidBodyType::Fixed, true);
         }
-        "none" => {
-            pool.world.physics.remove_body(pool.hull);
-            let params = pool.world.fluids[pool.water].params().clone();
-            let mut water = Fluid::new(params)?;
-            let behind_paddle = WavePool::PADDLE_X + 0.02;
-            water.add_block(
-                Vector::new(behind_paddle, 0.0, 0.0),
-                Vector::new(
-                    WavePool::SIZE.x - behind_paddle,
-                    WavePool::DEPTH,
-                    WavePool::SIZE.z,
-                ),
-            )?;
-            pool.world.fluids.remove(pool.water)?;
-            pool.water = pool.world.fluids.insert(water);
-        }
+        "none" => pool.remove_hull()?,
         _ => {}
     }
     Ok(())

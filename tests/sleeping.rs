@@ -380,20 +380,7 @@ fn still_pool(hull: bool) -> rapier_sph::scenes::WavePool {
     };
     let mut pool = WavePool::new(config).unwrap();
     if !hull {
-        pool.world.physics.remove_body(pool.hull);
-        let params = pool.world.fluids[pool.water].params().clone();
-        let mut water = Fluid::new(params).unwrap();
-        let behind_paddle = WavePool::PADDLE_X + 0.02;
-        let size = Vector::new(
-            WavePool::SIZE.x - behind_paddle,
-            WavePool::DEPTH,
-            WavePool::SIZE.z,
-        );
-        water
-            .add_block(Vector::new(behind_paddle, 0.0, 0.0), size)
-            .unwrap();
-        pool.world.fluids.remove(pool.water).unwrap();
-        pool.water = pool.world.fluids.insert(water);
+        pool.remove_hull().unwrap();
     }
     pool
 }

@@ -161,6 +161,25 @@ impl WavePool {
         Ok(rapier)
     }
 
+    /// The pool without its hull: removes the hull from rapier and puts back the water it
+    /// displaced (the pool's block of water behind the paddle, on the same lattice, at rest).
+    /// Afterwards [`Self::water_level`] and [`Self::draft_ratio`] have no hull to read and
+    /// must not be called. Used to tell the water's own behaviour from the hull's (the
+    /// sleeping-water measurements in `docs/performance.md`).
+    ///
+    /// # Errors
+    /// [`Fluid::new`]'s and [`Fluid::add_block`]'s.
+    pub fn remove_hull(&mut self) -> SphResult<()> {
+        self.world.physics.remove_body(self.hull);
+        let mut water = Fluid::new(self.world.fluids[self.water].params().clone())?;
+        let behind_paddle = Self::PADDLE_X + 0.02;
+        let size = Vector::new(Self::SIZE.x - behind_paddle, Self::DEPTH, Self::SIZE.z);
+        water.add_block(Vector::new(behind_paddle, 0.0, 0.0), size)?;
+        self.world.fluids.remove(self.water)?;
+        self.water = self.world.fluids.insert(water);
+        Ok(())
+    }
+
     /// Particles outside the pool's inside (through a wall, or over the paddle's top).
     pub fn outside(&self) -> usize {
         let f = &self.world.fluids[self.water];
