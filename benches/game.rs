@@ -181,6 +181,8 @@ struct Args {
     sleep_drift: (Real, Real),
     /// `false` with `--hull none`: the pool without its hull (water in its place).
     hull: bool,
+    /// `--regions`: print where the compression is (see [`Regions`]).
+    regions: bool,
 }
 
 impl Args {
@@ -205,6 +207,9 @@ impl Args {
             }
             if let Some(e) = value("--max-density-error").and_then(|s| s.parse().ok()) {
                 dfsph.max_density_error = e;
+            }
+            if let Some(k) = value("--gravity-substep").and_then(|s| s.parse().ok()) {
+                dfsph.gravity_substep = k;
             }
             dfsph
         };
@@ -251,6 +256,7 @@ impl Args {
                 })
                 .unwrap_or((Sleep::default().mean_drift, Sleep::default().max_drift)),
             hull: value("--hull").as_deref() != Some("none"),
+            regions: argv.iter().any(|a| a == "--regions"),
         }
     }
 }
@@ -322,6 +328,7 @@ fn run(n: usize, preset: Preset, mode: Mode, args: &Args) -> SphResult<Row> {
     let mut draft = 0.0;
     let (mut worst_error, mut largest_compression) = (0.0 as Real, 0.0 as Real);
     let mut kinetic_energy = (0.0, 0.0);
+    let mut regions = Regions::default();
     let cpu0 = cpu_seconds();
     for frame in 0..frames {
         let start = std::time::Instant::now();
@@ -342,6 +349,9 @@ fn run(n: usize, preset: Preset, mode: Mode, args: &Args) -> SphResult<Row> {
         } else {
             kinetic_energy.1 += ke / (frames - frames / 2) as f64;
         }
+        if args.regions {
+            regions.add(&pool);
+        }
         draft += if args.hull {
             pool.draft_ratio()
         } else {
@@ -349,6 +359,9 @@ fn run(n: usize, preset: Preset, mode: Mode, args: &Args) -> SphResult<Row> {
         };
     }
     let cpu = cpu_seconds() - cpu0;
+    if args.regions {
+        regions.print(preset.name(), mode);
+    }
     let outside = pool.outside();
     let woke = match slept {
         Some(Some(_)) => Some(ball_wakes(&mut pool)?),
@@ -461,6 +474,87 @@ impl Row {
             );
         }
         println!();
+    }
+}
+
+/// Where the compression is (`--regions`): every particle of every timed frame is put in
+/// the first region it is in, and each region's share of the particles, mean compression
+/// and largest compression are printed. Compression is `max(ρ − ρ0, 0)/ρ0` of the densities
+/// the last substep of the frame computed (those `StepReport::mean_density_error` averages).
+#[derive(Default)]
+struct Regions {
+    /// Per region: particles counted, summed compression, largest compression.
+    sums: [(u64, f64, Real); 6],
+}
+
+impl Regions {
+    const NAMES: [&str; 6] = [
+        "hull (2 spacings)",
+        "paddle (2 spacings)",
+        "floor (1.5 spacings)",
+        "side walls (1.5 spacings)",
+        "surface (top 2 spacings)",
+        "interior",
+    ];
+
+    fn add(&mut self, pool: &WavePool) {
+        let f = &pool.world.fluids[pool.water];
+        let (s, rho0) = (pool.spacing, f.params().rest_density);
+        let hull = pool
+            .world
+            .physics
+            .bodies
+            .get(pool.hull)
+            .map(|b| *b.position());
+        let paddle_x = pool.world.physics.bodies[pool.paddle].translation().x;
+        let level = WavePool::DEPTH - 2.0 * s;
+        for (x, &rho) in f.positions().iter().zip(f.densities()) {
+            let near_hull = hull.is_some_and(|pose| {
+                let local = pose.inverse_transform_point(*x).abs() - WavePool::HULL_HALF;
+                local.max_element() < 2.0 * s
+            });
+            let size = WavePool::SIZE;
+            let k = if near_hull {
+                0
+            } else if (x.x - paddle_x).abs() < 0.01 + 2.0 * s {
+                1
+            } else if x.y < 1.5 * s {
+                2
+            } else if x.x.min(size.x - x.x).min(x.z).min(size.z - x.z) < 1.5 * s {
+                3
+            } else if x.y > level {
+                4
+            } else {
+                5
+            };
+            let e = ((rho - rho0) / rho0).max(0.0);
+            let r = &mut self.sums[k];
+            r.0 += 1;
+            r.1 += e as f64;
+            r.2 = r.2.max(e);
+        }
+    }
+
+    fn print(&self, preset: &str, mode: Mode) {
+        let total: u64 = self.sums.iter().map(|r| r.0).sum();
+        let all: f64 = self.sums.iter().map(|r| r.1).sum();
+        let mode = match mode {
+            Mode::Moving => "moving",
+            Mode::Still => "still",
+            Mode::Asleep => "asleep",
+        };
+        println!(
+            "regions ({preset}, {mode}): | region | share of particles | mean compression | share of the summed compression | largest |"
+        );
+        for (name, r) in Self::NAMES.iter().zip(&self.sums) {
+            println!(
+                "| {name} | {:.1} % | {:.3} % | {:.1} % | {:.2} % |",
+                100.0 * r.0 as f64 / total.max(1) as f64,
+                100.0 * r.1 / r.0.max(1) as f64,
+                100.0 * r.1 / all.max(1e-30),
+                100.0 * r.2,
+            );
+        }
     }
 }
 

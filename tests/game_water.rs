@@ -142,3 +142,65 @@ fn game_water_is_bitwise_equal_on_1_and_2_threads() {
     };
     assert_eq!(on(1), on(2));
 }
+
+/// DFSPH's gravity bound on the substep, `g·dt² ≤ gravity_substep·max_density_error·spacing`,
+/// in a settled column (the validation tank, nothing fast, so the CFL condition does not
+/// bind): with the game preset's default (5) and a looser 20, every frame is split into the
+/// fewest equal substeps that meet it, and `gravity_substep` that is not positive is refused,
+/// naming the field.
+#[test]
+fn game_water_gravity_substep_bounds_the_substep() {
+    use rapier_sph::{Dfsph, FluidWorld, SphError};
+    for k in [5.0, 20.0] {
+        let params = FluidParamsBuilder::game_water(0.04)
+            .solver(Solver::Dfsph(Dfsph {
+                max_density_error: 0.005,
+                gravity_substep: k,
+                ..Dfsph::default()
+            }))
+            .build()
+            .unwrap();
+        let mut world = FluidWorld::new();
+        rapier_sph::scenes::add_closed_box(
+            &mut world,
+            rapier_sph::math::Vector::ZERO,
+            rapier_sph::math::Vector::new(0.4, 0.6, 0.4),
+            0.04,
+        );
+        let mut fluid = rapier_sph::Fluid::new(params).unwrap();
+        fluid
+            .add_block(
+                rapier_sph::math::Vector::ZERO,
+                rapier_sph::math::Vector::new(0.4, 0.32, 0.4),
+            )
+            .unwrap();
+        world.fluids.insert(fluid);
+        let frame: Real = 1.0 / 60.0;
+        world.physics.integration_parameters.dt = frame;
+        let limit = (k * 0.005 * 0.04 / 9.81 as Real).sqrt();
+        let expected = (frame / limit).ceil() as u32;
+        for _ in 0..30 {
+            world.step().unwrap();
+            let r = world.pipeline.report();
+            println!(
+                "gravity_substep {k}: {} substeps of {:.2} ms (bound {:.2} ms), fastest {:.3} m/s",
+                r.substeps,
+                1e3 * r.max_substep,
+                1e3 * limit,
+                r.max_speed
+            );
+            assert_eq!(r.substeps, expected, "substeps at gravity_substep {k}");
+            assert!(r.max_substep <= limit * (1.0 + 1e-5));
+        }
+    }
+    for bad in [0.0, -1.0, Real::NAN] {
+        let solver = Solver::Dfsph(Dfsph {
+            gravity_substep: bad,
+            ..Dfsph::default()
+        });
+        match FluidParamsBuilder::game_water(0.04).solver(solver).build() {
+            Err(SphError::InvalidParameter { field, .. }) => assert_eq!(field, "gravity_substep"),
+            other => panic!("gravity_substep {bad} accepted: {other:?}"),
+        }
+    }
+}

@@ -34,7 +34,8 @@ pub enum TimeStepping {
     ///   limit `dt ≤ ρ0·h²/(30·ε)`;
     /// - WCSPH also the acoustic limit `dt ≤ courant · h / (c + v_max)`, Clavet the same with
     ///   `c·√k` (its stiffness `k` is in units of `c²/(h·ρ0)`, its springs' in `c²/(h²·N)`);
-    /// - DFSPH under gravity also `g·dt² ≤ 5·max_density_error·spacing`: gravity's
+    /// - DFSPH under gravity also `g·dt² ≤ K·max_density_error·spacing`, `K` its
+    ///   [`gravity_substep`](crate::Dfsph::gravity_substep) (default 5): gravity's
     ///   compression within one substep stays a few times the solve's error target;
     /// - with surface tension (`γ > 0`) the capillary limit `dt ≤ courant · 2√(ρ0Δx³/(π³σ))`,
     ///   `σ` the cohesion's mean-field surface tension (`forces::surface_tension`).

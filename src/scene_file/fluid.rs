@@ -148,6 +148,10 @@ pub enum SolverDesc {
         /// ([`crate::solver::Dfsph::full_warm_start`]).
         #[serde(default)]
         full_warm_start: Option<bool>,
+        /// Gravity's compression allowed within a substep, in multiples of the density
+        /// error target ([`crate::solver::Dfsph::gravity_substep`]).
+        #[serde(default)]
+        gravity_substep: Option<Positive>,
     },
     /// Position-based fluids ([`crate::solver::Pbf`]).
     Pbf {
@@ -221,6 +225,7 @@ impl SolverDesc {
                 warm_start,
                 hydrostatic_walls,
                 full_warm_start,
+                gravity_substep,
             } => {
                 let d = Dfsph::default();
                 Solver::Dfsph(Dfsph {
@@ -235,6 +240,7 @@ impl SolverDesc {
                     warm_start: warm_start.map_or(d.warm_start, |v| v.0),
                     hydrostatic_walls: hydrostatic_walls.unwrap_or(d.hydrostatic_walls),
                     full_warm_start: full_warm_start.unwrap_or(d.full_warm_start),
+                    gravity_substep: gravity_substep.map_or(d.gravity_substep, |v| v.0),
                 })
             }
             SolverDesc::Pbf {

@@ -79,6 +79,20 @@ pub struct Dfsph {
     /// next to walls a second time. `false` is the cheaper choice where pressures are not
     /// read (docs/solvers.md has the measurements).
     pub hydrostatic_walls: bool,
+    /// How much compression gravity may build within one substep, in multiples of
+    /// `max_density_error`: under gravity `g` the adaptive time stepping keeps substeps to
+    /// `g·dt² ≤ gravity_substep · max_density_error · spacing` (default 5; see
+    /// [`crate::TimeStepping::Adaptive`]). A particle falling freely for one substep moves
+    /// `g·dt²` towards the one under it, about `g·dt²/spacing` of compression the density
+    /// solve must undo from a linear prediction; at 5 that stays a few times the solve's
+    /// target. `Real::INFINITY` lifts the limit (the CFL condition and the others remain).
+    #[cfg_attr(feature = "snapshot", serde(default = "default_gravity_substep"))]
+    pub gravity_substep: Real,
+}
+
+#[cfg(feature = "snapshot")]
+fn default_gravity_substep() -> Real {
+    Dfsph::default().gravity_substep
 }
 
 #[cfg(feature = "snapshot")]
@@ -98,6 +112,7 @@ impl Default for Dfsph {
             warm_start: 0.75,
             full_warm_start: false,
             hydrostatic_walls: true,
+            gravity_substep: 5.0,
         }
     }
 }
@@ -126,6 +141,13 @@ impl Dfsph {
                     },
                 });
             }
+        }
+        if self.gravity_substep.is_nan() || self.gravity_substep <= 0.0 {
+            return Err(SphError::InvalidParameter {
+                field: "gravity_substep",
+                value: self.gravity_substep as f64,
+                reason: "must be positive (infinite lifts the limit)",
+            });
         }
         if !(0.0..=1.0).contains(&self.warm_start) {
             return Err(SphError::InvalidParameter {

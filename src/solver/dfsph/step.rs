@@ -131,10 +131,10 @@ impl PressureSolver for DfsphState {
         (w.mirror * total + wall_pi) * ctx.params.particle_mass * ctx.dt
     }
 
-    /// Under gravity `g·dt² ≤ 5·max_density_error·spacing`: the density solve undoes, every
-    /// substep, the compression gravity makes in it (a displacement of about `g·dt²`); keeping
-    /// it within 5·`max_density_error` spacings keeps the work per substep a few times the
-    /// error the solve is asked to reach. Without it a fluid at rest takes CFL substeps of
+    /// Under gravity `g·dt² ≤ K·max_density_error·spacing`, `K` = `Dfsph::gravity_substep`
+    /// (default 5): the density solve undoes, every substep, the compression gravity makes in
+    /// it (a displacement of about `g·dt²`); keeping it within `K·max_density_error` spacings
+    /// keeps the work per substep a few times the error the solve is asked to reach. Without it a fluid at rest takes CFL substeps of
     /// ~30 ms (nothing moves yet), far outside the solve's linearisation. At the default 0.1 %
     /// target this is 5 ms for 5 cm particles and 3.2 ms for 2 cm.
     fn time_step_limit(
@@ -147,7 +147,8 @@ impl PressureSolver for DfsphState {
     ) -> Real {
         let g = gravity.length();
         if g > 0.0 {
-            (5.0 * settings.max_density_error * params.particle_spacing / g).sqrt()
+            (settings.gravity_substep * settings.max_density_error * params.particle_spacing / g)
+                .sqrt()
         } else {
             Real::INFINITY
         }
