@@ -14,11 +14,15 @@
 //! cargo bench --bench game -- --full-warm-start true
 //! cargo bench --bench game -- --preset game --modes moving,still --max-density-error 0.005
 //! cargo bench --bench game -- --particles 10000 --threads 2 --sleep-drift 0.1,3
+//! cargo bench --bench game -- --preset game --modes still --gravity-substep inf --regions
 //! ```
 //!
 //! `--preset water`, `--preset game` or `--preset water,game` (default) picks the presets,
 //! `--modes` the rows (default `moving,still,asleep`). The DFSPH flags (`--warm-start`,
-//! `--min-iterations`, `--hydrostatic-walls`, `--full-warm-start`, `--max-density-error`) change the given field of `Dfsph` in every preset's settings.
+//! `--min-iterations`, `--hydrostatic-walls`, `--full-warm-start`, `--max-density-error`,
+//! `--gravity-substep`, which takes `inf` to lift DFSPH's gravity bound on the substep) change
+//! the given field of `Dfsph` in every preset's settings. `--regions` prints, after each row,
+//! where the compression is (see `Regions`).
 //!
 //! The scene (`rapier_sph::scenes::WavePool`): a closed pool 2.0 × 0.8 × 0.7 m (inside),
 //! water 0.45 m deep (the preset's water; the spacing chosen for the particle count), a 40 × 10 × 24 cm hull of 500 kg/m³ floating in it, and, in the `moving`

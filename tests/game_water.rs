@@ -100,8 +100,9 @@ fn game_water_box_floats_at_archimedes_depth() {
 }
 
 /// The game pool (2,500 particles) with the paddle moving, `frames` 1/60 s frames: the
-/// final state's hash, checking after every frame that no particle left the pool or was lost.
-fn moving_pool(frames: usize) -> (u64, Real) {
+/// final state's hash, the substeps per frame and the worst frame's mean compression,
+/// checking after every frame that no particle left the pool or was lost.
+fn moving_pool(frames: usize) -> (u64, Real, Real) {
     let mut pool = WavePool::new(WavePoolConfig {
         particles: 2_500,
         params: |s| FluidParamsBuilder::game_water(s).build(),
@@ -109,10 +110,11 @@ fn moving_pool(frames: usize) -> (u64, Real) {
     })
     .unwrap();
     let n0 = pool.world.fluids[pool.water].len();
-    let mut substeps = 0;
+    let (mut substeps, mut worst) = (0, 0.0 as Real);
     for frame in 0..frames {
         pool.frame().unwrap();
         substeps += pool.world.pipeline.report().substeps;
+        worst = worst.max(pool.world.pipeline.report().mean_density_error);
         let f = &pool.world.fluids[pool.water];
         assert_eq!(f.len(), n0, "frame {frame}: particles lost");
         assert_eq!(pool.outside(), 0, "frame {frame}: particles left the pool");
@@ -120,14 +122,25 @@ fn moving_pool(frames: usize) -> (u64, Real) {
     (
         pool.world.fluids[pool.water].state_hash(),
         substeps as Real / frames as Real,
+        worst,
     )
 }
 
-/// No particle leaves the moving pool in 5 s (three and a third paddle periods).
+/// No particle leaves the moving pool in 5 s (three and a third paddle periods), and no
+/// frame's mean compression exceeds 1 %, the density error the preset is for: its solve
+/// stops at 0.5 % on a first-order prediction of the substep's end, and what that prediction
+/// misses (second order in gravity's `g·dt²`, 1.2 % of a spacing per substep at 2,556
+/// particles) must stay within the other 0.5 % (`cargo bench --bench game`: 0.50 % in the
+/// worst frame).
 #[test]
 fn game_water_moving_pool_does_not_leak() {
-    let (_, substeps) = moving_pool(300);
-    println!("game_water, moving pool: {substeps:.2} substeps per frame");
+    let (_, substeps, worst) = moving_pool(300);
+    println!(
+        "game_water, moving pool: {substeps:.2} substeps per frame, worst frame's mean \
+         compression {:.3} %",
+        100.0 * worst
+    );
+    assert!(worst <= 0.01, "mean compression {:.3} %", 100.0 * worst);
 }
 
 /// The moving pool after 1 s is bitwise the same on 1 and 2 threads.
