@@ -130,8 +130,8 @@ fn moving_pool(frames: usize) -> (u64, Real, Real) {
 /// frame's mean compression exceeds 1 %, the density error the preset is for: its solve
 /// stops at 0.5 % on a first-order prediction of the substep's end, and what that prediction
 /// misses (second order in gravity's `g·dt²`, 1.2 % of a spacing per substep at 2,556
-/// particles) must stay within the other 0.5 % (`cargo bench --bench game`: 0.50 % in the
-/// worst frame).
+/// particles) must stay within the other 0.5 % (measured: 0.55 % in the worst of these
+/// frames).
 #[test]
 fn game_water_moving_pool_does_not_leak() {
     let (_, substeps, worst) = moving_pool(300);
