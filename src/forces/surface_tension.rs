@@ -173,6 +173,24 @@ pub(crate) fn cohesion_sigma(gamma: Real, rest_density: Real, h: Real) -> Real {
     (4.0 * rho * rho * g * h * h * COHESION_MOMENT) as Real
 }
 
+/// `σ` per `ρ0²·γ·h²` (dimensionless) measured from the Laplace pressure of water droplets
+/// (module docs, **Units**).
+const LAPLACE_SIGMA: f64 = 0.00675;
+
+/// The SI surface tension `σ` (N/m) that `γ` gives (`FluidParams::surface_tension_sigma`):
+/// `LAPLACE_SIGMA·ρ0²·γ·h²`.
+pub(crate) fn sigma_for_gamma(gamma: Real, rest_density: Real, h: Real) -> Real {
+    let (g, rho, h) = (gamma as f64, rest_density as f64, h as f64);
+    (LAPLACE_SIGMA * rho * rho * g * h * h) as Real
+}
+
+/// The `γ` that gives the SI surface tension `sigma` (N/m), the inverse of
+/// [`sigma_for_gamma`] (`FluidParamsBuilder::surface_tension_sigma`).
+pub(crate) fn gamma_for_sigma(sigma: Real, rest_density: Real, h: Real) -> Real {
+    let (s, rho, h) = (sigma as f64, rest_density as f64, h as f64);
+    (s / (LAPLACE_SIGMA * rho * rho * h * h)) as Real
+}
+
 /// The capillary limit on the substep (s) for cohesion `γ`: the fastest capillary wave the
 /// particles can carry, wavelength two spacings (`k = π/Δx`), has
 /// `ω² = σ k³/ρ0` on a free surface (the dispersion relation of capillary waves, void above),
