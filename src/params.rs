@@ -488,7 +488,7 @@ impl FluidParams {
 
     /// The SI surface tension `σ` (N/m) that [`Self::surface_tension`]'s `γ` gives:
     /// `0.00675·ρ0²·γ·h²`, measured from the Laplace pressure of water droplets (DFSPH, h = 2 cm,
-    /// γ = 1: 2.0–3.6 N/m, so about ±30 %; `tests/surface_tension.rs`) and scaled as
+    /// γ = 1: 2.0–3.9 N/m, so about ±40 %; `tests/surface_tension.rs`) and scaled as
     /// `ρ0²h²`: at a fixed droplet size in spacings statics are self-similar, `σ ∝ γh²`
     /// exactly (the core pressures at h = 1, 2 and 4 cm, 292, 585 and 1,172 Pa, are `∝ h`);
     /// the `ρ0²` is the cohesion term's (the curvature term's share, `∝ ρ0`, is not
@@ -768,7 +768,7 @@ impl FluidParamsBuilder {
     /// Surface tension as an SI `σ` (N/m; water 0.072): [`Self::build`] sets the `γ` that
     /// gives it at the fluid's rest density and smoothing length,
     /// `γ = σ/(0.00675·ρ0²·h²)` (see [`FluidParams::surface_tension_sigma`] for the
-    /// measurement, about ±30 %, and its range). Replaces an earlier [`Self::surface_tension`].
+    /// measurement, about ±40 %, and its range). Replaces an earlier [`Self::surface_tension`].
     ///
     /// # Examples
     ///
