@@ -51,10 +51,12 @@
 //! pressure (particles within half its radius, averaged over 0.5 s) is `p∞ + 2σ/R`. At γ = 1,
 //! h = 2 cm, DFSPH, radii 10, 13 and 16 spacings (4,169, 9,171 and 17,077 particles): 583.3,
 //! 572.2 and 568.2 Pa after 0.5 s of settling (σ = 2.0 N/m by least squares), 587.2, 570.5 and
-//! 564.2 Pa after 1 s (σ = 3.1 N/m, `p∞` = 524 Pa against the mean field's 493), the test's
-//! 10 and 13 spacings 3.9 N/m ± 55 % (its drift and standard errors); the droplets still
-//! settle, so `σ` is known to about ±40 %: `σ ≈ 0.00675·ρ0²·γ·h²` (2.7 N/m per unit γ at
-//! h = 2 cm, 2.3 times the cohesion's mean field). It scales as `γh²`: at a fixed droplet
+//! 564.2 Pa after 1 s (σ = 3.1 N/m, `p∞` = 524 Pa against the mean field's 493); 586.1 and
+//! 575.6 Pa at 10 and 13 spacings after 2 s (2.3 N/m), the test's 10 and 13 spacings 3.9 N/m
+//! ± 55 % (its drift and standard errors). The larger droplets' core pressure still wanders
+//! by a few Pa from one half-second to the next (its per-frame spread is 17 Pa at 10 spacings,
+//! 160–260 Pa at 13 and 16), so `σ` is known to about ±40 %: `σ ≈ 0.00675·ρ0²·γ·h²`
+//! (2.7 N/m per unit γ at h = 2 cm, 2.3 times the cohesion's mean field). It scales as `γh²`: at a fixed droplet
 //! size in spacings statics are self-similar, and the core pressure at 10 spacings is 292,
 //! 585 and 1,172 Pa at h = 1, 2 and 4 cm (γ = 1) and at γ = 0.5, 1 and 2 (h = 2 cm), `∝ γh`
 //! to 0.3 % (averaged over 1.5 s of a 3 % oscillation); the `ρ0²` is the cohesion's (the curvature term's share scales as `ρ0`, not
