@@ -56,11 +56,11 @@
 //! ± 55 % (its drift and standard errors). The larger droplets' core pressure still wanders
 //! by a few Pa from one half-second to the next (its per-frame spread is 17 Pa at 10 spacings,
 //! 160–260 Pa at 13 and 16), so `σ` is known to about ±40 %: `σ ≈ 0.00675·ρ0²·γ·h²`
-//! (2.7 N/m per unit γ at h = 2 cm, 2.3 times the cohesion's mean field). It scales as `γh²`: at a fixed droplet
-//! size in spacings statics are self-similar, and the core pressure at 10 spacings is 292,
-//! 585 and 1,172 Pa at h = 1, 2 and 4 cm (γ = 1) and at γ = 0.5, 1 and 2 (h = 2 cm), `∝ γh`
-//! to 0.3 % (averaged over 1.5 s of a 3 % oscillation); the `ρ0²` is the cohesion's (the curvature term's share scales as `ρ0`, not
-//! measured apart). Figures: `cargo run --release --example rayleigh_probe -- --radius R
+//! (2.7 N/m per unit γ at h = 2 cm, 2.3 times the cohesion's mean field). It scales as
+//! `γh²`: at a fixed droplet size in spacings statics are self-similar, and the core pressure
+//! at 10 spacings is 292, 585 and 1,172 Pa at h = 1, 2 and 4 cm (γ = 1) and at γ = 0.5, 1
+//! and 2 (h = 2 cm), `∝ γh` to 0.3 % (averaged over 1.5 s of a 3 % oscillation); the `ρ0²`
+//! is the cohesion's (the curvature term's share scales as `ρ0`, not measured apart). Figures: `cargo run --release --example rayleigh_probe -- --radius R
 //! --speed 0 [--settle 1]` at load 12–14 on 2 shared cores.
 //!
 //! **Droplet oscillations.** Rayleigh's l = 2 period `2π√(ρR³/(8σ))` is *not* what a droplet
