@@ -98,6 +98,19 @@ pub fn add_accelerations<S: Separation>(
     if !largest.exceeds(MAX_EXCHANGE) {
         return 0;
     }
+    limit_by_distance(pairs, (velocities, inv_densities), (em, dt), accelerations)
+}
+
+/// [`limit`] with the Laplacian weights of the pairs' distances: what
+/// [`add_accelerations`] runs when some row sum exceeds [`MAX_EXCHANGE`] (`em = ε·m`).
+/// Returns the particles limited.
+pub(crate) fn limit_by_distance<S: Separation>(
+    pairs: &Pairs<'_, S>,
+    (velocities, inv_densities): (&[Vector], &[Real]),
+    (em, dt): (Real, Real),
+    accelerations: &mut [Vector],
+) -> usize {
+    let lap = ViscosityLaplacian::new(pairs.h);
     let weights = DistanceWeights { pairs, lap };
     limit(
         &weights,

@@ -32,6 +32,28 @@ impl ViscosityLaplacian {
         self.coef * (self.h - d).max(0.0)
     }
 
+    /// [`Self::laplacian`] on eight lanes, the same arithmetic per lane (`max(x, 0)` takes
+    /// the second operand when `x` is NaN, as `f32::max` returns the number).
+    ///
+    /// # Safety
+    /// Only from code compiled with AVX enabled (see [`super::Kernel::dw_avx`]).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn laplacian_avx(
+        &self,
+        d: std::arch::x86_64::__m256,
+    ) -> std::arch::x86_64::__m256 {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller runs with AVX.
+        unsafe {
+            let x = _mm256_max_ps(
+                _mm256_sub_ps(_mm256_set1_ps(self.h), d),
+                _mm256_setzero_ps(),
+            );
+            _mm256_mul_ps(_mm256_set1_ps(self.coef), x)
+        }
+    }
+
     /// `∫ ∇²W dV` over the half-space lying `d` beyond the particle (`d < 0`: the particle is
     /// inside it): what a wall contributes to the viscosity sum in place of
     /// `Σ_j m_j/ρ_j ∇²W_ij` (see `src/boundary/wall/`). A sphere of radius `r` around

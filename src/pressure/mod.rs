@@ -4,4 +4,5 @@
 //! so far; incompressible solvers will sit beside it, one file each, named after their paper.
 
 pub mod eos;
+pub(crate) mod fused;
 pub mod wcsph;

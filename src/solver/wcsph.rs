@@ -64,8 +64,16 @@ impl PressureSolver for WcsphState {
                 }
             }
         });
-        // Overwrites the accelerations.
-        self.pressure_force(ctx, sep);
+        let fused = p.wcsph_pressure == WcsphPressure::Paper
+            && ctx.phases.is_none()
+            && p.explicit_viscosity() > 0.0;
+        if fused {
+            // One pass for both (bit for bit the two below): timed as the pressure force.
+            ctx.report.viscosity_limited += Self::pressure_and_viscosity(ctx, sep);
+        } else {
+            // Overwrites the accelerations.
+            self.pressure_force(ctx, sep);
+        }
         let pairs = Pairs {
             positions: ctx.positions,
             neighbors: ctx.neighbors,
@@ -73,7 +81,7 @@ impl PressureSolver for WcsphState {
             h: p.smoothing_length,
             sep,
         };
-        if p.explicit_viscosity() > 0.0 {
+        if !fused && p.explicit_viscosity() > 0.0 {
             let (phases, weighted) = (ctx.phases, &mut self.viscous_inv_densities);
             let inv = match phases {
                 Some(ph) => {
@@ -158,6 +166,32 @@ impl PressureSolver for WcsphState {
 }
 
 impl WcsphState {
+    /// Müller's pressure force and the explicit viscosity in one pass over the pairs
+    /// (`pressure::fused`), overwriting `ctx.accelerations`; returns the particles whose
+    /// viscosity was limited. For one fluid (no phases) with [`WcsphPressure::Paper`].
+    fn pressure_and_viscosity<S: Separation>(ctx: &mut StepContext<'_>, sep: S) -> usize {
+        let p = ctx.params;
+        let input = pressure::fused::FusedInput {
+            pairs: Pairs {
+                positions: ctx.positions,
+                neighbors: ctx.neighbors,
+                mass: p.particle_mass,
+                h: p.smoothing_length,
+                sep,
+            },
+            inv_densities: ctx.inv_densities,
+            pressures: ctx.pressures,
+            wall: ctx.wall.map(|w| &w.gradient[..]),
+            velocities: ctx.velocities,
+            viscosity: (p.explicit_viscosity(), ctx.dt),
+        };
+        let acc = &mut *ctx.accelerations;
+        ctx.report.timed(Stage::PressureForce, || {
+            crate::with_kernel!(p.pressure_kernel, K =>
+                pressure::fused::pressure_and_viscosity::<K, S>(&input, acc))
+        })
+    }
+
     /// The pressure accelerations into `ctx.accelerations` (overwritten): the paper's
     /// (Müller's form) or, with [`WcsphPressure::Adami`], the symmetric form with Adami's
     /// wall pressure.
