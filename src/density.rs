@@ -32,41 +32,189 @@ pub fn compute<K: Kernel, S: Separation>(
 ) {
     let kernel = K::new(h);
     let self_term = mass * kernel.w(0.0);
+    let n = positions.len();
+    assert!(neighbors.len() == n && wall.is_none_or(|w| w.len() == n));
+    let packed = avx::usable::<S>(n);
     crate::par_chunks_mut!(densities, CHUNK)
         .zip(crate::par_chunks_mut!(inv_densities, CHUNK))
         .enumerate()
         .for_each(|(c, (out, inv_out))| {
-            crate::par::wide(
-                #[inline(always)]
-                || {
-                    let base = c * CHUNK;
-                    for (k, (rho, inv)) in out.iter_mut().zip(inv_out.iter_mut()).enumerate() {
-                        let i = base + k;
-                        let xi = positions[i];
-                        let nb = neighbors.of(i);
-                        // LANES neighbours per iteration, each stage a loop over plain lane arrays:
-                        // LLVM turns the square roots and kernel polynomials into packed SIMD.
-                        let mut acc = [0.0; LANES];
-                        let mut blocks = nb.chunks_exact(LANES);
-                        for block in &mut blocks {
-                            let mut d = [0.0; LANES];
-                            for l in 0..LANES {
-                                d[l] = sep.sep(xi, positions[block[l] as usize]).length_squared();
-                            }
-                            for l in 0..LANES {
-                                acc[l] += kernel.w(d[l].sqrt());
-                            }
+            if packed {
+                // SAFETY: `avx::usable` checked AVX2 at run time, an open domain and the
+                // index range; the lists' length is asserted above.
+                #[cfg(target_arch = "x86_64")]
+                unsafe {
+                    avx::chunk(
+                        &kernel,
+                        (positions, neighbors),
+                        c,
+                        (out, inv_out),
+                        (self_term, mass, wall),
+                    )
+                }
+            } else {
+                crate::par::wide(
+                    #[inline(always)]
+                    || {
+                        let base = c * CHUNK;
+                        for (k, (rho, inv)) in out.iter_mut().zip(inv_out.iter_mut()).enumerate() {
+                            let i = base + k;
+                            let sum = kernel_sum(&kernel, (positions, neighbors), i, sep);
+                            *rho = self_term + mass * sum + wall.map_or(0.0, |w| w[i]);
+                            *inv = 1.0 / *rho;
                         }
-                        let mut sum = lane_sum(acc);
-                        for &j in blocks.remainder() {
-                            sum += kernel.w(sep.sep(xi, positions[j as usize]).length());
-                        }
-                        *rho = self_term + mass * sum + wall.map_or(0.0, |w| w[i]);
-                        *inv = 1.0 / *rho;
-                    }
-                },
-            );
+                    },
+                );
+            }
         });
+}
+
+/// `Σ_j W(|x_i − x_j|)` over the neighbours of particle `i`: [`LANES`] neighbours per
+/// iteration, each stage a loop over plain lane arrays (LLVM turns the square roots and
+/// kernel polynomials into packed SIMD), then the rest one by one.
+#[inline(always)]
+fn kernel_sum<K: Kernel, S: Separation>(
+    kernel: &K,
+    (positions, neighbors): (&[Vector], &NeighborLists),
+    i: usize,
+    sep: S,
+) -> Real {
+    let xi = positions[i];
+    let mut acc = [0.0; LANES];
+    let mut blocks = neighbors.of(i).chunks_exact(LANES);
+    for block in &mut blocks {
+        let mut d = [0.0; LANES];
+        for l in 0..LANES {
+            d[l] = sep.sep(xi, positions[block[l] as usize]).length_squared();
+        }
+        for l in 0..LANES {
+            acc[l] += kernel.w(d[l].sqrt());
+        }
+    }
+    remainder(
+        kernel,
+        positions,
+        (i, blocks.remainder()),
+        lane_sum(acc),
+        sep,
+    )
+}
+
+/// Adds the neighbours `rest` (after the full blocks) of particle `i` to its lane sum one
+/// by one.
+#[inline(always)]
+fn remainder<K: Kernel, S: Separation>(
+    kernel: &K,
+    positions: &[Vector],
+    (i, rest): (usize, &[u32]),
+    mut sum: Real,
+    sep: S,
+) -> Real {
+    let xi = positions[i];
+    for &j in rest {
+        sum += kernel.w(sep.sep(xi, positions[j as usize]).length());
+    }
+    sum
+}
+
+/// The density pass with AVX2 (open domains): [`kernel_sum`]'s blocks in 8-lane registers,
+/// the neighbours' positions by 4-float loads transposed in registers (as
+/// `pressure::fused`); the same operations per lane in the same order, so the same bits.
+mod avx {
+    use super::*;
+    #[cfg(target_arch = "x86_64")]
+    use crate::par::avx::{gather_xyz, lanes, load_xyz};
+    #[cfg(target_arch = "x86_64")]
+    use std::arch::x86_64::*;
+
+    /// Whether the AVX2 pass runs: AVX2 detected, an open domain, gather offsets within `i32`.
+    pub(super) fn usable<S: Separation>(n: usize) -> bool {
+        cfg!(target_arch = "x86_64")
+            && !S::PERIODIC
+            && crate::par::has_avx2()
+            && n.checked_mul(3).is_some_and(|m| m <= i32::MAX as usize)
+    }
+
+    /// The densities and their inverses of chunk `c` (see [`super::compute`]).
+    ///
+    /// # Safety
+    /// The CPU must run AVX2, [`usable`] must hold and the lists be built for `positions`.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn chunk<K: Kernel>(
+        kernel: &K,
+        (positions, neighbors): (&[Vector], &NeighborLists),
+        c: usize,
+        (out, inv_out): (&mut [Real], &mut [Real]),
+        (self_term, mass, wall): (Real, Real, Option<&[Real]>),
+    ) {
+        let base = c * CHUNK;
+        for (k, (rho, inv)) in out.iter_mut().zip(inv_out.iter_mut()).enumerate() {
+            let i = base + k;
+            // SAFETY: as the caller promised.
+            let sum = unsafe { kernel_sum(kernel, (positions, neighbors), i) };
+            *rho = self_term + mass * sum + wall.map_or(0.0, |w| w[i]);
+            *inv = 1.0 / *rho;
+        }
+    }
+
+    /// [`super::kernel_sum`] in 8-lane registers.
+    ///
+    /// # Safety
+    /// As [`chunk`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn kernel_sum<K: Kernel>(
+        kernel: &K,
+        (positions, neighbors): (&[Vector], &NeighborLists),
+        i: usize,
+    ) -> Real {
+        let xi = positions[i];
+        let px = positions.as_ptr() as *const f32;
+        let mut blocks = neighbors.of(i).chunks_exact(LANES);
+        // SAFETY: AVX2 (the caller's); every index is checked below the length.
+        let acc = unsafe {
+            let last = _mm256_set1_epi32((positions.len() - 1) as i32);
+            let (x, y, z) = (
+                _mm256_set1_ps(xi.x),
+                _mm256_set1_ps(xi.y),
+                _mm256_set1_ps(xi.z),
+            );
+            let mut acc = _mm256_setzero_ps();
+            for block in &mut blocks {
+                let idx = _mm256_loadu_si256(block.as_ptr() as *const __m256i);
+                let inside = _mm256_cmpeq_epi32(_mm256_max_epu32(idx, last), last);
+                assert!(
+                    _mm256_movemask_epi8(inside) == -1,
+                    "neighbour index out of range"
+                );
+                // The last particle's 4-float load would pass the end: gathers for its block.
+                let (qx, qy, qz) = if _mm256_movemask_epi8(_mm256_cmpeq_epi32(idx, last)) != 0 {
+                    gather_xyz(px, _mm256_add_epi32(_mm256_add_epi32(idx, idx), idx))
+                } else {
+                    load_xyz(px, block)
+                };
+                let (rx, ry, rz) = (
+                    _mm256_sub_ps(x, qx),
+                    _mm256_sub_ps(y, qy),
+                    _mm256_sub_ps(z, qz),
+                );
+                let d2 = _mm256_add_ps(
+                    _mm256_add_ps(_mm256_mul_ps(rx, rx), _mm256_mul_ps(ry, ry)),
+                    _mm256_mul_ps(rz, rz),
+                );
+                acc = _mm256_add_ps(acc, kernel.w_avx(_mm256_sqrt_ps(d2)));
+            }
+            lanes(acc)
+        };
+        remainder(
+            kernel,
+            positions,
+            (i, blocks.remainder()),
+            lane_sum(acc),
+            crate::domain::Open,
+        )
+    }
 }
 
 /// Largest and mean relative compression `max(ρ − ρ0, 0)/ρ0`, reduced chunk by chunk and then

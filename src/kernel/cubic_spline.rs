@@ -41,6 +41,22 @@ impl Kernel for CubicSpline {
         let b = (0.5 - q).max(0.0);
         self.k * self.inv_h * (24.0 * b * b - 6.0 * a * a)
     }
+    // `w` lane by lane, the same operations in the same order (see `dw_avx`).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn w_avx(&self, d: std::arch::x86_64::__m256) -> std::arch::x86_64::__m256 {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller runs with AVX (the trait's contract).
+        unsafe {
+            let q = _mm256_mul_ps(d, _mm256_set1_ps(self.inv_h));
+            let zero = _mm256_setzero_ps();
+            let a = _mm256_max_ps(_mm256_sub_ps(_mm256_set1_ps(1.0), q), zero);
+            let b = _mm256_max_ps(_mm256_sub_ps(_mm256_set1_ps(0.5), q), zero);
+            let a3 = _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(2.0), a), a), a);
+            let b3 = _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(8.0), b), b), b);
+            _mm256_mul_ps(_mm256_set1_ps(self.k), _mm256_sub_ps(a3, b3))
+        }
+    }
     // `dw` lane by lane, the same operations in the same order: `max(x, 0)` takes the
     // second operand when `x` is NaN, as `f32::max` returns the number.
     #[cfg(target_arch = "x86_64")]

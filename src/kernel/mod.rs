@@ -63,6 +63,26 @@ pub trait Kernel: Copy + Send + Sync + 'static {
     /// Radial derivative `dW/dd`; zero for `d >= h`.
     fn dw(&self, d: Real) -> Real;
 
+    /// [`Kernel::w`] on eight lanes at once, the same arithmetic per lane (so the same bits):
+    /// by default lane by lane through [`Kernel::w`]; kernels on the hot paths override it.
+    ///
+    /// # Safety
+    /// As [`Kernel::dw_avx`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn w_avx(&self, d: std::arch::x86_64::__m256) -> std::arch::x86_64::__m256 {
+        use std::arch::x86_64::*;
+        let mut lanes = [0.0 as Real; 8];
+        // SAFETY: the caller runs with AVX; `lanes` holds 8 floats.
+        unsafe {
+            _mm256_storeu_ps(lanes.as_mut_ptr(), d);
+            for x in &mut lanes {
+                *x = self.w(*x);
+            }
+            _mm256_loadu_ps(lanes.as_ptr())
+        }
+    }
+
     /// [`Kernel::dw`] on eight lanes at once, the same arithmetic per lane (so the same bits):
     /// by default lane by lane through [`Kernel::dw`]; kernels on the hot paths override it
     /// with packed arithmetic.

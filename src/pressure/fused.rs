@@ -242,6 +242,8 @@ fn remainder<K: Kernel, S: Separation>(
 mod avx {
     use super::*;
     #[cfg(target_arch = "x86_64")]
+    use crate::par::avx::{gather, gather_xyz, lanes, load_xyz};
+    #[cfg(target_arch = "x86_64")]
     use std::arch::x86_64::*;
 
     /// Whether the AVX2 pass runs: AVX2 detected at run time, an open domain, and every
@@ -289,70 +291,6 @@ mod avx {
         chunk_loop(input, coef, (c, out), |i| unsafe {
             particle_sums(input, kl, i)
         })
-    }
-
-    /// The three coordinates of the vectors at `base` (three floats each) of the block's
-    /// eight indices, as lanes: each vector read with one 4-float load (its three floats
-    /// and the next one's first) and the eight transposed in registers, which is cheaper
-    /// than three gathers.
-    ///
-    /// # Safety
-    /// AVX; every index below the last vector's (the 4-float load of the last one would
-    /// read past the array).
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    unsafe fn load_xyz(base: *const f32, block: &[u32]) -> (__m256, __m256, __m256) {
-        // SAFETY: as the caller promised: each load reads floats 3j..3j + 4 of the array.
-        unsafe {
-            let at = |l: usize| _mm_loadu_ps(base.add(3 * block[l] as usize));
-            let pair = |a: usize, b: usize| _mm256_set_m128(at(b), at(a));
-            let (t0, t1, t2, t3) = (pair(0, 4), pair(1, 5), pair(2, 6), pair(3, 7));
-            let (u0, u1) = (_mm256_unpacklo_ps(t0, t1), _mm256_unpacklo_ps(t2, t3));
-            let (u2, u3) = (_mm256_unpackhi_ps(t0, t1), _mm256_unpackhi_ps(t2, t3));
-            (
-                _mm256_shuffle_ps::<0x44>(u0, u1),
-                _mm256_shuffle_ps::<0xEE>(u0, u1),
-                _mm256_shuffle_ps::<0x44>(u2, u3),
-            )
-        }
-    }
-
-    /// [`load_xyz`] by three gathers (any index within the array; `i3` holds `3·idx`).
-    ///
-    /// # Safety
-    /// AVX2; every index within the array.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    unsafe fn gather_xyz(base: *const f32, i3: __m256i) -> (__m256, __m256, __m256) {
-        // SAFETY: as the caller promised.
-        unsafe {
-            (
-                gather(base, i3),
-                gather(base.add(1), i3),
-                gather(base.add(2), i3),
-            )
-        }
-    }
-
-    /// A particle's value at every lane's index (`base[idx·stride]`, `stride` 1 or 3).
-    ///
-    /// # Safety
-    /// AVX2; every `idx·stride` within the array at `base`.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    unsafe fn gather(base: *const f32, idx: __m256i) -> __m256 {
-        // SAFETY: as the caller promised.
-        unsafe { _mm256_i32gather_ps::<4>(base, idx) }
-    }
-
-    /// Eight lanes stored as an array.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    unsafe fn lanes(v: __m256) -> [Real; LANES] {
-        let mut out = [0.0; LANES];
-        // SAFETY: AVX (the callers'); `out` holds 8 floats.
-        unsafe { _mm256_storeu_ps(out.as_mut_ptr(), v) };
-        out
     }
 
     /// Particle `i`'s [`Sums`], as [`super::particle_sums`] forms them.
