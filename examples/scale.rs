@@ -1,7 +1,7 @@
 //! The large dam break: the step bench's WCSPH scene (water preset, spacing 0.02 m, fixed
 //! acoustic dt, one substep per step, rapier's own step excluded) at any particle count,
 //! reporting steps per second, CPU time, heap bytes per particle and the process's peak
-//! resident memory. Too slow for CI: run by hand.
+//! resident memory, and the wall time per step of each stage. Too slow for CI: run by hand.
 //!
 //! ```text
 //! cargo run --release --example scale -- [particles] [steps] [threads] [warmup]
@@ -65,8 +65,11 @@ fn main() {
         }
         let (cpu0, t0) = (cpu_seconds(), Instant::now());
         let mut pairs = 0usize;
+        let mut stages = rapier_sph::StageTimings::default();
         for _ in 0..steps {
-            pairs += w.step_fluids().unwrap().neighbour_pairs;
+            let report = w.step_fluids().unwrap();
+            pairs += report.neighbour_pairs;
+            stages.accumulate(&report.timings);
         }
         let wall = t0.elapsed().as_secs_f64();
         let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
@@ -87,6 +90,15 @@ fn main() {
             bytes as f64 / n as f64,
             status_kb("VmHWM:").map_or("n/a".into(), |k| format!("{:.1}", k as f64 / 1024.0))
         );
+        // Wall time per step of each stage (the pressure force stage includes the viscosity
+        // where WCSPH runs the two in one pass).
+        let per_step = |d: std::time::Duration| d.as_secs_f64() * 1e3 / steps as f64;
+        let line: Vec<String> = rapier_sph::Stage::ALL
+            .iter()
+            .filter(|&&st| per_step(stages.get(st)) >= 0.005)
+            .map(|&st| format!("{} {:.2}", st.name(), per_step(stages.get(st))))
+            .collect();
+        println!("ms per step by stage: {}", line.join(", "));
         let mut hash = 0xcbf2_9ce4_8422_2325u64;
         for (_, f) in w.fluids.iter() {
             for p in f.positions().iter().chain(f.velocities()) {

@@ -131,7 +131,7 @@ mod avx {
     pub(super) fn usable<S: Separation>(n: usize) -> bool {
         cfg!(target_arch = "x86_64")
             && !S::PERIODIC
-            && crate::par::has_avx2()
+            && crate::par::packed_level() >= 1
             && n.checked_mul(3).is_some_and(|m| m <= i32::MAX as usize)
     }
 

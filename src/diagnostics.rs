@@ -39,7 +39,9 @@ pub enum Stage {
     Pressure,
     /// DFSPH divergence solve.
     DivergenceSolve,
-    /// Symmetric pressure force (WCSPH only).
+    /// Symmetric pressure force (WCSPH only). For one fluid with the paper's pressure force
+    /// and explicit viscosity, WCSPH computes the viscosity in the same pass over the pairs
+    /// and times both here ([`Stage::ViscosityForce`] then reads zero).
     PressureForce,
     /// Viscosity force (skipped when ε = 0).
     ViscosityForce,

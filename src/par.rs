@@ -52,6 +52,24 @@ pub fn has_avx512() -> bool {
     }
 }
 
+/// The widest explicit vector path the pair passes may take (`pressure::fused`, `density`):
+/// 2 AVX-512 F and VL, 1 AVX2, 0 none (detected at run time; in this crate's unit tests,
+/// also bounded by the ceiling [`wide`] obeys, so one test compares every path).
+#[inline]
+pub(crate) fn packed_level() -> u8 {
+    #[cfg(test)]
+    let ceiling = tests::CEILING.load(std::sync::atomic::Ordering::Relaxed);
+    #[cfg(not(test))]
+    let ceiling = 0;
+    if ceiling == 0 && has_avx512() {
+        2
+    } else if ceiling <= 1 && has_avx2() {
+        1
+    } else {
+        0
+    }
+}
+
 /// Runs `f`, compiled for AVX-512 (F and VL) or else AVX2 where the CPU has them: the pair
 /// loops' lane arrays ([`LANES`]) then run as one 8-wide vector instead of two 4-wide SSE2
 /// halves (AVX-512VL adds 32 vector registers and masked operations on those 8 lanes:
@@ -257,7 +275,7 @@ pub(crate) fn permute<T: Copy + Send + Sync>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use crate::kernel::CubicSpline;
     use crate::math::{Real, Vector};
     use crate::neighbors::{NeighborGrid, NeighborLists};
@@ -266,7 +284,7 @@ mod tests {
     /// The widest path [`super::wide`] may take: 0 any, 1 AVX2 at most, 2 portable (this
     /// module's test only; the results are the same either way, so other tests running
     /// meanwhile are not affected).
-    pub(super) static CEILING: AtomicU8 = AtomicU8::new(0);
+    pub(crate) static CEILING: AtomicU8 = AtomicU8::new(0);
 
     /// Density, pressure force and viscosity passes give the same bits through the AVX-512
     /// and AVX2 paths (where the CPU has them) and the portable one.

@@ -68,7 +68,7 @@ pub(crate) fn pressure_and_viscosity<K: Kernel, S: Separation>(
         "the fused pass's arrays differ in length"
     );
     let packed = avx::usable::<S>(n);
-    let wide512 = crate::par::has_avx512();
+    let wide512 = crate::par::packed_level() == 2;
     let coef = (half_m, em);
     crate::par_chunks_mut!(accelerations, CHUNK)
         .enumerate()
@@ -251,7 +251,7 @@ mod avx {
     pub(super) fn usable<S: Separation>(n: usize) -> bool {
         cfg!(target_arch = "x86_64")
             && !S::PERIODIC
-            && crate::par::has_avx2()
+            && crate::par::packed_level() >= 1
             && n.checked_mul(3).is_some_and(|m| m <= i32::MAX as usize)
     }
 
@@ -455,9 +455,19 @@ mod tests {
     }
 
     /// The fused pass gives the bits of the pressure pass followed by the viscosity pass,
-    /// with and without walls, below the explicit limit and beyond it (limiter running).
+    /// with and without walls, below the explicit limit and beyond it (limiter running),
+    /// through each vector path the CPU has (AVX-512, AVX2, portable).
     #[test]
     fn fused_pass_equals_the_two_passes_bit_for_bit() {
+        use std::sync::atomic::Ordering;
+        for ceiling in [0, 1, 2] {
+            crate::par::tests::CEILING.store(ceiling, Ordering::Relaxed);
+            fused_against_two_passes();
+        }
+        crate::par::tests::CEILING.store(0, Ordering::Relaxed);
+    }
+
+    fn fused_against_two_passes() {
         let (h, s, m) = (0.1, 0.05, 0.125);
         let (x, v, lists) = cloud(h, s);
         let n = x.len();
