@@ -68,6 +68,7 @@ pub(crate) fn pressure_and_viscosity<K: Kernel, S: Separation>(
         "the fused pass's arrays differ in length"
     );
     let packed = avx::usable::<S>(n);
+    #[cfg(target_arch = "x86_64")]
     let wide512 = crate::par::packed_level() == 2;
     let coef = (half_m, em);
     crate::par_chunks_mut!(accelerations, CHUNK)
@@ -293,6 +294,39 @@ mod avx {
         })
     }
 
+    /// Eight lanes of each coordinate of a vector.
+    #[cfg(target_arch = "x86_64")]
+    type Lanes3 = [__m256; 3];
+
+    /// What every block of particle `i` reads of `i` itself, broadcast to the lanes.
+    #[cfg(target_arch = "x86_64")]
+    struct Me {
+        x: Lanes3,
+        v: Lanes3,
+        p: __m256,
+        /// The coincidence distance `K::COINCIDENT_FRACTION·h`.
+        co: __m256,
+        /// The last particle's index.
+        last: __m256i,
+    }
+
+    /// The lane accumulators of [`Sums`]: pressure force, viscosity, weight.
+    #[cfg(target_arch = "x86_64")]
+    struct Acc {
+        f: Lanes3,
+        g: Lanes3,
+        w: __m256,
+    }
+
+    /// One block's neighbours: positions, velocities, `1/ρ_j`, `p_j`.
+    #[cfg(target_arch = "x86_64")]
+    struct Block {
+        x: Lanes3,
+        v: Lanes3,
+        inv: __m256,
+        p: __m256,
+    }
+
     /// Particle `i`'s [`Sums`], as [`super::particle_sums`] forms them.
     ///
     /// # Safety
@@ -305,110 +339,155 @@ mod avx {
         i: usize,
     ) -> Sums {
         let positions = input.pairs.positions;
-        let (inv, pressures, velocities) = (input.inv_densities, input.pressures, input.velocities);
-        let (xi, vi, pi) = (positions[i], velocities[i], pressures[i]);
-        let coincident = K::COINCIDENT_FRACTION * input.pairs.h;
-        // `Vector` is three `f32`s (repr(C)): coordinate `k` of particle `j` is float `3j + k`.
-        const _: () = assert!(std::mem::size_of::<Vector>() == 12);
-        let (px, vx) = (
-            positions.as_ptr() as *const f32,
-            velocities.as_ptr() as *const f32,
-        );
-        let nb = input.pairs.neighbors.of(i);
-        let mut blocks = nb.chunks_exact(LANES);
-        // SAFETY: AVX2 (the caller's); every gather's indices are checked below the length.
+        let (xi, vi) = (positions[i], input.velocities[i]);
+        let mut blocks = input.pairs.neighbors.of(i).chunks_exact(LANES);
+        // SAFETY: AVX2 (the caller's); `load` checks every index below the length.
         unsafe {
-            let last = _mm256_set1_epi32((positions.len() - 1) as i32);
-            let (one, zero) = (_mm256_set1_ps(1.0), _mm256_setzero_ps());
-            let co = _mm256_set1_ps(coincident);
-            let (x, y, z) = (
-                _mm256_set1_ps(xi.x),
-                _mm256_set1_ps(xi.y),
-                _mm256_set1_ps(xi.z),
-            );
-            let (ux, uy, uz) = (
-                _mm256_set1_ps(vi.x),
-                _mm256_set1_ps(vi.y),
-                _mm256_set1_ps(vi.z),
-            );
-            let vp = _mm256_set1_ps(pi);
-            let (mut fx, mut fy, mut fz) = (zero, zero, zero);
-            let (mut gx, mut gy, mut gz, mut w) = (zero, zero, zero, zero);
+            let splat = |v: Vector| [v.x, v.y, v.z].map(|c| _mm256_set1_ps(c));
+            let me = Me {
+                x: splat(xi),
+                v: splat(vi),
+                p: _mm256_set1_ps(input.pressures[i]),
+                co: _mm256_set1_ps(K::COINCIDENT_FRACTION * input.pairs.h),
+                last: _mm256_set1_epi32((positions.len() - 1) as i32),
+            };
+            let zero = _mm256_setzero_ps();
+            let mut acc = Acc {
+                f: [zero; 3],
+                g: [zero; 3],
+                w: zero,
+            };
             for block in &mut blocks {
-                let idx = _mm256_loadu_si256(block.as_ptr() as *const __m256i);
-                // Every index below the particle count (unsigned compare), so the gathers
-                // stay inside the arrays.
-                let inside = _mm256_cmpeq_epi32(_mm256_max_epu32(idx, last), last);
-                assert!(
-                    _mm256_movemask_epi8(inside) == -1,
-                    "neighbour index out of range"
-                );
-                // The last particle's 4-float load would pass the end: gathers for its block.
-                let at_end = _mm256_movemask_epi8(_mm256_cmpeq_epi32(idx, last)) != 0;
-                let i3 = _mm256_add_epi32(_mm256_add_epi32(idx, idx), idx);
-                let ((qx, qy, qz), (wx, wy, wz)) = if at_end {
-                    (gather_xyz(px, i3), gather_xyz(vx, i3))
-                } else {
-                    (load_xyz(px, block), load_xyz(vx, block))
-                };
-                let rx = _mm256_sub_ps(x, qx);
-                let ry = _mm256_sub_ps(y, qy);
-                let rz = _mm256_sub_ps(z, qz);
-                let d2 = _mm256_add_ps(
-                    _mm256_add_ps(_mm256_mul_ps(rx, rx), _mm256_mul_ps(ry, ry)),
-                    _mm256_mul_ps(rz, rz),
-                );
-                let d = _mm256_sqrt_ps(d2);
-                let ij = gather(inv.as_ptr(), idx);
-                let s = _mm256_mul_ps(_mm256_add_ps(vp, gather(pressures.as_ptr(), idx)), ij);
-                // The pressure force's lanes.
-                let far = _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(d, co), one);
-                let c = _mm256_mul_ps(
-                    _mm256_mul_ps(kernel.dw_avx(d), _mm256_div_ps(far, _mm256_max_ps(d, co))),
-                    s,
-                );
-                fx = _mm256_sub_ps(fx, _mm256_mul_ps(rx, c));
-                fy = _mm256_sub_ps(fy, _mm256_mul_ps(ry, c));
-                fz = _mm256_sub_ps(fz, _mm256_mul_ps(rz, c));
-                // The viscosity's lanes.
-                let lw = _mm256_mul_ps(lap.laplacian_avx(d), ij);
-                w = _mm256_add_ps(w, lw);
-                let dvx = _mm256_sub_ps(wx, ux);
-                let dvy = _mm256_sub_ps(wy, uy);
-                let dvz = _mm256_sub_ps(wz, uz);
-                gx = _mm256_add_ps(gx, _mm256_mul_ps(dvx, lw));
-                gy = _mm256_add_ps(gy, _mm256_mul_ps(dvy, lw));
-                gz = _mm256_add_ps(gz, _mm256_mul_ps(dvz, lw));
-                let near = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(d, co));
+                let nb = load(input, block, me.last);
+                let (d, s) = add_block((kernel, lap), &me, &nb, &mut acc);
+                let near = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(d, me.co));
                 if near != 0 {
-                    let (dl, sl) = (lanes(d), lanes(s));
-                    let (mut ax, mut ay, mut az) = (lanes(fx), lanes(fy), lanes(fz));
-                    for l in 0..LANES {
-                        if near & (1 << l) != 0 {
-                            let g =
-                                kernel.gradient(Vector::ZERO, dl[l], i as u32, block[l]) * sl[l];
-                            (ax[l], ay[l], az[l]) = (ax[l] - g.x, ay[l] - g.y, az[l] - g.z);
-                        }
-                    }
-                    fx = _mm256_loadu_ps(ax.as_ptr());
-                    fy = _mm256_loadu_ps(ay.as_ptr());
-                    fz = _mm256_loadu_ps(az.as_ptr());
+                    coincident(kernel, (i, block, near), (d, s), &mut acc.f);
                 }
             }
+            let sum3 = |a: Lanes3| {
+                Vector::new(
+                    lane_sum(lanes(a[0])),
+                    lane_sum(lanes(a[1])),
+                    lane_sum(lanes(a[2])),
+                )
+            };
             let lanes = Sums {
-                pressure: Vector::new(
-                    lane_sum(lanes(fx)),
-                    lane_sum(lanes(fy)),
-                    lane_sum(lanes(fz)),
-                ),
-                viscous: Vector::new(
-                    lane_sum(lanes(gx)),
-                    lane_sum(lanes(gy)),
-                    lane_sum(lanes(gz)),
-                ),
-                weight: lane_sum(lanes(w)),
+                pressure: sum3(acc.f),
+                viscous: sum3(acc.g),
+                weight: lane_sum(lanes(acc.w)),
             };
             remainder(input, (kernel, lap), i, blocks.remainder(), lanes)
+        }
+    }
+
+    /// The neighbours `block` of one particle into lanes, after checking every index below
+    /// the particle count (unsigned compare: the loads and gathers stay inside the arrays).
+    ///
+    /// # Safety
+    /// AVX2; the input's arrays all hold one entry per position.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn load<S>(input: &FusedInput<'_, S>, block: &[u32], last: __m256i) -> Block {
+        // `Vector` is three `f32`s (repr(C)): coordinate `k` of particle `j` is float `3j + k`.
+        const _: () = assert!(std::mem::size_of::<Vector>() == 12);
+        let px = input.pairs.positions.as_ptr() as *const f32;
+        let vx = input.velocities.as_ptr() as *const f32;
+        // SAFETY: every index is checked below the length before a load.
+        unsafe {
+            let idx = _mm256_loadu_si256(block.as_ptr() as *const __m256i);
+            let inside = _mm256_cmpeq_epi32(_mm256_max_epu32(idx, last), last);
+            assert!(
+                _mm256_movemask_epi8(inside) == -1,
+                "neighbour index out of range"
+            );
+            // The last particle's 4-float load would pass the end: gathers for its block.
+            let at_end = _mm256_movemask_epi8(_mm256_cmpeq_epi32(idx, last)) != 0;
+            let ((x0, x1, x2), (v0, v1, v2)) = if at_end {
+                let i3 = _mm256_add_epi32(_mm256_add_epi32(idx, idx), idx);
+                (gather_xyz(px, i3), gather_xyz(vx, i3))
+            } else {
+                (load_xyz(px, block), load_xyz(vx, block))
+            };
+            Block {
+                x: [x0, x1, x2],
+                v: [v0, v1, v2],
+                inv: gather(input.inv_densities.as_ptr(), idx),
+                p: gather(input.pressures.as_ptr(), idx),
+            }
+        }
+    }
+
+    /// Adds one block's pair terms to `acc`, each in its own pass's order; returns the
+    /// distances and the pressure factors `(p_i + p_j)/ρ_j` (for the coincident pairs).
+    ///
+    /// # Safety
+    /// AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn add_block<K: Kernel>(
+        (kernel, lap): (&K, &ViscosityLaplacian),
+        me: &Me,
+        nb: &Block,
+        acc: &mut Acc,
+    ) -> (__m256, __m256) {
+        // SAFETY: AVX (the caller's).
+        unsafe {
+            let r: Lanes3 = std::array::from_fn(|k| _mm256_sub_ps(me.x[k], nb.x[k]));
+            let d2 = _mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(r[0], r[0]), _mm256_mul_ps(r[1], r[1])),
+                _mm256_mul_ps(r[2], r[2]),
+            );
+            let d = _mm256_sqrt_ps(d2);
+            let s = _mm256_mul_ps(_mm256_add_ps(me.p, nb.p), nb.inv);
+            // The pressure force's lanes: 1/d for separated pairs, 0 for coincident ones.
+            let far = _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(d, me.co), _mm256_set1_ps(1.0));
+            let c = _mm256_mul_ps(
+                _mm256_mul_ps(
+                    kernel.dw_avx(d),
+                    _mm256_div_ps(far, _mm256_max_ps(d, me.co)),
+                ),
+                s,
+            );
+            for k in 0..3 {
+                acc.f[k] = _mm256_sub_ps(acc.f[k], _mm256_mul_ps(r[k], c));
+            }
+            // The viscosity's lanes.
+            let lw = _mm256_mul_ps(lap.laplacian_avx(d), nb.inv);
+            acc.w = _mm256_add_ps(acc.w, lw);
+            for k in 0..3 {
+                let dv = _mm256_sub_ps(nb.v[k], me.v[k]);
+                acc.g[k] = _mm256_add_ps(acc.g[k], _mm256_mul_ps(dv, lw));
+            }
+            (d, s)
+        }
+    }
+
+    /// The coincident pairs of a block (bits of `near`): their pressure term along
+    /// [`crate::math::coincident_direction`], as the portable pass adds it.
+    ///
+    /// # Safety
+    /// AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[cold]
+    #[target_feature(enable = "avx2")]
+    unsafe fn coincident<K: Kernel>(
+        kernel: &K,
+        (i, block, near): (usize, &[u32], i32),
+        (d, s): (__m256, __m256),
+        f: &mut Lanes3,
+    ) {
+        // SAFETY: AVX (the caller's).
+        unsafe {
+            let (dl, sl) = (lanes(d), lanes(s));
+            let mut a = f.map(|v| lanes(v));
+            for l in 0..LANES {
+                if near & (1 << l) != 0 {
+                    let g = kernel.gradient(Vector::ZERO, dl[l], i as u32, block[l]) * sl[l];
+                    (a[0][l], a[1][l], a[2][l]) = (a[0][l] - g.x, a[1][l] - g.y, a[2][l] - g.z);
+                }
+            }
+            *f = a.map(|v| _mm256_loadu_ps(v.as_ptr()));
         }
     }
 }
