@@ -72,7 +72,7 @@ pub trait Kernel: Copy + Send + Sync + 'static {
     #[inline(always)]
     unsafe fn w_avx(&self, d: std::arch::x86_64::__m256) -> std::arch::x86_64::__m256 {
         use std::arch::x86_64::*;
-        let mut lanes = [0.0 as Real; 8];
+        let mut lanes: [Real; 8] = [0.0; 8];
         // SAFETY: the caller runs with AVX; `lanes` holds 8 floats.
         unsafe {
             _mm256_storeu_ps(lanes.as_mut_ptr(), d);
@@ -94,7 +94,7 @@ pub trait Kernel: Copy + Send + Sync + 'static {
     #[inline(always)]
     unsafe fn dw_avx(&self, d: std::arch::x86_64::__m256) -> std::arch::x86_64::__m256 {
         use std::arch::x86_64::*;
-        let mut lanes = [0.0 as Real; 8];
+        let mut lanes: [Real; 8] = [0.0; 8];
         // SAFETY: the caller runs with AVX; `lanes` holds 8 floats.
         unsafe {
             _mm256_storeu_ps(lanes.as_mut_ptr(), d);

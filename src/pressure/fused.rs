@@ -140,6 +140,7 @@ fn chunk_loop<S>(
 /// Particle `i`'s [`Sums`]: [`LANES`] neighbours at a time in lane arrays, each sum with the
 /// lane arithmetic of its own pass, then the rest one by one.
 #[inline(always)]
+#[allow(clippy::needless_range_loop)] // uniform lane loops, as the passes' own
 fn particle_sums<K: Kernel, S: Separation>(
     input: &FusedInput<'_, S>,
     (kernel, lap): (&K, &ViscosityLaplacian),
@@ -425,6 +426,7 @@ mod avx {
     /// AVX.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
+    #[allow(clippy::needless_range_loop)] // the three coordinates' lanes
     unsafe fn add_block<K: Kernel>(
         (kernel, lap): (&K, &ViscosityLaplacian),
         me: &Me,
