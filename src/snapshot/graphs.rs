@@ -25,7 +25,7 @@ type Handle = (u32, u32);
 /// edge lists.
 #[derive(Serialize, Deserialize, Debug, Clone, Copy)]
 pub(crate) struct Node {
-    weight: Handle,
+    pub(crate) weight: Handle,
     next: [u32; 2],
 }
 
@@ -35,26 +35,28 @@ pub(crate) struct Node {
 pub(crate) struct EdgeLinks {
     next: [u32; 2],
     prev: [u32; 2],
-    node: [u32; 2],
+    pub(crate) node: [u32; 2],
 }
 
-/// A graph's links.
+/// A graph's links (for a graph whose edges carry no weight, its whole encoding).
+#[derive(Serialize, Deserialize, Debug, Clone)]
 pub(crate) struct Graph {
-    nodes: Vec<Node>,
-    edges: Vec<EdgeLinks>,
+    pub(crate) nodes: Vec<Node>,
+    pub(crate) edges: Vec<EdgeLinks>,
 }
 
 /// What is wrong, and where.
-type Fault = (usize, &'static str);
+pub(crate) type Fault = (usize, &'static str);
 
 const LAYOUT: Fault = (
     0,
     "the narrow phase's layout is not the one this build reads (rapier upgraded)",
 );
 
-/// The links of a rapier interaction graph, read from its nodes' and edges' encodings.
-fn mirror_graph<E: Serialize>(
-    g: &rapier3d::geometry::InteractionGraph<rapier3d::geometry::ColliderHandle, E>,
+/// The links of a rapier interaction graph, read from its nodes' and edges' encodings (its
+/// nodes' weights are arena handles: colliders', or bodies' in the joint sets' graphs).
+pub(crate) fn mirror_graph<N: Serialize + Copy, E: Serialize>(
+    g: &rapier3d::geometry::InteractionGraph<N, E>,
 ) -> Result<Graph, Fault> {
     let raw = g.raw_graph();
     let nodes = raw

@@ -67,6 +67,7 @@
 mod bvh;
 mod graphs;
 mod islands;
+mod joints;
 
 use crate::error::SphError;
 use crate::fluid::snapshot::FluidState;
@@ -335,6 +336,7 @@ fn check_physics(p: &PhysicsWorld) -> Result<(), SphError> {
     check_references(p)?;
     graphs::check_narrow_phase(&p.narrow_phase, &p.colliders)?;
     islands::check_islands(p)?;
+    joints::check_joints(p)?;
     bvh::check_broad_phase(&p.broad_phase)?;
     bvh::check_collider_shapes(&p.colliders)
 }
