@@ -290,15 +290,27 @@ fn heavy_bodies_rest_on_the_floor_with_no_particle_inside() {
 /// Clavet's 2,000 kg/m³ box, on the bounds of the test above.
 ///
 /// Not yet: it rests on two layers of particles, not one (lowest corner 0.0801 m after 1.5 s,
-/// none inside; it stays there, 0.083 m for the box's bottom after 4 s): the default cohesion's
-/// lattice does not let the last two layers be squeezed out. Measured with the same drop: at
-/// cohesion 0.1 it lands at 0.041 m, without cohesion at 0.0400 m. Before dynamic bodies
-/// counted in Clavet's densities the box was non-wetting for the cohesion, whose surface
-/// tension carried it at the surface (lowest corner 0.163 m, about 45 % submerged: the contact
-/// records gave it about 84 N against its 80 N weight, where Archimedes gives about 20 N;
-/// docs/coupling.md, "Known limits").
+/// none inside; 0.083 m for the box's bottom after 2.5 and 4 s). What holds it was measured
+/// per term on the same drop (a scratch probe summing the body's share of the relaxation's wall
+/// term, `PressureSolver::wall_impulse`, split into its pressure and near-pressure parts and
+/// by face, with the box's fluid force from `FluidPipeline::collider_force`), at 2.5 s: the
+/// fluid gives the box 80.3 N (its weight 80.4 N); its bottom face +131 N (pressure −954 N,
+/// the tension of a fluid below its rest density pulling the box down; near pressure +1,085
+/// N), its sides −59 N, its top nothing (at the surface), contact the remaining +8 N. The
+/// particles under the box have the bulk's densities (872–908 kg/m³ under it, 874–907 in a
+/// column away from it: the cohesive fluid rests 9–13 % under `ρ0` everywhere), so the body's
+/// term adds no excess there: the 131 N over the 0.0256 m² face (5.1 kPa, against 1.4 kPa of
+/// hydrostatic pressure at its depth) is what the two-layer film carries, a yield stress of
+/// the cohesive relaxation itself. Heavier boxes: 3,000 kg/m³ rests at 0.081 m, 5,000 at
+/// 0.080 m (the film carries 193 N, 7.5 kPa), 10,000 reaches 0.0400 m; lower cohesion:
+/// 0.5 at 0.081 m, 0.3 at 0.081 m, 0.1 at 0.041 m, without cohesion 0.0400 m. In water 0.44 m
+/// deep, where no film is involved, the same box hangs at the surface with no water on its
+/// top (bottom at 0.29 m, cohesion 1) and still hangs in mid-water at cohesion 0.1 (bottom at
+/// 0.25 m after 2.5 s, sinking at 6.5 mm/s): the fluid holds it as a soft solid would. A change
+/// to the walls' or the body's terms would not remove that; the relaxation's cohesion would
+/// have to yield (docs/coupling.md, "Known limits").
 #[test]
-#[ignore = "Clavet's default cohesion holds a 2,000 kg/m³ box on two layers (see the doc comment)"]
+#[ignore = "Clavet's cohesive fluid carries a 2,000 kg/m³ box on two layers (see the doc comment)"]
 fn clavet_heavy_body_rests_on_the_floor() {
     let spacing = 0.04;
     let o = &drop_heavy(&[(Solver::clavet(), 2_000.0)])[0].1;

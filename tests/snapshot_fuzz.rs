@@ -9,8 +9,9 @@
 //! anywhere in the payload: loading's checks refuse it or the world steps.
 //! `resealed_corruption_outcomes` (ignored; `PART=physics N=2000 cargo test --release
 //! --features snapshot --test snapshot_fuzz -- --ignored --nocapture`, fixed seed; `PART` =
-//! `fluids`, `physics`, `broad_phase`, `islands`, `bodies` or the whole payload when unset)
-//! counts what resealed corruptions do.
+//! `fluids`, `physics`, `broad_phase`, `islands`, `bodies`, `joints` or the whole payload when
+//! unset; `joints` corrupts the joint sets of the same world with a rope, a hinged door and a
+//! multibody chain added) counts what resealed corruptions do.
 #![cfg(feature = "snapshot")]
 
 use proptest::prelude::*;
@@ -28,7 +29,57 @@ const HEADER: usize = 32;
 /// a sink and a capacity, and a Clavet fluid with springs; stepped a few frames.
 fn snapshot_bytes() -> &'static [u8] {
     static BYTES: OnceLock<Vec<u8>> = OnceLock::new();
-    BYTES.get_or_init(|| {
+    BYTES.get_or_init(|| world_bytes(false))
+}
+
+/// The same world with joints ([`add_joints`]).
+fn joint_snapshot_bytes() -> &'static [u8] {
+    static BYTES: OnceLock<Vec<u8>> = OnceLock::new();
+    BYTES.get_or_init(|| world_bytes(true))
+}
+
+/// A rope of five balls on spherical impulse joints hanging from a fixed anchor into the
+/// water, a door on a revolute impulse joint, and a multibody chain of three links.
+fn add_joints(w: &mut FluidWorld) {
+    use rapier_sph::rapier3d::prelude::{RevoluteJointBuilder, SphericalJointBuilder};
+    let p = &mut w.physics;
+    let ball = |p: &mut rapier_sph::rapier3d::prelude::PhysicsWorld, at: Vector, fixed: bool| {
+        let b = if fixed {
+            RigidBodyBuilder::fixed()
+        } else {
+            RigidBodyBuilder::dynamic()
+        };
+        let h = p.insert_body(b.translation(at));
+        p.insert_collider(ColliderBuilder::ball(0.03).density(800.0), Some(h));
+        h
+    };
+    let mut prev = ball(p, Vector::new(0.8, 0.6, 0.1), true);
+    for k in 1..6 {
+        let b = ball(p, Vector::new(0.8, 0.6 - 0.07 * k as f32, 0.1), false);
+        let joint = SphericalJointBuilder::new()
+            .local_anchor1(Vector::new(0.0, -0.035, 0.0))
+            .local_anchor2(Vector::new(0.0, 0.035, 0.0));
+        p.impulse_joints.insert(prev, b, joint, true);
+        prev = b;
+    }
+    let post = ball(p, Vector::new(1.2, 0.3, 0.1), true);
+    let door = p.insert_body(RigidBodyBuilder::dynamic().translation(Vector::new(1.35, 0.3, 0.1)));
+    p.insert_collider(ColliderBuilder::cuboid(0.15, 0.1, 0.01), Some(door));
+    let hinge = RevoluteJointBuilder::new(Vector::Y).local_anchor2(Vector::new(-0.15, 0.0, 0.0));
+    p.impulse_joints.insert(post, door, hinge, true);
+    let mut parent = ball(p, Vector::new(0.4, 0.7, 0.1), true);
+    for k in 1..4 {
+        let b = ball(p, Vector::new(0.4 + 0.08 * k as f32, 0.7, 0.1), false);
+        let joint =
+            RevoluteJointBuilder::new(Vector::Z).local_anchor2(Vector::new(-0.08, 0.0, 0.0));
+        p.multibody_joints.insert(parent, b, joint, true).unwrap();
+        parent = b;
+    }
+}
+
+/// [`snapshot_bytes`]'s world, with joints or without.
+fn world_bytes(joints: bool) -> Vec<u8> {
+    {
         let params = FluidParamsBuilder::water(0.05).build().unwrap();
         let mut d = dam_break(&DamBreakConfig::tower(params, 0.4)).unwrap();
         let w = &mut d.world;
@@ -67,11 +118,14 @@ fn snapshot_bytes() -> &'static [u8] {
             .unwrap();
         w.fluids.insert(c);
         w.physics.integration_parameters.dt = 1.0 / 120.0;
+        if joints {
+            add_joints(w);
+        }
         for _ in 0..6 {
             w.step().unwrap();
         }
         snapshot::to_bytes(w).unwrap()
-    })
+    }
 }
 
 /// Where the fluids' part of the payload ends and rapier's world begins (the world is the
@@ -119,6 +173,22 @@ fn bodies_span() -> (usize, usize) {
     *SPAN.get_or_init(|| {
         let world = snapshot::from_bytes(snapshot_bytes()).unwrap();
         span_of(postcard::to_allocvec(&world.physics.bodies).unwrap())
+    })
+}
+
+/// Where rapier's two joint sets (impulse and multibody joints, one after the other) lie in
+/// [`joint_snapshot_bytes`].
+fn joints_span() -> (usize, usize) {
+    static SPAN: OnceLock<(usize, usize)> = OnceLock::new();
+    *SPAN.get_or_init(|| {
+        let bytes = joint_snapshot_bytes();
+        let world = snapshot::from_bytes(bytes).unwrap();
+        let mut part = postcard::to_allocvec(&world.physics.impulse_joints).unwrap();
+        part.extend(postcard::to_allocvec(&world.physics.multibody_joints).unwrap());
+        let mut at = (HEADER..=bytes.len() - part.len()).filter(|&i| bytes[i..].starts_with(&part));
+        let start = at.next().expect("the joints' bytes are in the file");
+        assert!(at.next().is_none(), "found twice");
+        (start, start + part.len())
     })
 }
 
@@ -245,7 +315,13 @@ proptest! {
         edits in prop::collection::vec(edit(), 1..4)
             .prop_map(|v| v.into_iter().filter(|e| matches!(e, Edit::Set(..) | Edit::Flip(..))).collect::<Vec<_>>())
     ) {
-        let mut bytes = snapshot_bytes().to_vec();
+        let joints = std::env::var("PART").as_deref() == Ok("joints");
+        let mut bytes = if joints {
+            joint_snapshot_bytes()
+        } else {
+            snapshot_bytes()
+        }
+        .to_vec();
         let mut tail = bytes.split_off(fluid_end());
         apply(&mut bytes, HEADER, &edits);
         bytes.append(&mut tail);
@@ -267,7 +343,13 @@ proptest! {
             .prop_map(|v| v.into_iter().filter(|e| matches!(e, Edit::Set(..) | Edit::Flip(..))).collect::<Vec<_>>())
     ) {
         let (start, end) = broad_phase_span();
-        let mut bytes = snapshot_bytes().to_vec();
+        let joints = std::env::var("PART").as_deref() == Ok("joints");
+        let mut bytes = if joints {
+            joint_snapshot_bytes()
+        } else {
+            snapshot_bytes()
+        }
+        .to_vec();
         let mut tail = bytes.split_off(end);
         apply(&mut bytes, start, &edits);
         bytes.append(&mut tail);
@@ -278,7 +360,12 @@ proptest! {
 
 /// Random bytes changed in `from..to` of the file, the header rewritten to match.
 fn resealed(from: usize, to: usize, edits: &[Edit]) -> Vec<u8> {
-    let mut bytes = snapshot_bytes().to_vec();
+    resealed_in(snapshot_bytes(), from, to, edits)
+}
+
+/// [`resealed`] in another file.
+fn resealed_in(base: &[u8], from: usize, to: usize, edits: &[Edit]) -> Vec<u8> {
+    let mut bytes = base.to_vec();
     let mut tail = bytes.split_off(to);
     apply(&mut bytes, from, edits);
     bytes.append(&mut tail);
@@ -314,6 +401,14 @@ proptest! {
         let (from, to) = if bodies { bodies_span() } else { islands_span() };
         let _ = load_and_step(&resealed(from, to, &edits));
     }
+
+    /// Random bytes changed in rapier's joint sets (a rope, a hinged door, a multibody chain),
+    /// the header rewritten to match: refused, or the world steps without panic.
+    #[test]
+    fn resealed_joint_corruptions_never_panic(edits in byte_edits()) {
+        let (from, to) = joints_span();
+        let _ = load_and_step(&resealed_in(joint_snapshot_bytes(), from, to, &edits));
+    }
 }
 
 /// A resealed file whose dynamic body's place in the active set is outside it (rapier's
@@ -343,10 +438,11 @@ fn a_body_outside_the_active_set_is_refused() {
     }
 }
 
-/// The world before corruption loads and steps.
+/// The world before corruption loads and steps, with joints and without.
 #[test]
 fn the_fuzzed_snapshot_loads() {
     load_and_step(snapshot_bytes()).unwrap();
+    load_and_step(joint_snapshot_bytes()).unwrap();
 }
 
 /// Counts the outcomes of many resealed corruptions (prints; `--ignored --nocapture`).
@@ -364,7 +460,13 @@ fn resealed_corruption_outcomes() {
         }
     }));
     for _ in 0..n {
-        let mut bytes = snapshot_bytes().to_vec();
+        let joints = std::env::var("PART").as_deref() == Ok("joints");
+        let mut bytes = if joints {
+            joint_snapshot_bytes()
+        } else {
+            snapshot_bytes()
+        }
+        .to_vec();
         let edits: Vec<Edit> = (0..rng.random_range(1..4))
             .map(|_| {
                 let a = rng.random::<f64>();
@@ -383,6 +485,7 @@ fn resealed_corruption_outcomes() {
             Ok("broad_phase") => broad_phase_span(),
             Ok("islands") => islands_span(),
             Ok("bodies") => bodies_span(),
+            Ok("joints") => joints_span(),
             _ => (HEADER, snapshot_bytes().len()),
         };
         let mut tail = bytes.split_off(to);
