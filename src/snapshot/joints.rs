@@ -317,6 +317,31 @@ fn check_links(mb: &Multibody) -> Result<(), &'static str> {
     Ok(())
 }
 
+/// The body and collider sets' arenas (the first field of each set's encoding): their counts
+/// and free lists ([`Arena::check`]), which the next `insert` follows (rapier's
+/// `try_alloc_next_index` indexes the slot the list names and panics on one in use).
+///
+/// # Errors
+/// [`crate::SphError::InvalidParameter`] with field `"bodies"` or `"colliders"`.
+pub(crate) fn check_set_arenas(
+    p: &rapier3d::pipeline::PhysicsWorld,
+) -> Result<(), crate::SphError> {
+    fn front<T: serde::de::DeserializeOwned>(set: &impl Serialize) -> Result<(), Fault> {
+        let all = postcard::to_allocvec(set).map_err(|_| LAYOUT)?;
+        let (arena, _) = postcard::take_from_bytes::<Arena<T>>(&all).map_err(|_| LAYOUT)?;
+        arena.check()
+    }
+    let fault = |field| {
+        move |(at, reason): Fault| crate::SphError::InvalidParameter {
+            field,
+            value: at as f64,
+            reason,
+        }
+    };
+    front::<rapier3d::dynamics::RigidBody>(&p.bodies).map_err(fault("bodies"))?;
+    front::<rapier3d::geometry::Collider>(&p.colliders).map_err(fault("colliders"))
+}
+
 /// Checks both joint sets (see the module docs).
 ///
 /// # Errors
@@ -516,6 +541,29 @@ mod tests {
         refused(&|j| j.joints[0][1] = j.joints[0][2]);
         // A graph link out of range.
         refused(&|j| j.graph.edges[0].node[0] = j.graph.nodes.len() as u32);
+    }
+
+    /// The body and collider arenas of a world with removed bodies pass; a free list naming
+    /// an occupied slot is refused.
+    #[test]
+    fn set_arenas_are_checked() {
+        let mut last = None;
+        joint_world(|w| {
+            check_set_arenas(w).unwrap();
+            last = Some(w.bodies.clone());
+        });
+        let bodies = last.unwrap();
+        let all = postcard::to_allocvec(&bodies).unwrap();
+        let (mut arena, rest) =
+            postcard::take_from_bytes::<Arena<rapier3d::dynamics::RigidBody>>(&all).unwrap();
+        let mut again = postcard::to_allocvec(&arena).unwrap();
+        again.extend_from_slice(rest);
+        assert_eq!(again, all, "the arena's mirror re-encodes the set");
+        assert!(arena.free_list_head.is_some(), "bodies were removed");
+        arena.check().unwrap();
+        let used = arena.occupied().next().map(|(i, _, _)| i as u32);
+        arena.free_list_head = used;
+        assert!(arena.check().is_err());
     }
 
     /// Each fault the multibody checks name, made in a real set, is refused.

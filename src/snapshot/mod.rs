@@ -337,6 +337,7 @@ fn check_physics(p: &PhysicsWorld) -> Result<(), SphError> {
     graphs::check_narrow_phase(&p.narrow_phase, &p.colliders)?;
     islands::check_islands(p)?;
     joints::check_joints(p)?;
+    joints::check_set_arenas(p)?;
     bvh::check_broad_phase(&p.broad_phase)?;
     bvh::check_collider_shapes(&p.colliders)
 }
