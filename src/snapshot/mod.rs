@@ -51,16 +51,23 @@
 //!   each body's colliders attached to it and every attached collider in its body's list;
 //!   the narrow phase's contact and intersection graphs well formed (every edge in its
 //!   source's outgoing and its target's incoming list once, back links matching, no cycle)
-//!   and its collider → node map consistent with the nodes.
+//!   and its collider → node map consistent with the nodes; the joint sets (the impulse
+//!   joints' graph, handle → edge arena and body → node map, each joint's bodies its edge's;
+//!   the multibodies' arena, body → link map, links in order with their degrees of freedom
+//!   the next ones of the multibody's vectors, couplings, connectivity graph); the body and
+//!   collider arenas' counts and free lists (the next insertion follows them).
 //!   Parry and rapier follow these without bounds checks and keep them private, so they are
-//!   read through mirrors of their serde layouts (the `bvh`, `islands` and `graphs` modules);
-//!   rebuilding them instead would change the order in which rapier finds pairs and solves
+//!   read through mirrors of their serde layouts (the `bvh`, `islands`, `graphs` and `joints`
+//!   modules); rebuilding them instead would change the order in which rapier finds pairs and solves
 //!   bodies, and with it the bitwise equality of a restored run.
 //!
 //! Not checked beyond the references above: the narrow phase's solver caches (per-pair solver
-//! hints, the solver contact graph's colour buckets, the force-event lists), the joint sets'
-//! graphs and multibodies, soft bodies, and the trees inside voxel shapes (private in parry):
-//! the checksum guards them against corruption, not against a file crafted to pass it.
+//! hints, the solver contact graph's colour buckets, the force-event lists), the multibodies'
+//! matrices and workspaces (whether rapier resizes them from the degrees of freedom was not
+//! verified), soft bodies, and the trees inside voxel shapes (private in parry): the checksum guards them
+//! against corruption, not against a file crafted to pass it. `RigidBodySet`'s list of
+//! modified bodies needs no check: rapier looks each of its handles up (`get`, `contains`)
+//! before use, so a stale or foreign handle is skipped.
 
 #![cfg_attr(docsrs, doc(cfg(feature = "snapshot")))]
 
