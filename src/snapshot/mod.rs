@@ -58,14 +58,14 @@
 //!   collider arenas' counts and free lists (the next insertion follows them).
 //!   Parry and rapier follow these without bounds checks and keep them private, so they are
 //!   read through mirrors of their serde layouts (the `bvh`, `islands`, `graphs` and `joints`
-//!   modules); rebuilding them instead would change the order in which rapier finds pairs and solves
-//!   bodies, and with it the bitwise equality of a restored run.
+//!   modules); rebuilding them instead would change the order in which rapier finds pairs
+//!   and solves bodies, and with it the bitwise equality of a restored run.
 //!
 //! Not checked beyond the references above: the narrow phase's solver caches (per-pair solver
 //! hints, the solver contact graph's colour buckets, the force-event lists), the multibodies'
 //! matrices and workspaces (whether rapier resizes them from the degrees of freedom was not
-//! verified), soft bodies, and the trees inside voxel shapes (private in parry): the checksum guards them
-//! against corruption, not against a file crafted to pass it. `RigidBodySet`'s list of
+//! verified), soft bodies, and the trees inside voxel shapes (private in parry): the checksum
+//! guards them against corruption, not against a file crafted to pass it. `RigidBodySet`'s list of
 //! modified bodies needs no check: rapier looks each of its handles up (`get`, `contains`)
 //! before use, so a stale or foreign handle is skipped.
 
