@@ -239,8 +239,8 @@ pub(crate) fn mirror_multibody(set: &MultibodyJointSet) -> Option<MultibodyJoint
 
 /// The arena and the graph well formed; every body the map names (with its generation, a
 /// body of the set) is a link of a multibody of the arena, that link's body, at its graph
-/// node; each multibody's links well formed ([`check_links`]) and each link's body mapping
-/// back to it.
+/// node; each multibody's links well formed ([`check_links`]), each link's body mapping back
+/// to it, and every link but the root dynamic (rapier asserts it in every step).
 pub(crate) fn check_multibody(m: &MultibodyJoints, bodies: &RigidBodySet) -> Result<(), Fault> {
     m.multibodies.check()?;
     graphs::check_graph(&m.graph)?;
@@ -267,8 +267,18 @@ pub(crate) fn check_multibody(m: &MultibodyJoints, bodies: &RigidBodySet) -> Res
             if back.map(|b| (b.multibody, b.id)) != Some(((k as u32, generation), l.link_id())) {
                 return Err((k, "a multibody link's body does not map to it"));
             }
-            if bodies.get_unknown_gen(i).map(|(_, h)| h.0.into_raw_parts()) != Some((i, g)) {
+            let Some((body, _)) = bodies
+                .get_unknown_gen(i)
+                .filter(|(_, h)| h.0.into_raw_parts() == (i, g))
+            else {
                 return Err((k, "a multibody link names a body that is not in the set"));
+            };
+            // Rapier asserts it in every step (`Multibody::update_body_jacobians`).
+            if !l.is_root() && !body.is_dynamic() {
+                return Err((
+                    k,
+                    "a multibody link that is not its root has a body that is not dynamic",
+                ));
             }
         }
     }
@@ -586,5 +596,23 @@ mod tests {
         refused(&|m| m.rb2mb[linked].1.graph_id = NONE - 1);
         refused(&|m| m.multibodies.len += 1);
         refused(&|m| m.graph.edges[0].node[1] = NONE);
+        // A link's body made fixed: rapier's step would assert.
+        let (i, g) = good
+            .multibodies
+            .occupied()
+            .next()
+            .unwrap()
+            .2
+            .links()
+            .nth(1)
+            .unwrap()
+            .rigid_body_handle()
+            .0
+            .into_raw_parts();
+        let mut fixed = bodies.clone();
+        let (_, h) = fixed.get_unknown_gen(i).unwrap();
+        assert_eq!(h.0.into_raw_parts(), (i, g));
+        fixed[h].set_body_type(rapier3d::dynamics::RigidBodyType::Fixed, false);
+        assert!(check_multibody(&good, &fixed).is_err());
     }
 }
