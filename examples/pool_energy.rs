@@ -1,7 +1,10 @@
 //! The still game pool's energy budget, frame by frame: the water's kinetic and potential
 //! energy, the hull's, their sum, and what keeps the pool from falling asleep (the sleep
 //! test's drift, here over the `--every` frames between lines, the hull's speed and turn
-//! rate, the water's center of mass, the hull's draft).
+//! rate, the water's center of mass, the hull's draft, and how far the first particle layer
+//! stands from the floor and from the hull's bottom, in spacings: 0.5 for a lattice whose
+//! volume ends at the surface). At the end it prints the open water's particle layers (their
+//! heights and the spacing between them) and the water's level.
 //!
 //! ```text
 //! cargo run --release --example pool_energy -- --particles 2500 --seconds 30
@@ -23,9 +26,10 @@
 //! settling is over its total energy can only fall (viscosity, the pressure solve's
 //! projection), and its kinetic energy fall to the jitter of water at rest, unless
 //! something in the step feeds it. What it showed (docs/performance.md, "Sleeping water"):
-//! with the floating hull the water's kinetic energy stops falling at about 2 J (2,556
-//! particles) and the water never stops moving; held in place or removed, the hull leaves
-//! 0.3–0.5 J of jitter and the water meets the sleep thresholds.
+//! with the floating hull the water's kinetic energy stopped falling at about 2 J (2,556
+//! particles) and the water never stopped moving, until the coupling's exchange stopped
+//! feeding it (`Coupling::exchange`); it now falls (0.49 J at 12 s) and the pool falls
+//! asleep after 8–9 s with `--sleep`.
 
 use rapier_sph::prelude::*;
 use rapier_sph::rapier3d::prelude::RigidBodyType;
@@ -132,6 +136,37 @@ fn setup_hull(pool: &mut WavePool, hull: &str) -> SphResult<()> {
     Ok(())
 }
 
+/// The mean height of each particle layer of the open water (away from the hull and the
+/// paddle), from the floor up (m), and the spacing between them.
+fn layers(pool: &WavePool) {
+    let s = pool.spacing;
+    let f = &pool.world.fluids[pool.water];
+    let mut sums: Vec<(f64, usize)> = vec![(0.0, 0); 20];
+    for x in f.positions() {
+        if x.x < 0.5 || (x.x > 0.9 && x.x < 1.75) {
+            continue;
+        }
+        let k = ((x.y / s).floor() as usize).min(19);
+        sums[k].0 += x.y as f64;
+        sums[k].1 += 1;
+    }
+    let mut prev: Option<f64> = None;
+    for (k, (y, n)) in sums.iter().enumerate() {
+        if *n == 0 {
+            continue;
+        }
+        let y = y / *n as f64;
+        println!(
+            "layer {k}: {n} particles at {:.4} m ({:.3} spacings; {:.3} above the one below)",
+            y,
+            y / s as f64,
+            prev.map_or(f64::NAN, |p| (y - p) / s as f64)
+        );
+        prev = Some(y);
+    }
+    println!("water level {:.4} m", pool.water_level());
+}
+
 /// The pool's energies (J): water kinetic, water potential, hull kinetic, hull potential.
 fn energies(pool: &WavePool) -> [f64; 4] {
     let f = &pool.world.fluids[pool.water];
@@ -148,6 +183,35 @@ fn energies(pool: &WavePool) -> [f64; 4] {
     [f.kinetic_energy(), pe, hk, hp]
 }
 
+/// The mean distance (in spacings) from the floor to the particles of its first layer, and
+/// from the hull's bottom to the particles of the first layer under it (both `0.5` for a
+/// lattice whose volume ends at the surface; more: the particles stand off).
+fn gaps(pool: &WavePool) -> (Real, Real) {
+    let s = pool.spacing;
+    let f = &pool.world.fluids[pool.water];
+    let mean = |v: Vec<Real>| v.iter().sum::<Real>() / v.len().max(1) as Real / s;
+    let floor = mean(
+        f.positions()
+            .iter()
+            .map(|x| x.y)
+            .filter(|y| *y < s)
+            .collect(),
+    );
+    let Some(b) = pool.world.physics.bodies.get(pool.hull) else {
+        return (floor, Real::NAN);
+    };
+    let h = WavePool::HULL_HALF;
+    let under = f
+        .positions()
+        .iter()
+        .map(|x| b.position().inverse_transform_point(*x))
+        .filter(|l| l.x.abs() < h.x - s && l.z.abs() < h.z - s)
+        .map(|l| -h.y - l.y)
+        .filter(|d| *d > 0.0 && *d < s)
+        .collect();
+    (floor, mean(under))
+}
+
 fn run(pool: &mut WavePool, o: &Options) -> SphResult<()> {
     let s = pool.spacing;
     println!(
@@ -158,7 +222,7 @@ fn run(pool: &mut WavePool, o: &Options) -> SphResult<()> {
         o.sleep
     );
     println!(
-        "t (s) | water KE | water PE | hull KE | hull PE | total (J, from frame 0) | 0.5 s drift rms / max (spacings) | hull |v| (m/s), |ω| (rad/s) | water COM x, z (mm from frame 0) | mean density error | substeps, iterations | hull draft / expected | asleep"
+        "t (s) | water KE | water PE | hull KE | hull PE | total (J, from frame 0) | 0.5 s drift rms / max (spacings) | hull |v| (m/s), |ω| (rad/s) | water COM x, z (mm from frame 0) | mean density error | substeps, iterations | hull draft / expected | gap floor, hull (spacings) | asleep"
     );
     let e0 = energies(pool);
     let com = |pool: &WavePool| {
@@ -200,7 +264,7 @@ fn run(pool: &mut WavePool, o: &Options) -> SphResult<()> {
         };
         let c = com(pool);
         println!(
-            "{:5.1} | {:.4} | {:+.4} | {:.4} | {:+.4} | {:+.4} | {:.3} / {:.3} | {:.4}, {:.4} | {:+.2}, {:+.2} | {:.3} % | {:.2}, {:.2} | {:.3} | {}",
+            "{:5.1} | {:.4} | {:+.4} | {:.4} | {:+.4} | {:+.4} | {:.3} / {:.3} | {:.4}, {:.4} | {:+.2}, {:+.2} | {:.3} % | {:.2}, {:.2} | {:.3} | {:.3}, {:.3} | {}",
             frame as Real * o.dt,
             e[0],
             d[1],
@@ -221,6 +285,8 @@ fn run(pool: &mut WavePool, o: &Options) -> SphResult<()> {
             } else {
                 Real::NAN
             },
+            gaps(pool).0,
+            gaps(pool).1,
             if f.is_sleeping() { "asleep" } else { "awake" },
         );
         (substeps, iterations) = (0, 0);
@@ -232,5 +298,6 @@ fn run(pool: &mut WavePool, o: &Options) -> SphResult<()> {
             .zip(f.positions().iter().copied())
             .collect();
     }
+    layers(pool);
     Ok(())
 }

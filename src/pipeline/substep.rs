@@ -579,13 +579,8 @@ fn wall_reaction(
         &mut records[0],
     );
     records[0].append(viscous);
-    coupling.exchange(
-        records,
-        ctx.positions,
-        ctx.velocities,
-        m,
-        solver.predicts_positions(),
-    );
+    let with_rapier = !matches!(solver, SolverState::Wcsph(_));
+    coupling.exchange(records, ctx.positions, ctx.velocities, m, with_rapier);
     ctx.report.timings.add(Stage::Contact, t0.elapsed());
     true
 }

@@ -35,21 +35,40 @@ impl Coupling {
     ///
     /// The body's other forces (gravity, rapier's contacts and joints, user forces: rapier's
     /// own velocity change over the frame, read against the velocity [`Coupling::apply`] left
-    /// the body with, the fluid's impulses included) enter the solve only for records a solver
-    /// took with the body at its substep's *end* (`with_rapier`: PBF's wall reaction, whose
-    /// position solve stands the body at its end pose, after the substep's share `a·dt` of
-    /// them, as the particles stand after their gravity's `g·dt`): the records then hold no
-    /// part of that share (body and particles moved by it together), and the particles must
-    /// share the body's whole velocity change, `Δu = M⁻¹(J − A Δu − B Δω) + a·dt`, the body
-    /// keeping `J − Σ m δv = M·(Δu − a·dt)` from the fluid. Records taken against the body's
-    /// motion at the substep's *start* (WCSPH's and DFSPH's walls, whose particles took their
-    /// gravity against a body that had not yet taken its own) and contact's (which reflects
-    /// each particle against the body's velocity at the substep's end) already hold that share
-    /// as relative motion: adding it to them counts it twice, and the boxes of
-    /// `tests/buoyancy.rs` float 4–5 % of their height too high (WCSPH 250 / 500 / 750 kg/m³
-    /// submerged 0.201 / 0.449 / 0.714; 0.242 / 0.497 / 0.726 without it). Left out of PBF's,
-    /// its 2.5 cm boxes float too deep: 250 / 500 / 750 kg/m³ submerged 0.266 / 0.513 / 0.766
-    /// (0.258 / 0.502 / 0.757 with it; `cargo test --release --test buoyancy pbf_boxes`).
+    /// the body with, the fluid's impulses included) enter the solve for the walls' records
+    /// (`with_rapier`; every solver's but WCSPH's, below): the wall terms met the body
+    /// before its substep's share `a·dt` of that change (DFSPH's walls at its pose and
+    /// velocity of the substep's start, PBF's position solve as the particles stand after
+    /// their gravity's `g·dt`), and after the substep the body moves at its velocity plus
+    /// `a·dt` plus the fluid's change. The particles against it must share that whole change,
+    /// `Δu = M⁻¹(J − A Δu − B Δω) + a·dt`, the body keeping `J − Σ m δv = M·(Δu − a·dt)`
+    /// from the fluid: the common velocity of body and particles that conserves their
+    /// momentum. A body floating at rest falls by `g·dt` along rapier's path each substep and
+    /// the fluid's impulses lift it back, so `Δu ≈ 0`: the particles under it are given
+    /// nothing, and it floats where the wall impulse `J` equals its weight. Left out (as it
+    /// was for DFSPH's walls, and is for WCSPH's), `Δu ≈ +|g|·dt` upward every substep while
+    /// the body did not move: the particles under it were kicked up at a velocity the body
+    /// never had, which the next substep's pressure solve took back through the body, a
+    /// pump driven every substep. Measured on the still game pool (`cargo run --release --example
+    /// pool_energy`, 2,556 particles, the water preset, a per-substep probe over seconds
+    /// 5–12): the solves' `Δu` summed to 0.040 m/s a substep (`g·dt` = 0.041) while the
+    /// hull's velocity changed by −0.0006 m/s; the exchange gave the particles 2.9 W through
+    /// the walls' records and 0.2 W through contact's; the fluid's impulses on the hull were
+    /// 3.0 times its weight (a body kept `M·Δu` of them, so it needed `(M + A)·g·dt`, `A`
+    /// about 10.7 kg of water in the walls' records against the hull's 4.8 kg); the water's
+    /// kinetic energy stayed at 1.8–2.0 J. With `a·dt`: −0.001 W and 0.005 W, the impulses
+    /// 0.98 of the weight, and the kinetic energy falls (0.82 J at 5 s, 0.49 J at 12 s)
+    /// until the pool falls asleep. Contact's records (`with_rapier` false) do not take
+    /// `a·dt`: contact reflects each particle against the body's velocity at the substep's
+    /// *end*, which already holds it.
+    ///
+    /// WCSPH's wall records still leave `a·dt` out, and so still pump a floating body's
+    /// water: with it, `tests/buoyancy.rs`'s 16 cm cubes at 2.5 cm float 0.194 / 0.435 /
+    /// 0.687 submerged for 0.25 / 0.5 / 0.75 (0.235 / 0.485 / 0.733 without), outside the
+    /// test's 5 % of their height against the water's top-particle level (DFSPH's cubes:
+    /// 0.212 / 0.460 / 0.703). Which level Archimedes' depth is read against decides it
+    /// (docs/coupling.md, "Buoyancy"); open.
+    ///
     /// `I⁻¹` is the world inverse inertia at the frame's end. Both changes move the body from
     /// the next substep on ([`super::Drift`]): the body moves with the substeps the fluid
     /// takes, not once per frame.
@@ -89,8 +108,8 @@ impl Coupling {
             if sums.count == 0 {
                 continue;
             }
-            // Rapier's share of the substep, on the free axes, for records taken with the
-            // body at its substep's end (see `with_rapier`).
+            // Rapier's share of the substep, on the free axes, for the walls' records (see
+            // `with_rapier`).
             let ext = if with_rapier {
                 m.rapier_rate * (m.backs.0 - m.backs.1) * free_axes(m.inv_mass)
             } else {

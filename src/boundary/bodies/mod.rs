@@ -67,7 +67,7 @@ pub struct MovingCollider {
     pub accel: Vector,
     /// Rapier's own velocity change over the frame (gravity, its contacts, user forces) divided
     /// by the frame's length: the rate [`Coupling::exchange`] adds to the added-mass solve of
-    /// records taken with the body at its substep's end (`with_rapier`).
+    /// the walls' records (`with_rapier`).
     pub rapier_rate: Vector,
     /// Seconds from the current substep's start and end to the frame's end.
     pub backs: (Real, Real),
