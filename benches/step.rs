@@ -8,6 +8,8 @@
 //! cargo bench --bench step -- --quick      # 2,500 and 20,000 only, fewer steps
 //! cargo bench --bench step -- --preset paper
 //! cargo bench --bench step -- --salva      # only the peer-comparison scene below
+//! cargo bench --bench step -- --salva --carry-density-error   # DFSPH's options: also
+//!                                          # --full-warm-start, --warm-start F
 //! ```
 //!
 //! The peer-comparison scene (salva3d's own benchmark): DFSPH with walls
@@ -35,7 +37,7 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let quick = args.iter().any(|a| a == "--quick");
     if args.iter().any(|a| a == "--salva") {
-        salva_scene(quick);
+        salva_scene(quick, salva_solver(&args));
         return;
     }
     let repeats = if quick { 2 } else { 3 };
@@ -100,11 +102,27 @@ fn main() {
         }
     }
     println!();
-    salva_scene(quick);
+    salva_scene(quick, salva_solver(&args));
 }
 
-/// The peer-comparison scene (see the module docs), on 2 threads, fastest of 2 runs.
-fn salva_scene(quick: bool) {
+/// The salva scene's DFSPH settings: the defaults, or with `--full-warm-start`,
+/// `--carry-density-error` (with the full warm start it needs) and `--warm-start F`.
+fn salva_solver(args: &[String]) -> rapier_sph::Dfsph {
+    let has = |flag: &str| args.iter().any(|a| a == flag);
+    let mut d = rapier_sph::Dfsph::default();
+    if has("--full-warm-start") || has("--carry-density-error") {
+        d.full_warm_start = true;
+    }
+    d.carry_density_error = has("--carry-density-error");
+    if let Some(w) = args.windows(2).find(|w| w[0] == "--warm-start") {
+        d.warm_start = w[1].parse().expect("--warm-start takes a fraction");
+    }
+    d
+}
+
+/// The peer-comparison scene (see the module docs) with DFSPH's settings `dfsph`, on 2
+/// threads, fastest of 2 runs.
+fn salva_scene(quick: bool, dfsph: rapier_sph::Dfsph) {
     use rapier_sph::TimeStepping;
     let counts: &[usize] = if quick {
         &[2_500, 20_000]
@@ -113,6 +131,10 @@ fn salva_scene(quick: bool) {
     };
     println!(
         "salva3d's scene: DFSPH + wall density, spacing 0.05 m, h = 0.1 m, dt = 0.005 s fixed, first simulated second, 2 threads"
+    );
+    println!(
+        "DFSPH: warm start {}, full warm start {}, carry density error {}",
+        dfsph.warm_start, dfsph.full_warm_start, dfsph.carry_density_error
     );
     println!();
     println!(
@@ -126,7 +148,7 @@ fn salva_scene(quick: bool) {
     for &n in counts {
         let run = || {
             let params = FluidParamsBuilder::water(0.05)
-                .solver(Solver::dfsph())
+                .solver(Solver::Dfsph(dfsph))
                 .wall_density(true)
                 .build()
                 .unwrap();

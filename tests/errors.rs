@@ -135,6 +135,15 @@ fn other_bad_fields_are_named() {
         });
         assert_eq!(field_of(base().solver(solver).build()), "warm_start");
     }
+    // The carried prediction error needs the projected solve.
+    let carry = rapier_sph::Solver::Dfsph(rapier_sph::Dfsph {
+        carry_density_error: true,
+        ..Default::default()
+    });
+    assert_eq!(
+        field_of(base().solver(carry).build()),
+        "carry_density_error"
+    );
     for v in [Real::NAN, Real::INFINITY, -1.0] {
         let springs = |s: rapier_sph::solver::Springs| {
             rapier_sph::Solver::Clavet(rapier_sph::solver::Clavet {

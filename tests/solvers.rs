@@ -685,6 +685,20 @@ fn dfsph_full_warm_start_column_stays_at_rest() {
     column_at_support_stays_at_rest(dfsph, 2.0, None);
 }
 
+/// DFSPH with `carry_density_error` (opt-in, on the full warm start it needs) at the
+/// presets' support: the column of [`column_with_a_wide_support_stays_at_rest`] within the
+/// same bounds; the safeguard may act. At 3 spacings, as the full warm start alone, it does
+/// not settle within the bounds.
+#[test]
+fn dfsph_carry_density_error_column_stays_at_rest() {
+    let dfsph = Solver::Dfsph(rapier_sph::solver::Dfsph {
+        full_warm_start: true,
+        carry_density_error: true,
+        ..Default::default()
+    });
+    column_at_support_stays_at_rest(dfsph, 2.0, None);
+}
+
 /// PBF: see [`column_with_a_wide_support_stays_at_rest`].
 #[test]
 fn pbf_column_with_a_wide_support_stays_at_rest() {

@@ -152,6 +152,10 @@ pub enum SolverDesc {
         /// error target ([`crate::solver::Dfsph::gravity_substep`]).
         #[serde(default)]
         gravity_substep: Option<Positive>,
+        /// Carry each particle's last prediction error into the density solve
+        /// ([`crate::solver::Dfsph::carry_density_error`]; needs `full_warm_start`).
+        #[serde(default)]
+        carry_density_error: Option<bool>,
     },
     /// Position-based fluids ([`crate::solver::Pbf`]).
     Pbf {
@@ -226,6 +230,7 @@ impl SolverDesc {
                 hydrostatic_walls,
                 full_warm_start,
                 gravity_substep,
+                carry_density_error,
             } => {
                 let d = Dfsph::default();
                 Solver::Dfsph(Dfsph {
@@ -241,6 +246,7 @@ impl SolverDesc {
                     hydrostatic_walls: hydrostatic_walls.unwrap_or(d.hydrostatic_walls),
                     full_warm_start: full_warm_start.unwrap_or(d.full_warm_start),
                     gravity_substep: gravity_substep.map_or(d.gravity_substep, |v| v.0),
+                    carry_density_error: carry_density_error.unwrap_or(d.carry_density_error),
                 })
             }
             SolverDesc::Pbf {

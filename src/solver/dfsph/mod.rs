@@ -99,6 +99,9 @@ pub(crate) struct DfsphBuffers {
     pub pi: Vec<Real>,
     /// Per-chunk partial sums.
     pub partials: Vec<(f64, Real)>,
+    /// Each particle's `Dρ_i/Dt` from the last rate pass (the density solve's final
+    /// prediction, see [`Dfsph::carry_density_error`]).
+    pub rates: Vec<Real>,
     /// The velocities being corrected, 16 bytes wide (copied in and out by each solve; the
     /// pair passes load a neighbour's velocity in one instruction). Also the scratch copy
     /// of [`viscosity`].
@@ -159,13 +162,14 @@ impl DfsphBuffers {
     pub fn resize(&mut self, n: usize) {
         self.alpha.resize(n, 0.0);
         self.pi.resize(n, 0.0);
+        self.rates.resize(n, 0.0);
         self.partials.resize(n.div_ceil(CHUNK), (0.0, 0.0));
         self.velocities.resize(n, Vec3A::ZERO);
     }
 
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
-        (self.alpha.capacity() + self.pi.capacity()) * 4
+        (self.alpha.capacity() + self.pi.capacity() + self.rates.capacity()) * 4
             + self.applied_neighbour.capacity() * 4
             + self.partials.capacity() * 16
             + self.velocities.capacity() * std::mem::size_of::<Vec3A>()
@@ -261,21 +265,22 @@ fn pair_sum<T: Copy>(nb: &[u32], values: &[T], term: impl Fn(usize, T) -> Vec3A)
 }
 
 /// Pass A of an iteration: the rate of change of every particle's density under the current
-/// velocities, `Dρ_i/Dt = Σ_j m (v_i − v_j)·∇W_ij + (v_i − v_wall)·∇ρ_wall,i` (eq. 6), handed to
-/// `finish(i, rate)`, which returns `(π_i, error_i)`. Writes `π`; returns the per-chunk error
+/// velocities, `Dρ_i/Dt = Σ_j m (v_i − v_j)·∇W_ij + (v_i − v_wall)·∇ρ_wall,i` (eq. 6), into
+/// `rates` and handed to `finish(i, rate)`, which returns `(π_i, error_i)`. Writes `π`; returns the per-chunk error
 /// sums into `partials`.
 fn rate_pass<F: Fn(usize, Real) -> (Real, Real) + Sync>(
     ctx: &SolveContext<'_>,
     velocities: &[Vec3A],
-    pi: &mut [Real],
+    (pi, rates): (&mut [Real], &mut [Real]),
     partials: &mut [(f64, Real)],
     finish: F,
 ) {
     let (mass, wall) = (ctx.mass, ctx.wall);
     crate::par_chunks_mut!(pi, CHUNK)
         .zip(crate::par_iter_mut!(partials))
+        .zip(crate::par_chunks_mut!(rates, CHUNK))
         .enumerate()
-        .for_each(|(c, (pi, partial))| {
+        .for_each(|(c, ((pi, partial), rates))| {
             crate::par::wide(
                 #[inline(always)]
                 || {
@@ -296,6 +301,7 @@ fn rate_pass<F: Fn(usize, Real) -> (Real, Real) + Sync>(
                         }
                         let (p, e) = finish(i, rate);
                         pi[k] = p;
+                        rates[k] = rate;
                         err_sum += e as f64;
                         err_max = err_max.max(e);
                     }

@@ -140,6 +140,7 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
     let DfsphBuffers {
         alpha,
         pi,
+        rates,
         partials,
         velocities: wide,
         relaxation_halvings,
@@ -155,6 +156,7 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
         ctx,
         alpha,
         pi,
+        rates,
         partials,
         wide,
         applied: track.then_some(&mut applied_neighbour[..]),
@@ -175,6 +177,7 @@ struct Jacobi<'a, F> {
     ctx: &'a SolveContext<'a>,
     alpha: &'a [Real],
     pi: &'a mut [Real],
+    rates: &'a mut [Real],
     partials: &'a mut [(f64, Real)],
     wide: &'a mut [Vec3A],
     applied: Option<&'a mut [Real]>,
@@ -188,7 +191,7 @@ impl<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync> Jacobi<'_, F> {
         rate_pass(
             self.ctx,
             self.wide,
-            self.pi,
+            (&mut *self.pi, &mut *self.rates),
             self.partials,
             #[inline(always)]
             |i, r| finish(alpha, i, r),
@@ -396,7 +399,7 @@ pub(crate) fn density_solve(
     ctx: &SolveContext<'_>,
     settings: &Dfsph,
     buffers: &mut DfsphBuffers,
-    warm: &mut [Real],
+    (warm, carried): (&mut [Real], Option<&[Real]>),
     velocities: &mut [Vector],
 ) -> SolveStats {
     let (dt, rho0, densities) = (ctx.dt, ctx.rest_density, ctx.densities);
@@ -436,7 +439,10 @@ pub(crate) fn density_solve(
             // Predicted density. Only compression is an error (a free surface is allowed to be
             // under-dense); projected, under-density lowers the pressure (not below zero, see
             // `Solve::projected`), else only compression is corrected.
-            let predicted = densities[i] + dt * rate - rho0;
+            let mut predicted = densities[i] + dt * rate - rho0;
+            if let Some(c) = carried {
+                predicted += c[i];
+            }
             if projected {
                 return (predicted * alpha[i] * inv_dt2, predicted.max(0.0));
             }

@@ -21,6 +21,9 @@ use crate::{forces, integrate};
 pub(crate) const WARM_DENSITY: &str = "dfsph.warm_density";
 /// Attribute holding the divergence solve's pressure values (warm start).
 pub(crate) const WARM_DIVERGENCE: &str = "dfsph.warm_divergence";
+/// Attribute holding each particle's density as the last constant-density solve predicted it
+/// (see [`Dfsph::carry_density_error`]).
+pub(crate) const PREDICTED_DENSITY: &str = "dfsph.predicted_density";
 
 /// The inputs both solves share, borrowed field by field from the step context (a function
 /// would borrow the whole context while the solves write its velocities).
@@ -340,15 +343,34 @@ impl DfsphState {
         if forces {
             integrate::add_accelerations(ctx.dt, ctx.accelerations, ctx.velocities);
         }
-        let (warm_density, warm_divergence) = ctx.attributes.pair_mut(wd, wv);
+        // The last prediction's error, carried (see `Dfsph::carry_density_error`).
+        let carry = settings.carry_density_error && !closed;
+        let wp = carry.then(|| {
+            ctx.attributes
+                .ensure(PREDICTED_DENSITY, ctx.positions.len())
+        });
+        let (warm_density, predicted) = ctx.attributes.pair_mut(wd, wp.unwrap_or(wv));
+        if carry {
+            for (p, &rho) in predicted.iter_mut().zip(ctx.densities.iter()) {
+                // Zero: no prediction yet (a new particle, the first step).
+                *p = if *p != 0.0 { rho - *p } else { 0.0 };
+            }
+        }
         let solve = solve_context!(&self.gradients, ctx, closed);
         let stats = super::density_solve(
             &solve,
             settings,
             &mut self.buffers,
-            warm_density,
+            (warm_density, carry.then_some(&*predicted)),
             ctx.velocities,
         );
+        if carry {
+            let rates = &self.buffers.rates;
+            for ((p, &rho), &r) in predicted.iter_mut().zip(ctx.densities.iter()).zip(rates) {
+                *p = rho + ctx.dt * r;
+            }
+        }
+        let (warm_density, warm_divergence) = (ctx.attributes.get(wd), ctx.attributes.get(wv));
         let report = &mut *ctx.report;
         report.timings.add(Stage::DensitySolve, t0.elapsed());
         report.solver_relaxation_halvings = report
