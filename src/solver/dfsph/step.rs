@@ -8,6 +8,7 @@
 use super::{Dfsph, DfsphBuffers, FactorInput, Factors, SolveContext, WarmPush};
 use crate::diagnostics::Stage;
 use crate::domain::Separation;
+use crate::fluid::Attributes;
 use crate::kernel::ViscosityLaplacian;
 use crate::math::{Real, Vector};
 use crate::neighbors::Pairs;
@@ -24,6 +25,30 @@ pub(crate) const WARM_DIVERGENCE: &str = "dfsph.warm_divergence";
 /// Attribute holding each particle's density as the last constant-density solve predicted it
 /// (see [`Dfsph::carry_density_error`]).
 pub(crate) const PREDICTED_DENSITY: &str = "dfsph.predicted_density";
+/// Attribute holding the time step of that prediction (zero: none made).
+pub(crate) const PREDICTED_DT: &str = "dfsph.predicted_dt";
+
+/// With [`Dfsph::carry_density_error`]: turns the attribute [`PREDICTED_DENSITY`] into each
+/// particle's last prediction error, `ρ_i − ρ_predicted`, scaled by `(dt/dt_last)²` (the
+/// error is second order in the step; `dt_last` from [`PREDICTED_DT`], zero where no
+/// prediction was made: a new particle, the first step), records `dt` as the next
+/// prediction's step, and returns the attribute's index.
+fn carried_errors(attributes: &mut Attributes, densities: &[Real], dt: Real) -> usize {
+    let n = densities.len();
+    let wp = attributes.ensure(PREDICTED_DENSITY, n);
+    let wt = attributes.ensure(PREDICTED_DT, n);
+    let (predicted, last_dt) = attributes.pair_mut(wp, wt);
+    for ((p, t), &rho) in predicted.iter_mut().zip(last_dt.iter_mut()).zip(densities) {
+        *p = if *t > 0.0 {
+            let s = dt / *t;
+            (rho - *p) * (s * s)
+        } else {
+            0.0
+        };
+        *t = dt;
+    }
+    wp
+}
 
 /// The inputs both solves share, borrowed field by field from the step context (a function
 /// would borrow the whole context while the solves write its velocities).
@@ -345,17 +370,8 @@ impl DfsphState {
         }
         // The last prediction's error, carried (see `Dfsph::carry_density_error`).
         let carry = settings.carry_density_error && !closed;
-        let wp = carry.then(|| {
-            ctx.attributes
-                .ensure(PREDICTED_DENSITY, ctx.positions.len())
-        });
+        let wp = carry.then(|| carried_errors(ctx.attributes, ctx.densities, ctx.dt));
         let (warm_density, predicted) = ctx.attributes.pair_mut(wd, wp.unwrap_or(wv));
-        if carry {
-            for (p, &rho) in predicted.iter_mut().zip(ctx.densities.iter()) {
-                // Zero: no prediction yet (a new particle, the first step).
-                *p = if *p != 0.0 { rho - *p } else { 0.0 };
-            }
-        }
         let solve = solve_context!(&self.gradients, ctx, closed);
         let stats = super::density_solve(
             &solve,
