@@ -29,7 +29,7 @@ use rayon::prelude::*;
 /// Kept whole (9 arguments, 85 lines): with its inputs in a `neighbors::Pairs` and the
 /// neighbour sum as a function of its own, the pressure-force stage measured 130 [129-132] µs
 /// against main's 121 [119-122]; in this form 120 [117-127] against 120 [118-133] (medians
-/// [ranges] of 6-8 runs of `cargo run --release --example stage_medians -- 2500 1500 1`,
+/// \[ranges\] of 6-8 runs of `cargo run --release --example stage_medians -- 2500 1500 1`,
 /// alternated with main's build on one core). The machine's code-placement effects are of
 /// the same order (the same bytes at another alignment measured 125 and 133 µs), so the
 /// difference is small but was seen in every run.

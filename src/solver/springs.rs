@@ -226,7 +226,7 @@ pub(crate) struct SpringContext<'a> {
     pub dt: Real,
 }
 
-/// [`apply`] with the separations formed by `sep` (see [`crate::domain`]).
+/// The springs' pass with the separations formed by `sep` (see [`crate::domain`]).
 pub(crate) fn apply_in<S: Separation>(
     ctx: &SpringContext<'_>,
     settings: &Springs,

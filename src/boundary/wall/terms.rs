@@ -10,7 +10,7 @@ use crate::kernel::HalfSpaceTable;
 use crate::math::{Real, Vector};
 use crate::neighbors::{NeighborGrid, NeighborLists};
 
-/// What [`WallWorkspace::update`] reads for every particle.
+/// What [`WallWorkspace::update`](super::WallWorkspace::update) reads for every particle.
 pub(super) struct Terms<'a> {
     pub(super) query: &'a WallQuery<'a>,
     pub(super) grid: &'a NeighborGrid,
@@ -195,7 +195,7 @@ impl Terms<'_> {
 
     /// `x̄_i − x_i`, the center of the neighbours of sorted particle `i` weighted by
     /// `max(0, ∇W_ij·û)` (the weights of the wall's pressure, see
-    /// [`WallWorkspace::neighbour_pressure`]); zero when none has weight, or in a periodic
+    /// [`WallWorkspace::neighbour_pressure`](super::WallWorkspace::neighbour_pressure)); zero when none has weight, or in a periodic
     /// grid (the separations would need the minimum image).
     fn neighbour_center(&self, i: usize, away: Vector) -> Vector {
         if self.grid.is_periodic() {
@@ -254,7 +254,7 @@ pub(super) fn update_chunk(
         .sum::<usize>()
 }
 
-/// One chunk of [`WallWorkspace`]'s per-particle arrays.
+/// One chunk of [`WallWorkspace`](super::WallWorkspace)'s per-particle arrays.
 pub(super) struct Rows<'c> {
     pub(super) density: &'c mut [Real],
     pub(super) gradient: &'c mut [Vector],
@@ -298,7 +298,7 @@ impl Rows<'_> {
 
 /// Clavet's two wall densities and their gradients at `x` from the colliders among `cands`,
 /// with the tables `(t2, t3)` of the kernels `(1 − q)²` and `(1 − q)³`: the union of
-/// half-spaces per kernel, as in [`WallWorkspace::update`], per volume of the lattice rows
+/// half-spaces per kernel, as in [`WallWorkspace::update`](super::WallWorkspace::update), per volume of the lattice rows
 /// behind the wall. Dynamic bodies count as the other walls do, and their share of the two
 /// gradients is returned with the entry of the body contributing most and its closest point
 /// (`u32::MAX`: none), for their reaction (see [`ClavetCoupled`]).
@@ -370,7 +370,7 @@ pub(super) fn clavet_walls(
 }
 
 /// The dynamic bodies' share of one particle's Clavet wall gradients (1/m, into the walls;
-/// [`WallWorkspace::clavet_gradient`]'s units), and the entry of the body contributing most
+/// [`WallWorkspace::clavet_gradient`](super::WallWorkspace::clavet_gradient)'s units), and the entry of the body contributing most
 /// with its closest point (`u32::MAX`: no dynamic body near).
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct ClavetCoupled {

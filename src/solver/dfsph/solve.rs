@@ -15,7 +15,7 @@ pub(crate) struct SolveContext<'a> {
     pub positions: &'a [Vector],
     /// Neighbour lists of those positions.
     pub neighbors: &'a NeighborLists,
-    /// Kernel gradients of every neighbour pair (from [`density_and_factors`]).
+    /// Kernel gradients of every neighbour pair (from [`density_and_factors`](super::factors::density_and_factors)).
     pub gradients: &'a PairGradients,
     /// Wall contributions, if any wall is near.
     pub wall: Option<&'a WallWorkspace>,
@@ -86,7 +86,7 @@ pub(crate) fn fills_periodic_box(
 /// How a solve reuses the previous step's pressure values.
 #[derive(Copy, Clone)]
 enum WarmStart {
-    /// Already applied by [`density_and_factors`] (see [`divergence_warm_start`]); `true` when
+    /// Already applied by [`density_and_factors`](super::factors::density_and_factors) (see [`divergence_warm_start`]); `true` when
     /// something was pushed, `buffers.velocities` then holds the pushed velocities.
     Pushed(bool),
     /// This fraction of the values of particles that compress without pressure, zero for
@@ -321,7 +321,7 @@ impl<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync> Jacobi<'_, F> {
 /// Halves the previous step's divergence pressure values `warm` (the divergence solve's
 /// warm start, section 4.4: its values are small and noisy), removes their mean in a fluid
 /// that fills a periodic box (`closed`, see [`SolveContext::closed`]), and says whether any
-/// is left to apply, i.e. whether [`density_and_factors`] should be given a [`WarmPush`].
+/// is left to apply, i.e. whether [`density_and_factors`](super::factors::density_and_factors) should be given a [`WarmPush`](super::WarmPush).
 pub(crate) fn divergence_warm_start(warm: &mut [Real], closed: bool) -> bool {
     for w in warm.iter_mut() {
         *w *= 0.5;
