@@ -130,7 +130,12 @@ fn water_under_a_ten_times_lighter_liquid_runs_stable() {
 /// changed the momentum by 1.06 kg·m/s, 1.5 times `Σ m_i|v_i|`.
 #[test]
 fn momentum_and_mass_are_conserved_across_fluids() {
-    for solver in [Solver::dfsph(), Solver::Wcsph] {
+    for solver in [
+        Solver::dfsph(),
+        Solver::Wcsph,
+        Solver::pbf(),
+        Solver::clavet(),
+    ] {
         let mut fluids = FluidSet::new();
         let groups = InteractionGroups::all();
         let mut blob = |rest: Real, x: Real, v: Real| {
@@ -257,11 +262,11 @@ fn oil_and_water_side_by_side_stratify_and_stay_stratified() {
     }
 }
 
-/// Results are bitwise identical with 1, 2 and 3 threads (the groups' gather and scatter
-/// are serial, their stages the ordinary ones).
+/// Results are bitwise identical with 1, 2 and 3 threads, DFSPH, PBF and Clavet (the groups'
+/// gather and scatter are serial, their stages the ordinary ones).
 #[test]
 fn interacting_fluids_are_bitwise_identical_across_thread_counts() {
-    let hashes: Vec<(u64, u64)> = [1, 2, 3]
+    let hashes: Vec<[(u64, u64); 3]> = [1, 2, 3]
         .into_iter()
         .map(|threads| {
             let pool = rayon::ThreadPoolBuilder::new()
@@ -269,12 +274,14 @@ fn interacting_fluids_are_bitwise_identical_across_thread_counts() {
                 .build()
                 .unwrap();
             pool.install(|| {
-                let mut t = tank(Solver::dfsph(), 100.0, LayeredStart::Checker(4), 0.5);
-                for _ in 0..20 {
-                    t.world.step().unwrap();
-                }
-                let f = &t.world.fluids;
-                (f[t.heavy].state_hash(), f[t.light].state_hash())
+                [Solver::dfsph(), Solver::pbf(), Solver::clavet()].map(|solver| {
+                    let mut t = tank(solver, 100.0, LayeredStart::Checker(4), 0.5);
+                    for _ in 0..20 {
+                        t.world.step().unwrap();
+                    }
+                    let f = &t.world.fluids;
+                    (f[t.heavy].state_hash(), f[t.light].state_hash())
+                })
             })
         })
         .collect();
@@ -554,6 +561,184 @@ fn a_light_liquid_gives_a_dynamic_body_its_own_momentum() {
         assert!(
             wall_viscosity > 0.0 || worst_force < 1e-4,
             "{name}: the cube's reported force is off the fluids' loss by {worst_force:.3e}"
+        );
+    }
+}
+
+/// The position-based solvers in the layered tank: PBF with its default walls (the
+/// particle's own `λ`), PBF with `hydrostatic_walls`, and Clavet without cohesion with walls
+/// in its densities (`wall_density`; Clavet's default cohesion throws the tank's spawn
+/// lattice: with contact-only walls its kinetic energy reached 1.2 J, with walls counted the
+/// column hangs from the lid, as with one fluid: docs/solvers.md).
+fn position_based() -> [(&'static str, Solver, bool); 3] {
+    use rapier_sph::solver::{Clavet, Pbf};
+    [
+        ("PBF", Solver::pbf(), true),
+        (
+            "PBF (hydrostatic walls)",
+            Solver::Pbf(Pbf {
+                hydrostatic_walls: true,
+                ..Pbf::default()
+            }),
+            true,
+        ),
+        (
+            "Clavet (cohesion 0)",
+            Solver::Clavet(Clavet {
+                cohesion: 0.0,
+                ..Clavet::default()
+            }),
+            true,
+        ),
+    ]
+}
+
+/// [`tank`] with walls counting in the density or not (`walls`).
+fn tank_walls(solver: Solver, light: Real, walls: bool) -> LayeredTank {
+    let with = |rest| FluidParams {
+        wall_density: walls,
+        ..liquid(rest, solver, 0.5)
+    };
+    LayeredTank::new(with(1000.0), with(light), [8, 8, 8], LayeredStart::Layered).unwrap()
+}
+
+/// Kinetic plus gravitational potential energy (from the floor) of both liquids, each
+/// particle at its own fluid's mass.
+fn energy(t: &LayeredTank) -> f64 {
+    let g = t.world.physics.gravity.length() as f64;
+    let mut e = 0.0;
+    for h in [t.heavy, t.light] {
+        let f = &t.world.fluids[h];
+        let m = f.params().particle_mass as f64;
+        for (x, v) in f.positions().iter().zip(f.velocities()) {
+            e += m * (0.5 * v.length_squared() as f64 + g * x.y as f64);
+        }
+    }
+    e
+}
+
+/// Oil (800) on water, PBF and Clavet: the layers stay (the interface within half a spacing
+/// of the water's volume over the floor's area, the tolerance of the DFSPH test above) and
+/// the bottom pressure, averaged over the second second, carries the two layers' weight
+/// `ρ_oil·g·h_oil + ρ_water·g·h_water` with the solver's own error: each solver's error
+/// with one liquid in the same tank is measured first (two waters, the group's ratios all 1:
+/// the single-fluid step), and the oil's must match it within 1/64, the uncertainty of the
+/// bottom layer's depth (a quarter spacing) in the 16-layer column. The solvers' own errors are
+/// not small (PBF reports the `λ` its four Jacobi iterations summed, Clavet a pressure that
+/// is not in Pa: docs/solvers.md); what is asserted is that the second liquid adds none.
+///
+/// Measured (one liquid → oil on water): PBF +19.87 % → +19.90 %, PBF with hydrostatic walls
+/// −2.40 % → −2.04 %, Clavet +67.0 % → +66.4 %. With the per-particle inverse masses left out
+/// of the position corrections (each liquid corrected as the reference), the oil's read
+/// TODO-MEASURE.
+#[test]
+fn pbf_and_clavet_keep_oil_on_water_with_their_own_hydrostatic_error() {
+    for (name, solver, walls) in position_based() {
+        let mut one = tank_walls(solver, 1000.0, walls);
+        let single = run(&mut one, 2.0);
+        let mut t = tank_walls(solver, 800.0, walls);
+        let bottom = run(&mut t, 2.0);
+        assert_kept(&t);
+        let e = t.measured_interface() - t.interface_height;
+        println!(
+            "{name}: bottom pressure one liquid {single:+.4}, oil on water {bottom:+.4}; \
+             interface off by {:+.3} spacings",
+            e / SPACING
+        );
+        assert!(e.abs() <= 0.5 * SPACING, "{name}: interface off by {e}");
+        assert!(
+            (bottom - single).abs() <= 1.0 / 64.0,
+            "{name}: bottom pressure error {bottom:+.4}, one liquid {single:+.4}"
+        );
+    }
+}
+
+/// Water under a liquid ten times lighter ([`MAX_DENSITY_RATIO`]), PBF and Clavet: stable
+/// (no particle lost or non-finite), the layers stay (interface within half a spacing, as
+/// above), and the energy bounded: at every frame the kinetic plus potential energy at most
+/// 1.05 times the initial (the stability suite's verdict; the tank is closed and nothing
+/// drives it, so a solver that is stable only loses energy). Measured: largest
+/// `E/E0` TODO-MEASURE; the bottom pressure against the two layers' weight
+/// +17.6 % (PBF), −3.4 % (hydrostatic walls), +67.3 % (Clavet), as with one liquid.
+#[test]
+fn pbf_and_clavet_hold_water_under_a_ten_times_lighter_liquid() {
+    for (name, solver, walls) in position_based() {
+        let mut t = tank_walls(solver, 100.0, walls);
+        let e0 = energy(&t);
+        let mut worst: f64 = 0.0;
+        let (mut sum, mut count) = (0.0, 0);
+        for k in 0..120 {
+            let report = t.world.step().unwrap();
+            assert_eq!(report.non_finite, 0, "{name}, frame {k}: {report:?}");
+            assert_eq!(report.quarantined, 0, "{name}, frame {k}");
+            worst = worst.max(energy(&t) / e0);
+            if k >= 60 {
+                sum += t.bottom_pressure_error();
+                count += 1;
+            }
+        }
+        assert_kept(&t);
+        let e = t.measured_interface() - t.interface_height;
+        println!(
+            "{name}: largest E/E0 {worst:.6}, interface off by {:+.3} spacings, \
+             bottom pressure {:+.4}",
+            e / SPACING,
+            sum / count as Real
+        );
+        assert!(e.abs() <= 0.5 * SPACING, "{name}: interface off by {e}");
+        assert!(worst <= 1.05, "{name}: energy grew to {worst} E0");
+    }
+}
+
+/// PBF's and Clavet's settings must be the same across a group, and Clavet's springs are
+/// refused there (their displacement is not split by mass yet): typed errors naming the
+/// field.
+#[test]
+fn position_based_groups_refuse_what_they_cannot_share() {
+    use rapier_sph::solver::{Clavet, Pbf, Springs};
+    let springs = Solver::Clavet(Clavet {
+        springs: Some(Springs::default()),
+        ..Clavet::default()
+    });
+    let more = Solver::Pbf(Pbf {
+        iterations: 6,
+        ..Pbf::default()
+    });
+    for (a, b, field) in [
+        (Solver::pbf(), more, "solver"),
+        (Solver::pbf(), Solver::clavet(), "solver"),
+        (springs, springs, "springs"),
+    ] {
+        let mut fluids = FluidSet::new();
+        for (solver, rest) in [(a, 1000.0), (b, 800.0)] {
+            let mut f = Fluid::new(FluidParams {
+                fluid_groups: InteractionGroups::all(),
+                wall_density: false,
+                ..liquid(rest, solver, 0.5)
+            })
+            .unwrap();
+            f.add_block(Vector::ZERO, Vector::splat(0.05)).unwrap();
+            fluids.insert(f);
+        }
+        let mut pipeline = FluidPipeline::new();
+        let (mut bodies, colliders, bvh) = (
+            RigidBodySet::new(),
+            ColliderSet::new(),
+            BroadPhaseBvh::new(),
+        );
+        let err = pipeline
+            .step(
+                Vector::new(0.0, -9.81, 0.0),
+                1.0 / 60.0,
+                &mut fluids,
+                &mut bodies,
+                &colliders,
+                &bvh,
+            )
+            .unwrap_err();
+        assert!(
+            matches!(err, SphError::InvalidParameter { field: f, .. } if f == field),
+            "{field}: {err:?}"
         );
     }
 }

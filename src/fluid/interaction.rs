@@ -241,11 +241,13 @@ fn check_group<'a>(mut members: impl Iterator<Item = &'a Fluid>) -> SphResult<()
 
 /// What one member must satisfy on its own.
 fn check_fluid(f: &Fluid) -> SphResult<()> {
-    if !matches!(f.params().solver, Solver::Dfsph(_) | Solver::Wcsph) {
+    if let Solver::Clavet(c) = f.params().solver
+        && c.springs.is_some()
+    {
         return Err(invalid(
-            "solver",
+            "springs",
             0.0,
-            "interacting fluids: DFSPH and WCSPH only (PBF and Clavet not supported yet)",
+            "interacting Clavet fluids: the viscoelastic springs are not supported",
         ));
     }
     if !matches!(f.params().viscosity_solve, crate::ViscositySolve::Explicit) {
@@ -305,22 +307,26 @@ fn check_pair(a: &FluidParams, b: &FluidParams) -> SphResult<()> {
             return Err(invalid(field, 0.0, "interacting fluids must share it"));
         }
     }
-    if matches!(a.solver, Solver::Wcsph) && a.equation_of_state != b.equation_of_state {
+    if matches!(a.solver, Solver::Wcsph | Solver::Clavet(_))
+        && a.equation_of_state != b.equation_of_state
+    {
         return Err(invalid(
             "equation_of_state",
             0.0,
-            "interacting WCSPH fluids must share it (their pressures scale with rest density)",
+            "interacting WCSPH and Clavet fluids must share it (their pressures scale with rest density)",
         ));
     }
     Ok(())
 }
 
 /// The solver settings two interacting fluids are solved with: the same solver, DFSPH's
-/// boolean and warm-start settings equal, its tolerances the tightest of the two. `None`
-/// when they cannot be merged.
+/// boolean and warm-start settings equal, its tolerances the tightest of the two; PBF's and
+/// Clavet's settings equal. `None` when they cannot be merged.
 fn merge_solver(a: Solver, b: Solver) -> Option<Solver> {
     match (a, b) {
         (Solver::Wcsph, Solver::Wcsph) => Some(Solver::Wcsph),
+        (Solver::Pbf(x), Solver::Pbf(y)) => (x == y).then_some(a),
+        (Solver::Clavet(x), Solver::Clavet(y)) => (x == y).then_some(a),
         (Solver::Dfsph(x), Solver::Dfsph(y)) => {
             let tight = crate::Dfsph {
                 max_density_error: x.max_density_error.min(y.max_density_error),

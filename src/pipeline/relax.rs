@@ -319,6 +319,7 @@ fn project(
         tolerance: RELAX_TOLERANCE,
         max_move: RELAX_MAX_MOVE * p.particle_spacing,
         safeguard: false,
+        ratio: None,
     };
     let (buffers, inv) = (&mut ws.relax, &mut ws.inv_densities);
     let stats = report.timed(Stage::Relaxation, || {

@@ -324,6 +324,9 @@ impl SolverState {
 
 /// The end of a position-based solver's substep (PBF, Clavet): velocities from the corrected
 /// positions, then viscosity on the new velocities (the role XSPH plays in Macklin & Müller).
+/// Interacting fluids ([`StepContext::phases`]): each pair at `√(ε_i·ε_j)`, and each
+/// particle's velocity change divided by its own mass (`r_i` times the reference's), as
+/// WCSPH's and DFSPH's viscosity: the pair's momentum exchange stays antisymmetric.
 pub(crate) fn finish_position_step<S: Separation>(ctx: &mut StepContext<'_>, sep: S) -> Outcome {
     let p = ctx.params;
     let dt = ctx.dt;
@@ -348,13 +351,25 @@ pub(crate) fn finish_position_step<S: Separation>(ctx: &mut StepContext<'_>, sep
                 h: p.smoothing_length,
                 sep,
             };
+            // Interacting fluids only: the weighted `1/ρ` (a buffer per substep of a group).
+            let mut weighted = Vec::new();
+            let inv = match ctx.phases {
+                Some(ph) => {
+                    ph.viscous_inv_densities(ctx.inv_densities, &mut weighted);
+                    &weighted[..]
+                }
+                None => &ctx.inv_densities[..],
+            };
             let limited = crate::forces::viscosity::add_accelerations(
                 &pairs,
                 ctx.velocities,
-                ctx.inv_densities,
+                inv,
                 (p.explicit_viscosity(), dt),
                 ctx.accelerations,
             );
+            if let Some(ph) = ctx.phases {
+                ph.scale(ctx.accelerations);
+            }
             crate::integrate::add_accelerations(dt, ctx.accelerations, ctx.velocities);
             limited
         });

@@ -229,6 +229,10 @@ pub(crate) struct ClavetContext<'a> {
     pub wall: Option<&'a WallWorkspace>,
     /// The factor of the rest density the fluid is held at (see `StepContext::hold`).
     pub hold: Real,
+    /// Interacting fluids (`crate::fluid::interaction`): each particle's inverse mass in units
+    /// of the reference's, `r_i = m_ref/m_i`, which splits each pair's displacement (see
+    /// "Interacting fluids" in the module docs); `None` for one fluid (halves).
+    pub ratio: Option<&'a [Real]>,
 }
 
 /// [`relax`] with the separations formed by `sep` (see [`crate::domain`]).
@@ -257,7 +261,14 @@ pub(crate) fn relax_in<S: Separation>(
         (pressure, relative_density, partials),
     );
     let error = (partials.iter().sum::<f64>() / n.max(1) as f64) as Real;
-    displacements(ctx, (positions, sep), pressure, displacement);
+    match ctx.ratio {
+        None => displacements(ctx, (positions, sep), pressure, displacement, |_, _| 1.0),
+        // The pair's displacement split by inverse mass: `r_i/(r_i + r_j)` of it to `i` in
+        // place of one half.
+        Some(r) => displacements(ctx, (positions, sep), pressure, displacement, |i, j| {
+            2.0 * r[i] / (r[i] + r[j])
+        }),
+    }
     let displacement: &[Vector] = displacement;
     crate::par_chunks_mut!(positions, CHUNK)
         .enumerate()
@@ -343,13 +354,15 @@ fn pressures<S: Separation>(
         });
 }
 
-/// The displacement `−½dt²·Σ_j [(P_i + P_j)(1 − q) + (P_i^near + P_j^near)(1 − q)²] r̂_ij` of
-/// every particle (and the walls' term) into `displacement`.
+/// The displacement `−½dt²·Σ_j s_ij·[(P_i + P_j)(1 − q) + (P_i^near + P_j^near)(1 − q)²] r̂_ij`
+/// of every particle (and the walls' term) into `displacement`, `s_ij = share(i, j)` twice
+/// particle `i`'s share of the pair's displacement (1 for one fluid: the paper's halves).
 fn displacements<S: Separation>(
     ctx: &ClavetContext<'_>,
     (positions, sep): (&[Vector], S),
     pressure: &[(Real, Real)],
     displacement: &mut [Vector],
+    share: impl Fn(usize, usize) -> Real + Sync,
 ) {
     let h = ctx.h;
     let inv_h = 1.0 / h;
@@ -373,7 +386,8 @@ fn displacements<S: Separation>(
                     }
                     let a = (1.0 - d * inv_h).max(0.0);
                     let (pj, pnj) = pressure[j as usize];
-                    acc += r * (((p + pj) * a + (pn + pnj) * a * a) / d);
+                    let s = share(i, j as usize);
+                    acc += r * (((p + pj) * a + (pn + pnj) * a * a) / d * s);
                 }
                 if let Some(w) = ctx.wall {
                     // The walls' term, energy-consistent (see "Walls" in the module docs):
@@ -427,6 +441,7 @@ pub fn stiffest_rest_mode(settings: &Clavet, h: Real, spacing: Real, speed_of_so
         dt: 1.0,
         wall: None,
         hold: 1.0,
+        ratio: None,
     };
     // The springs are not part of the relaxation (their stiffness bounds the substep
     // separately, through the acoustic limit).

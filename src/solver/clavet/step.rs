@@ -66,6 +66,7 @@ impl PressureSolver for ClavetState {
             dt,
             wall: ctx.wall,
             hold: ctx.hold,
+            ratio: ctx.phases.map(|ph| ph.ratio),
         };
         // Springs (if any) first, on the predicted positions (the paper's Alg. 1 order); timed
         // with the relaxation.
@@ -129,6 +130,13 @@ impl PressureSolver for ClavetState {
             // Clamped to the largest finite `f32`: at the fastest accepted speed of sound
             // `c²·ρ0` overflows (c = 10¹⁸ m/s gave −∞).
             *pr = (k * p.rest_density * c * c * (rel - 1.0)).clamp(-Real::MAX, Real::MAX);
+        }
+        // Interacting fluids: each particle's own fluid's pressure, `ρ0_i/ρ_ref` times the
+        // reference's at the same relative density (`crate::fluid::interaction`).
+        if let Some(ph) = ctx.phases {
+            for (pr, &r) in ctx.pressures.iter_mut().zip(ph.ratio) {
+                *pr /= r;
+            }
         }
         crate::solver::finish_position_step(ctx, sep)
     }

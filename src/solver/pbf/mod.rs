@@ -35,7 +35,7 @@ use crate::par::{CHUNK, LANES, lane_sum};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
-use super::pairs::{gradient_block, gradient_one, kernel_sums, reduce_partials};
+use super::pairs::{Block, PairSink, gradient_block, gradient_one, kernel_sums, reduce_partials};
 use crate::domain::Separation;
 use crate::neighbors::Pairs;
 
@@ -178,6 +178,10 @@ pub(crate) struct PbfContext<'a> {
     /// `true` for the solver, `false` for the pipeline's overlap relaxation (whose blocks
     /// expand into compression by design).
     pub safeguard: bool,
+    /// Interacting fluids (`crate::fluid::interaction`): each particle's inverse mass in units
+    /// of the reference's, `r_i = m_ref/m_i`, which weights its corrections (see "Interacting
+    /// fluids" in the module docs); `None` for one fluid (every weight 1).
+    pub ratio: Option<&'a [Real]>,
 }
 
 /// Solves the density constraints on the predicted `positions` (moved in place): a fixed
@@ -344,7 +348,19 @@ impl<'a, K: Kernel, S: Separation> Passes<'a, K, S> {
                         for k in 0..lam.len() {
                             let i = c * CHUNK + k;
                             let nb = ctx.neighbors.of(i);
-                            let sums = kernel_sums(&pairs, &self.kernel, i, nb, &mut ());
+                            // With interacting fluids `Σ_j r_j|∇W_ij|²` replaces `Σ_j |∇W_ij|²`.
+                            let (sums, weighted) = match ctx.ratio {
+                                None => (kernel_sums(&pairs, &self.kernel, i, nb, &mut ()), None),
+                                Some(ratio) => {
+                                    let mut sink = WeightedSquares {
+                                        ratio,
+                                        nb,
+                                        sum: 0.0,
+                                    };
+                                    let sums = kernel_sums(&pairs, &self.kernel, i, nb, &mut sink);
+                                    (sums, Some((ratio[i], sink.sum)))
+                                }
+                            };
                             let mut rho = self.self_term + ctx.mass * sums.w;
                             let mut grad = sums.g * ctx.mass;
                             if let Some(wall) = ctx.wall {
@@ -354,7 +370,12 @@ impl<'a, K: Kernel, S: Separation> Passes<'a, K, S> {
                                 rho += (wall.density[i] + gw.dot(moved)).max(0.0);
                                 grad += gw;
                             }
-                            let denom = grad.length_squared() + ctx.mass * ctx.mass * sums.g2;
+                            let denom = match weighted {
+                                None => grad.length_squared() + ctx.mass * ctx.mass * sums.g2,
+                                Some((ri, g2)) => {
+                                    ri * grad.length_squared() + ctx.mass * ctx.mass * g2
+                                }
+                            };
                             let constraint = self.constraint(i, rho);
                             let l = -constraint * self.rho0 * self.rho0 / (denom + self.eps);
                             lam[k] = l;
@@ -480,7 +501,11 @@ impl<'a, K: Kernel, S: Separation> Passes<'a, K, S> {
                 }
                 d += wall.gradient[i] * lw;
             }
-            let d = d * (self.inv_rho0 * omega);
+            let mut d = d * (self.inv_rho0 * omega);
+            if let Some(ratio) = ctx.ratio {
+                // Interacting fluids: weighted by the particle's inverse mass.
+                d *= ratio[i];
+            }
             let len = d.length();
             *dx = if len > ctx.max_move {
                 d * (ctx.max_move / len)
@@ -498,6 +523,29 @@ impl<'a, K: Kernel, S: Separation> Passes<'a, K, S> {
         } else {
             0.0
         }
+    }
+}
+
+/// Gathers `Σ_j r_j|∇W_ij|²` over a particle's neighbours `nb` from [`kernel_sums`]' pairs
+/// (interacting fluids: each neighbour's gradient weighted by its inverse mass).
+struct WeightedSquares<'a> {
+    ratio: &'a [Real],
+    nb: &'a [u32],
+    sum: Real,
+}
+
+impl PairSink for WeightedSquares<'_> {
+    #[inline(always)]
+    fn block(&mut self, o: usize, b: &Block) {
+        for l in 0..LANES {
+            let g2 = b.gx[l] * b.gx[l] + b.gy[l] * b.gy[l] + b.gz[l] * b.gz[l];
+            self.sum += self.ratio[self.nb[o + l] as usize] * g2;
+        }
+    }
+
+    #[inline(always)]
+    fn one(&mut self, t: usize, gradient: Vector, _: Real) {
+        self.sum += self.ratio[self.nb[t] as usize] * gradient.length_squared();
     }
 }
 

@@ -69,6 +69,7 @@ impl PressureSolver for PbfState {
             tolerance: 0.0,
             max_move: Real::INFINITY,
             safeguard: true,
+            ratio: ctx.phases.map(|ph| ph.ratio),
         };
         // The position solve (densities are measured in its first pass).
         let buffers = &mut self.buffers;
