@@ -1081,12 +1081,19 @@ fn carried_emitters_and_fills_build_and_their_mistakes_are_located() {
     }
 }
 
-/// `interacts: true` makes the fluids of `oil_on_water.ron` interact: after 1 s of the lock
-/// exchange the water's mean height is below the oil's by more than a spacing (both start at
-/// 0.1 m; without interaction the oil would fall through the water instead).
+/// `interacts: true` makes the fluids of `oil_on_water.ron` (DFSPH) and `pbf_oil_on_water.ron`
+/// interact: after 1 s of the lock exchange the water's mean height is below the oil's by
+/// more than a spacing (both start at 0.1 m; without interaction the oil would fall through
+/// the water instead).
 #[test]
 fn the_oil_on_water_file_builds_interacting_fluids() {
-    let (_, mut built) = SceneFile::load_and_build(scenes_dir().join("oil_on_water.ron")).unwrap();
+    for file in ["oil_on_water.ron", "pbf_oil_on_water.ron"] {
+        oil_on_water_file(file);
+    }
+}
+
+fn oil_on_water_file(file: &str) {
+    let (_, mut built) = SceneFile::load_and_build(scenes_dir().join(file)).unwrap();
     let [water, oil] = built.fluids[..] else {
         panic!("two fluids")
     };
@@ -1102,7 +1109,8 @@ fn the_oil_on_water_file_builds_interacting_fluids() {
         f.positions().iter().map(|x| x.y).sum::<f32>() / f.len() as f32
     };
     let (w, o) = (mean(water), mean(oil));
-    assert!(w < o - 0.02, "water at {w}, oil at {o}");
+    println!("{file}: water at {w}, oil at {o}");
+    assert!(w < o - 0.02, "{file}: water at {w}, oil at {o}");
 }
 
 #[test]

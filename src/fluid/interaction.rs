@@ -33,13 +33,58 @@
 //! walls' hydrostatic term (DFSPH) is already per unit of the particle's own rest density and
 //! is left as is. The densities written back are each fluid's physical ones (`ρ0_i·V·δ_i`).
 //!
+//! ## Position-based solvers
+//!
+//! PBF (Macklin & Müller 2013) keeps its density constraint, which in the number form is the
+//! same for every fluid, `C_i = V·δ_i − 1` (unilateral, as with one fluid), and weights the
+//! position corrections by inverse mass as position-based dynamics does for unequal masses
+//! (Müller et al. 2007, "Position based dynamics", eqs. 2–3; Bender, Müller & Macklin 2017,
+//! "A survey on position based dynamics", section 3): with `w_k = 1/m_k = r_k/m_ref`,
+//!
+//! ```text
+//! λ_i  = −C_i / ( Σ_k w_k |∇_k C_i|² + ε )      Δx_k = w_k λ_i ∇_k C_i   (every constraint i)
+//! ```
+//!
+//! so particle `i` gathers `Δx_i = r_i/ρ_ref · Σ_j m_ref (λ_i + λ_j + s_corr) ∇W_ij`, the
+//! single-fluid correction times `r_i`, and its own constraint's denominator weighs each
+//! neighbour's gradient by its `r_j` (`r_i` on its own, walls weightless: they do not move).
+//! Every pair's corrections then carry equal and opposite momenta, `m_i·r_i = m_ref`. The
+//! artificial pressure `s_corr` (eq. 13) is a pair term of the same sum, so it is weighted
+//! the same way (a fluid-independent repulsion that conserves momentum); the pressure the
+//! corrections stand for, `−Σλ·ρ²/(ρ_ref·dt²)` with the reference-unit densities, is then
+//! each particle's physical pressure (a light particle's `λ` gradient is `r_i` times smaller
+//! for the same push), and is reported as is. Hydrostatic walls add each particle's own
+//! `λ`-weighted wall term, times `r_i` too; their hydrostatic part is already per unit of the
+//! particle's own rest density.
+//!
+//! Clavet's double-density relaxation (Clavet et al. 2005) moves both particles of a pair by
+//! half the pair's displacement `D`. With unequal masses the split is by inverse mass,
+//! `r_i/(r_i + r_j)·D` to `i` (momentum-conserving; equal masses give the halves), and its
+//! densities `Σ(1 − q)²`, `Σ(1 − q)³` count neighbours, not their masses: they are already
+//! number densities, so a particle at the interface is not read as compressed or stretched
+//! by its neighbours' masses (no spurious tension). Its pressures `P = k(ρ − ρ0)` are
+//! accelerations (stiffnesses in `c²/(h·ρ0)`), the same for every fluid at the same
+//! compression: a fluid's pressure in Pa is `ρ0_i/ρ_ref` times the reference's, as WCSPH's,
+//! and that is what is reported. With a physical pressure `p` on both sides of an interface,
+//! the split pair force `m_ref/(r_i + r_j)·(P_i + P_j)` is `p` (`P_k ∝ p/m_k`): a uniform
+//! pressure holds both liquids at rest. Its walls' term is per particle and left as is. Its
+//! viscoelastic springs are refused in a group (their displacements are split in halves).
+//!
+//! The explicit viscosity of both (the step's last pass, the role XSPH plays in Macklin &
+//! Müller) is the same pair term as WCSPH's: `√(ε_k·ε_l)` between fluids `k` and `l`, each
+//! particle's velocity change divided by its own mass, so its momentum exchange stays
+//! antisymmetric. XSPH's own form `Σ_j (m_j/ρ̄_ij)(v_j − v_i)W_ij` would need the pair's
+//! mass weighting to conserve momentum (with volumes `V` in place of `m_j/ρ̄_ij` it does
+//! not); the explicit viscosity was kept as the single-fluid solvers use it.
+//!
 //! # What must match
 //!
 //! Interacting fluids must share everything the combined step reads once for all of them:
 //! particle spacing, particle volume (mass / rest density), smoothing length, contact
-//! radius, kernels, domain, the solver (DFSPH or WCSPH; PBF and Clavet return an error: not
-//! supported yet), its boolean settings, the explicit viscosity (the implicit
-//! `viscosity_solve` returns an error: not supported yet), WCSPH's equation of state, the wall, contact and
+//! radius, kernels, domain, the solver (PBF's and Clavet's settings equal; Clavet without
+//! springs), its boolean settings, the explicit viscosity (the implicit
+//! `viscosity_solve` returns an error: not supported yet), WCSPH's and Clavet's equation of
+//! state (Clavet's stiffnesses are in units of its speed of sound), the wall, contact and
 //! surface settings and the collision groups; a density ratio of at most
 //! [`MAX_DENSITY_RATIO`]; no diffusing scalar (scalar diffusion across fluids is not done
 //! yet); and interaction must hold between every two fluids of a group (`a`–`b` and `b`–`c`
@@ -61,7 +106,20 @@
 //!   one liquid caught in the other, and a mix at the particle scale does not separate (see
 //!   below);
 //! - two blobs (1000 and 100 kg/m³) thrown at each other in open space: the total momentum
-//!   changed by 1.4·10⁻⁸ (DFSPH) and 7·10⁻⁸ (WCSPH) of `Σ m_i|v_i|` over 30 frames.
+//!   changed by 1.4·10⁻⁸ (DFSPH), 7·10⁻⁸ (WCSPH), 7.3·10⁻⁵ (PBF) and 2.0·10⁻⁵ (Clavet) of
+//!   `Σ m_i|v_i|` over 30 frames (two waters, the position-based solvers' single-fluid
+//!   round-off: 3.6·10⁻⁶ and 2.2·10⁻⁵; without the inverse-mass weights 1.4 and 1.5 of it);
+//! - PBF and Clavet (`cargo test --release --test interaction pbf_and_clavet --
+//!   --nocapture`) carry their own one-liquid error into the layers: the bottom pressure
+//!   against `ρ_oil·g·h_oil + ρ_water·g·h_water`, mean ± standard deviation of five runs
+//!   perturbed at round-off (the average over the second second depends on how the bottom
+//!   layer settles), one liquid (two waters) → oil on water: PBF +19.9 ± 1.1 % → +19.3 ±
+//!   0.4 %, PBF with hydrostatic walls −2.7 ± 1.5 % → −3.8 ± 2.1 %, Clavet without cohesion
+//!   (walls in its densities) +65.7 ± 2.9 % → +61.6 ± 4.2 % (not a pressure in Pa); the
+//!   interface within 0.21 spacing of the poured volumes. Water under a liquid of 100 kg/m³:
+//!   +17.6 %, −3.4 % and +67.3 %, the largest total energy 0.993, 1.0002 and 0.997 of the
+//!   initial. With Clavet's default cohesion the tank's spawn lattice is thrown, with one
+//!   liquid as with two (the stability suite's case 18 fails for it on energy).
 //!
 //! Bodies and watched colliders see each particle at its own mass `m_ref/r_i`
 //! (`boundary::bodies::ParticleMass`): collider contact's impulses on dynamic bodies and
@@ -133,8 +191,9 @@ use crate::solver::Solver;
 use rapier3d::geometry::InteractionGroups;
 
 /// The largest ratio of rest densities interacting fluids may have (heaviest / lightest).
-/// Water under a liquid of 100 kg/m³ runs stable with DFSPH and WCSPH (the stability suite's
-/// case "18 layers 1:10", tests/interaction.rs); larger ratios were not measured.
+/// Water under a liquid of 100 kg/m³ runs stable with DFSPH, WCSPH, PBF and Clavet without
+/// cohesion (the stability suite's case "18 layers 1:10", tests/interaction.rs); larger
+/// ratios were not measured.
 pub const MAX_DENSITY_RATIO: Real = 10.0;
 
 /// Relative tolerance of the equalities between interacting fluids' sizes.

@@ -31,7 +31,7 @@
 //! 14 a block thrown apart at 20 to 50 m/s at 0.2 m spacing, 15 and 16 a dam break with
 //! surface tension and adhesion at 100 and 10^4 times water's, 17 case 13 with the implicit
 //! viscosity solve (held, not limited), 18 water under a liquid ten times lighter,
-//! interacting (`crate::fluid::interaction`; DFSPH and WCSPH, the solvers that support it).
+//! interacting (`crate::fluid::interaction`; every solver).
 //! docs/stability.md has the results.
 
 #![cfg_attr(docsrs, doc(cfg(feature = "validation")))]

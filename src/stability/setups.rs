@@ -46,11 +46,8 @@ pub(super) fn surface_tension(
 /// Case 18: a closed tank 0.1 m wide ([`crate::scenes::LayeredTank`], 8 × 8 × 8 particles
 /// of each liquid at 1.25 cm) with water under a liquid ten times lighter
 /// ([`crate::fluid::interaction::MAX_DENSITY_RATIO`]), at rest from a lattice, for 2 s
-/// (full: 4 s). PBF and Clavet do not support interacting fluids yet (`None`).
+/// (full: 4 s). Every solver, with its preset settings.
 pub(super) fn layers_1_to_10(solver: &Solver, size: SuiteSize) -> Option<SphResult<Setup>> {
-    if !matches!(solver, Solver::Dfsph(_) | Solver::Wcsph) {
-        return None;
-    }
     Some((|| {
         let s = 0.1 / 8.0;
         let liquid = |rest: Real| {
