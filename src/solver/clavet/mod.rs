@@ -44,6 +44,11 @@
 //! cohesion ([`surface_equilibrium_near_ratio`] times `k_c`). At `k = k_c` (the default) the
 //! relaxation is the paper's.
 //!
+//! **Interacting fluids** (`crate::fluid::interaction`, `ClavetContext::ratio`): the pair's
+//! displacement is split by inverse mass, `r_i/(r_i + r_j)` of it to `i` (`r = m_ref/m`) in
+//! place of one half, which conserves momentum; the densities count neighbours, not masses,
+//! and need no change.
+//!
 //! Viscosity is the fluid's own viscosity
 //! stage (the paper's pairwise viscosity impulses are not implemented); its viscoelastic
 //! springs are an option ([`Clavet::springs`], [`super::springs`]).

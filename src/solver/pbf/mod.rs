@@ -26,6 +26,12 @@
 //! A fixed number of iterations per step means a fixed cost and no divergence, whatever the
 //! time step: the robust mode games expect. The price is compressibility: the error left
 //! after the iterations is reported, not bounded.
+//!
+//! **Interacting fluids** (`crate::fluid::interaction`, `PbfContext::ratio`): the
+//! constraint is the same for every fluid in the number form, and the corrections are
+//! weighted by inverse mass as position-based dynamics does for unequal masses (Müller et al.
+//! 2007; Bender, Müller & Macklin 2017): `Δx_i` above times `r_i = m_ref/m_i`, and
+//! `Σ_k r_k|∇_k C_i|²` in λ's denominator, so each pair's corrections conserve momentum.
 
 use crate::boundary::WallWorkspace;
 use crate::kernel::Kernel;
