@@ -240,7 +240,7 @@ pub(crate) struct ClavetContext<'a> {
     pub ratio: Option<&'a [Real]>,
 }
 
-/// [`relax`] with the separations formed by `sep` (see [`crate::domain`]).
+/// The double-density relaxation with the separations formed by `sep` (see [`crate::domain`]).
 pub(crate) fn relax_in<S: Separation>(
     ctx: &ClavetContext<'_>,
     settings: &Clavet,
