@@ -18,6 +18,7 @@
 mod fit;
 
 use clap::Parser;
+use fit::{centre, quadrupole};
 use rapier_sph::math::{Real, Vector};
 use rapier_sph::rapier3d::prelude::{BroadPhaseBvh, ColliderSet, RigidBodySet};
 use rapier_sph::{Fluid, FluidParamsBuilder, FluidPipeline, FluidSet};
@@ -56,22 +57,6 @@ struct Args {
 }
 
 const DT: Real = 1e-3;
-
-fn centre(x: &[Vector]) -> Vector {
-    x.iter().fold(Vector::ZERO, |a, b| a + *b) / x.len() as Real
-}
-
-fn quadrupole(x: &[Vector]) -> f64 {
-    let c = centre(x);
-    let s: f64 = x
-        .iter()
-        .map(|p| {
-            let d = *p - c;
-            (d.z * d.z - 0.5 * (d.x * d.x + d.y * d.y)) as f64
-        })
-        .sum();
-    s / x.len() as f64
-}
 
 fn core_pressure(f: &Fluid, r: f64) -> f64 {
     let c = centre(f.positions());

@@ -13,6 +13,8 @@ mod common;
 #[path = "surface_tension_fit/mod.rs"]
 mod surface_tension_fit;
 
+use surface_tension_fit::centre;
+
 use common::{step_fluid, world_with};
 use rapier_sph::math::{Real, Vector};
 use rapier_sph::rapier3d::prelude::{BroadPhaseBvh, ColliderBuilder, ColliderSet, RigidBodySet};
@@ -74,10 +76,6 @@ fn water(solver: Solver, gamma: Real, viscosity: Real) -> FluidParams {
         .viscosity(viscosity)
         .build()
         .unwrap()
-}
-
-fn centre(x: &[Vector]) -> Vector {
-    x.iter().fold(Vector::ZERO, |a, b| a + *b) / x.len() as Real
 }
 
 /// The radius of the sphere of the fluid's volume, `(3 N s³/(4π))^⅓`.
@@ -253,17 +251,6 @@ fn l2_mode(k: Real) -> (surface_tension_fit::Fit, f64) {
     w.run(0.5);
     let params = water(Solver::dfsph(), GAMMA, 0.1);
     w.fluid_mut().set_params(params).unwrap();
-    let quadrupole = |x: &[Vector]| {
-        let c = centre(x);
-        let s: f64 = x
-            .iter()
-            .map(|p| {
-                let d = *p - c;
-                (d.z * d.z - 0.5 * (d.x * d.x + d.y * d.y)) as f64
-            })
-            .sum();
-        s / x.len() as f64
-    };
     let r = volume_radius(w.fluid().len());
     let c = centre(w.fluid().positions());
     let x: Vec<Vector> = w.fluid().positions().to_vec();
@@ -275,7 +262,7 @@ fn l2_mode(k: Real) -> (surface_tension_fit::Fit, f64) {
     let mut q = Vec::new();
     for _ in 0..1500 {
         w.step();
-        q.push(quadrupole(w.fluid().positions()));
+        q.push(surface_tension_fit::quadrupole(w.fluid().positions()));
     }
     let fit = surface_tension_fit::fit(&q, DT as f64, 2.0 * PI / 1.5, 2.0 * PI / 0.05);
     (fit.expect("fit"), r)

@@ -12,6 +12,26 @@
 
 #![allow(dead_code)]
 
+use rapier_sph::math::{Real, Vector};
+
+/// The particles' centre (the mean position).
+pub fn centre(x: &[Vector]) -> Vector {
+    x.iter().fold(Vector::ZERO, |a, b| a + *b) / x.len() as Real
+}
+
+/// The droplet's l = 2 quadrupole about its centre, `Q = ⟨z² − (x² + y²)/2⟩` (m²).
+pub fn quadrupole(x: &[Vector]) -> f64 {
+    let c = centre(x);
+    let s: f64 = x
+        .iter()
+        .map(|p| {
+            let d = *p - c;
+            (d.z * d.z - 0.5 * (d.x * d.x + d.y * d.y)) as f64
+        })
+        .sum();
+    s / x.len() as f64
+}
+
 /// A fitted damped sinusoid.
 #[derive(Clone, Copy, Debug)]
 pub struct Fit {
