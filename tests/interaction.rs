@@ -327,40 +327,46 @@ fn mismatched_interacting_fluids_are_typed_errors() {
         ),
     ];
     for (other, field) in cases {
-        let mut fluids = FluidSet::new();
-        for p in [base(), other] {
-            let mut f = Fluid::new(FluidParams {
-                fluid_groups: InteractionGroups::all(),
-                ..p
-            })
-            .unwrap();
-            f.add_block(Vector::ZERO, Vector::splat(0.05)).unwrap();
-            fluids.insert(f);
-        }
-        let before: Vec<u64> = fluids.iter().map(|(_, f)| f.state_hash()).collect();
-        let mut pipeline = FluidPipeline::new();
-        let (mut bodies, colliders, bvh) = (
-            RigidBodySet::new(),
-            ColliderSet::new(),
-            BroadPhaseBvh::new(),
-        );
-        let err = pipeline
-            .step(
-                Vector::new(0.0, -9.81, 0.0),
-                1.0 / 60.0,
-                &mut fluids,
-                &mut bodies,
-                &colliders,
-                &bvh,
-            )
-            .unwrap_err();
-        assert!(
-            matches!(err, SphError::InvalidParameter { field: f, .. } if f == field),
-            "{field}: {err:?}"
-        );
-        let after: Vec<u64> = fluids.iter().map(|(_, f)| f.state_hash()).collect();
-        assert_eq!(before, after, "{field}: the step changed something");
+        let pair = [base(), other].map(|p| FluidParams {
+            fluid_groups: InteractionGroups::all(),
+            ..p
+        });
+        assert_group_refused(pair, field);
     }
+}
+
+/// Two fluids of `pair`, a 5 cm block each, in one interacting set: the step must refuse
+/// them with a typed error naming `field`, before anything moves.
+fn assert_group_refused(pair: [FluidParams; 2], field: &str) {
+    let mut fluids = FluidSet::new();
+    for p in pair {
+        let mut f = Fluid::new(p).unwrap();
+        f.add_block(Vector::ZERO, Vector::splat(0.05)).unwrap();
+        fluids.insert(f);
+    }
+    let before: Vec<u64> = fluids.iter().map(|(_, f)| f.state_hash()).collect();
+    let mut pipeline = FluidPipeline::new();
+    let (mut bodies, colliders, bvh) = (
+        RigidBodySet::new(),
+        ColliderSet::new(),
+        BroadPhaseBvh::new(),
+    );
+    let err = pipeline
+        .step(
+            Vector::new(0.0, -9.81, 0.0),
+            1.0 / 60.0,
+            &mut fluids,
+            &mut bodies,
+            &colliders,
+            &bvh,
+        )
+        .unwrap_err();
+    assert!(
+        matches!(err, SphError::InvalidParameter { field: f, .. } if f == field),
+        "{field}: {err:?}"
+    );
+    let after: Vec<u64> = fluids.iter().map(|(_, f)| f.state_hash()).collect();
+    assert_eq!(before, after, "{field}: the step changed something");
 }
 
 /// Without groups (the default) fluids do not see each other, nor with groups that do not
@@ -739,36 +745,11 @@ fn position_based_groups_refuse_what_they_cannot_share() {
         (Solver::pbf(), Solver::clavet(), "solver"),
         (springs, springs, "springs"),
     ] {
-        let mut fluids = FluidSet::new();
-        for (solver, rest) in [(a, 1000.0), (b, 800.0)] {
-            let mut f = Fluid::new(FluidParams {
-                fluid_groups: InteractionGroups::all(),
-                wall_density: false,
-                ..liquid(rest, solver, 0.5)
-            })
-            .unwrap();
-            f.add_block(Vector::ZERO, Vector::splat(0.05)).unwrap();
-            fluids.insert(f);
-        }
-        let mut pipeline = FluidPipeline::new();
-        let (mut bodies, colliders, bvh) = (
-            RigidBodySet::new(),
-            ColliderSet::new(),
-            BroadPhaseBvh::new(),
-        );
-        let err = pipeline
-            .step(
-                Vector::new(0.0, -9.81, 0.0),
-                1.0 / 60.0,
-                &mut fluids,
-                &mut bodies,
-                &colliders,
-                &bvh,
-            )
-            .unwrap_err();
-        assert!(
-            matches!(err, SphError::InvalidParameter { field: f, .. } if f == field),
-            "{field}: {err:?}"
-        );
+        let pair = [(a, 1000.0), (b, 800.0)].map(|(solver, rest)| FluidParams {
+            fluid_groups: InteractionGroups::all(),
+            wall_density: false,
+            ..liquid(rest, solver, 0.5)
+        });
+        assert_group_refused(pair, field);
     }
 }
