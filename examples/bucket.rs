@@ -66,10 +66,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 FluidContactKind::Stopped => stopped += 1,
             }
         }
-        if let Some(p) = pictures.as_mut() {
-            if frame % 6 == 0 {
-                p.frame(&scene.world)?;
-            }
+        if let Some(p) = pictures.as_mut()
+            && frame % 6 == 0
+        {
+            p.frame(&scene.world)?;
         }
         if frame % 30 == 0 {
             let (inside, level) = scene.contents();

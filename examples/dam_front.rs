@@ -171,7 +171,7 @@ fn main() {
         assert_eq!(r.non_finite, 0, "non-finite particles");
         t += step as f64;
         k += 1;
-        if k % frames_per_sample == 0 {
+        if k.is_multiple_of(frames_per_sample) {
             front.push((t * tf, db.measure().0 as f64 / a));
         }
     }

@@ -274,12 +274,12 @@ impl Pictures {
         frame: usize,
         world: &FluidWorld,
     ) -> Result<(), Box<dyn std::error::Error>> {
-        if frame % 3 != 0 && frame != Self::STILL {
+        if !frame.is_multiple_of(3) && frame != Self::STILL {
             return Ok(());
         }
         let t = Instant::now();
         let image = self.renderer.render_world(&self.camera, world, None);
-        if frame % 3 == 0 {
+        if frame.is_multiple_of(3) {
             self.gif.add_frame(&image)?;
         }
         if frame == Self::STILL {

@@ -54,16 +54,16 @@ fn main() -> ExitCode {
         if size == SuiteSize::Quick && !case.quick {
             continue;
         }
-        if let Some(f) = &case_filter {
-            if !case.name.to_lowercase().contains(f.as_str()) {
-                continue;
-            }
+        if let Some(f) = &case_filter
+            && !case.name.to_lowercase().contains(f.as_str())
+        {
+            continue;
         }
         for solver in stability::solvers() {
-            if let Some(f) = &solver_filter {
-                if solver.name().to_lowercase() != *f {
-                    continue;
-                }
+            if let Some(f) = &solver_filter
+                && solver.name().to_lowercase() != *f
+            {
+                continue;
             }
             match stability::run(&case, &solver, size) {
                 None => {}

@@ -113,9 +113,9 @@ pub fn predict_positions(
         .enumerate()
         .for_each(|(c, (x, prev))| {
             let base = c * CHUNK;
-            for k in 0..x.len() {
-                prev[k] = x[k];
-                x[k] += velocities[base + k] * dt;
+            prev.copy_from_slice(x);
+            for (k, x) in x.iter_mut().enumerate() {
+                *x += velocities[base + k] * dt;
             }
         });
 }

@@ -185,18 +185,18 @@ fn a_reset_level_replays_bit_for_bit() {
         Solver::clavet(),
         springs,
     ] {
-        let (mut fresh, hf) = tank_world(solver.clone());
+        let (mut fresh, hf) = tank_world(solver);
         fill(&mut fresh, hf);
         for _ in 0..12 {
             fresh.step().unwrap();
         }
-        let (mut reused, hr) = tank_world(solver.clone());
+        let (mut reused, hr) = tank_world(solver);
         fill(&mut reused, hr);
         for _ in 0..20 {
             reused.step().unwrap();
         }
         // Restart the level: the rapier world is rebuilt, the fluid and pipeline are kept.
-        let (world, _) = tank_world(solver.clone());
+        let (world, _) = tank_world(solver);
         reused.physics = world.physics;
         reused.fluids[hr].reset();
         let f = &reused.fluids[hr];

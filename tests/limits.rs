@@ -171,7 +171,7 @@ fn nozzles_beyond_the_slot_limit_are_refused() {
     let fine = FluidParamsBuilder::water(1.0e-4).build().unwrap();
     assert_eq!(field_of(f.set_params(fine)), "radius");
     assert_eq!(f.params().particle_spacing, 0.05);
-    assert!(MAX_NOZZLE_SLOTS >= 1 << 22);
+    const { assert!(MAX_NOZZLE_SLOTS >= 1 << 22) };
 }
 
 /// A rate far above what the nozzle can place (10^9 per second through 13 slots) costs a
@@ -206,7 +206,7 @@ fn a_frame_of_a_fast_emitter_is_bounded_and_accounted() {
     assert!(r.emitted as f64 <= most, "{} emitted", r.emitted);
     assert!(r.emitted > 0);
     assert_eq!(r.emitted + r.emitter_blocked, due);
-    assert!(MAX_ATTEMPTS_PER_FRAME >= 2 * MAX_NOZZLE_SLOTS);
+    const { assert!(MAX_ATTEMPTS_PER_FRAME >= 2 * MAX_NOZZLE_SLOTS) };
     // The next frame goes on from there.
     let r2 = world
         .pipeline

@@ -604,8 +604,6 @@ fn moving_segment_free(
     Ok(())
 }
 
-/// [`resolve`] with moving bodies near the fluid.
-
 /// Where a particle at `p` at the substep's start stands at its end riding with body `m`.
 #[inline(always)]
 fn ride(m: &MovingCollider, p: Vector) -> Vector {

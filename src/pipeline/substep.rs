@@ -88,7 +88,7 @@ pub(crate) fn substep(
         &mut rt.ws,
         input.scene,
         depenetrate,
-        coupling.as_deref_mut(),
+        coupling,
         report,
     );
     let max_speed = limit_near_kinematic(fluid, &rt.ws, outcome.max_speed, report);
