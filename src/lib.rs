@@ -128,6 +128,7 @@ pub mod kernel;
 pub mod math;
 #[cfg(any(feature = "io", feature = "render"))]
 pub mod mesh;
+pub mod mixture;
 pub mod neighbors;
 pub(crate) mod par;
 pub mod params;

@@ -281,6 +281,11 @@ pub struct FluidParams {
     /// [`crate::sleep`]); `None` (both presets' default) never sleeps: exact results.
     #[cfg_attr(feature = "snapshot", serde(default))]
     pub sleep: Option<crate::sleep::Sleep>,
+    /// Phases mixed in every particle, which separate by drifting through the particles
+    /// (Ren et al. 2014's mixture model, see [`crate::mixture`]); `None` (both presets'
+    /// default) for one liquid, at no cost.
+    #[cfg_attr(feature = "snapshot", serde(default))]
+    pub mixture: Option<crate::mixture::Mixture>,
 }
 
 fn invalid(field: &'static str, value: Real, reason: &'static str) -> SphResult<()> {
@@ -310,6 +315,26 @@ fn non_negative(field: &'static str, v: Real) -> SphResult<()> {
 }
 
 impl FluidParams {
+    /// A mixture's checks (`crate::mixture`): its own, DFSPH, the explicit viscosity.
+    fn validate_mixture(&self, m: &crate::mixture::Mixture) -> SphResult<()> {
+        m.validate(self.rest_density, self.viscosity)?;
+        if !matches!(self.solver, Solver::Dfsph(_)) {
+            return invalid(
+                "mixture",
+                0.0,
+                "the mixture model runs with DFSPH only (the other solvers are not tested with it)",
+            );
+        }
+        if !matches!(self.viscosity_solve, ViscositySolve::Explicit) {
+            return invalid(
+                "mixture",
+                0.0,
+                "the mixture model takes the explicit viscosity only",
+            );
+        }
+        Ok(())
+    }
+
     /// The viscosity the solvers' explicit force applies: [`Self::viscosity`] with
     /// [`ViscositySolve::Explicit`], 0 when the implicit solve takes it.
     pub(crate) fn explicit_viscosity(&self) -> Real {
@@ -341,6 +366,9 @@ impl FluidParams {
         }
         if let Some(sleep) = &self.sleep {
             sleep.validate()?;
+        }
+        if let Some(m) = &self.mixture {
+            self.validate_mixture(m)?;
         }
         Ok(())
     }
@@ -564,6 +592,7 @@ impl FluidParamsBuilder {
                 wall_density: true,
                 domain: crate::domain::Domain::Open,
                 sleep: None,
+                mixture: None,
             },
             mass_given: false,
             walls_given: false,
@@ -630,6 +659,7 @@ impl FluidParamsBuilder {
                 wall_density: false,
                 domain: crate::domain::Domain::Open,
                 sleep: None,
+                mixture: None,
             },
             mass_given: true,
             walls_given: false,
@@ -818,6 +848,15 @@ impl FluidParamsBuilder {
     /// `InteractionGroups::all()` interacts with every fluid that says the same.
     pub fn fluid_groups(mut self, g: InteractionGroups) -> Self {
         self.params.fluid_groups = g;
+        self
+    }
+
+    /// Phases mixed in every particle ([`FluidParams::mixture`], see [`crate::mixture`]);
+    /// sets the fluid's viscosity to the largest phase's (the solvers' explicit limit; each
+    /// particle's is its phases').
+    pub fn mixture(mut self, m: crate::mixture::Mixture) -> Self {
+        self.params.viscosity = m.max_viscosity();
+        self.params.mixture = Some(m);
         self
     }
 

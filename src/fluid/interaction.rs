@@ -316,6 +316,13 @@ fn check_fluid(f: &Fluid) -> SphResult<()> {
             "interacting fluids: the explicit viscosity only (the implicit solve is not supported yet)",
         ));
     }
+    if f.params().mixture.is_some() {
+        return Err(invalid(
+            "mixture",
+            0.0,
+            "a fluid with a mixture does not interact with other fluids yet",
+        ));
+    }
     if f.scalars.iter().any(|s| s.diffusivity > 0.0) {
         return Err(invalid(
             "diffusivity",

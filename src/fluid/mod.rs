@@ -5,6 +5,7 @@ mod edit;
 mod fill;
 mod fluid_set;
 pub mod interaction;
+mod mixture;
 #[cfg(feature = "snapshot")]
 pub(crate) mod snapshot;
 
@@ -166,7 +167,7 @@ impl Fluid {
     pub fn new(params: impl IntoFluidParams) -> SphResult<Self> {
         let params = params.into_fluid_params()?;
         params.validate()?;
-        Ok(Self {
+        let mut fluid = Self {
             params,
             positions: Vec::new(),
             velocities: Vec::new(),
@@ -187,7 +188,9 @@ impl Fluid {
             needs_depenetration: false,
             relax_pending: false,
             sleep: Default::default(),
-        })
+        };
+        fluid.ensure_fractions();
+        Ok(fluid)
     }
 
     /// The fluid's parameters.
@@ -208,6 +211,7 @@ impl Fluid {
             e.check_slots(params.particle_spacing)?;
         }
         self.params = params;
+        self.ensure_fractions();
         self.sleep.wake();
         Ok(())
     }
@@ -333,6 +337,7 @@ impl Fluid {
         let count = positions.len() as u32;
         let start = self.next_id;
         let end = start.wrapping_add(count);
+        let first = self.positions.len();
         self.positions.extend_from_slice(positions);
         if velocities.len() == positions.len() {
             self.velocities.extend_from_slice(velocities);
@@ -346,6 +351,7 @@ impl Fluid {
         self.densities.resize(n, self.params.rest_density);
         self.pressures.resize(n, 0.0);
         self.attributes.resize(n);
+        self.appended_fractions(first);
     }
 
     /// Sets the particle capacity (`None`: unbounded). With a capacity, every per-particle

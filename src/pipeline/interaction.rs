@@ -20,10 +20,10 @@ use crate::solver::context::Phases;
 const PREFIX: &str = "interaction.";
 /// Each particle's fluid (its slot in the group, as a number).
 const FLUID: &str = "interaction.fluid";
-/// `r_i = ρ_ref/ρ0_i`.
-const RATIO: &str = "interaction.ratio";
-/// `√(ε_i/ε)`.
-const VISCOSITY: &str = "interaction.viscosity";
+/// `r_i = ρ_ref/ρ0_i` (also written by a mixture's substep, `pipeline::mixture`).
+pub(super) const RATIO: &str = "interaction.ratio";
+/// `√(ε_i/ε)` (also written by a mixture's substep).
+pub(super) const VISCOSITY: &str = "interaction.viscosity";
 
 /// Offset added to the ids of a group's `k`-th fluid times `k` while they are stepped
 /// together (ids seed the jitter that separates coincident particles: two fluids' particle

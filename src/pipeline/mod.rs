@@ -15,6 +15,7 @@
 
 mod contact;
 mod interaction;
+mod mixture;
 mod records;
 mod relax;
 mod sleep;
@@ -220,6 +221,9 @@ impl FluidPipeline {
     ) -> SphResult<&StepReport> {
         self.validate(gravity, dt)?;
         self.runtimes.groups.sync(fluids)?;
+        for (_, f) in fluids.iter() {
+            f.check_fractions()?;
+        }
         let has_colliders = self.check_broad_phase(broad_phase, colliders)?;
         let surroundings = (gravity, broad_phase);
         self.begin_frame(dt, fluids, bodies, colliders, surroundings, has_colliders);

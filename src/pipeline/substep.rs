@@ -362,7 +362,7 @@ fn wall_shares(query: Option<&(WallQuery<'_>, bool)>, ws: &mut Workspace) {
 /// mean density error.
 fn solve(
     (params, hold): (&FluidParams, Real),
-    particles: ParticlesMut<'_>,
+    mut particles: ParticlesMut<'_>,
     rt: &mut FluidRuntime,
     input: &SubstepInput<'_>,
     coupling: Option<&mut Coupling>,
@@ -376,6 +376,8 @@ fn solve(
     ws.previous_positions.resize(n, Vector::ZERO);
     // Interacting fluids stepped together: their per-particle factors, taken out of the
     // attributes (a move) while the context borrows those, put back below.
+    // A mixture writes its particles' factors where the phases below are read.
+    super::mixture::before_solve(params, hold, &mut particles, &mut ws.mixture);
     let phases = super::interaction::take_phases(particles.attributes);
     let mut ctx = StepContext {
         params,
@@ -420,6 +422,7 @@ fn solve(
         }
     }
     let (_, mean_error) = measure_density_error(&mut ctx, &mut ws.partials);
+    super::mixture::after_solve(&mut ctx, &mut ws.mixture);
     super::interaction::put_back_phases(particles.attributes, phases);
     ws.wall_viscous_impulses = viscous;
     ws.wall = wall_ws;

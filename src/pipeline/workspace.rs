@@ -59,6 +59,8 @@ pub(crate) struct Workspace {
     /// The implicit viscosity solve's buffers (`forces::viscosity_implicit`; empty unless the
     /// fluid uses it).
     pub viscosity: crate::forces::viscosity_implicit::Scratch,
+    /// The mixture's buffers (`crate::mixture`; empty for a fluid without a mixture).
+    pub mixture: crate::mixture::Scratch,
 }
 
 impl Workspace {
@@ -96,6 +98,7 @@ impl Workspace {
             + self.partials.capacity() * std::mem::size_of::<(f64, Real)>()
             + self.forces.heap_bytes()
             + (self.scalar_scratch.0.capacity() + self.scalar_scratch.1.capacity()) * 4
+            + self.mixture.heap_bytes()
     }
 }
 

@@ -370,9 +370,11 @@ mod tests {
 
 mod floating;
 mod layered;
+mod mixed;
 mod obstacle_course;
 mod wave_pool;
 pub use floating::{Floating, FloatingBox, FloatingBoxConfig, submerged_fraction};
 pub use layered::{LayeredTank, Start as LayeredStart};
+pub use mixed::{MixedTank, Start as MixedStart};
 pub use obstacle_course::{ObstacleCourse, ObstacleCourseConfig, obstacle_course};
 pub use wave_pool::{WavePool, WavePoolConfig};

@@ -1,0 +1,458 @@
+//! A mixture of liquids in one fluid: every particle carries the volume fractions of several
+//! phases (oil and water, a slurry, a dressing), and the phases separate by drifting
+//! through the particles, not by particles passing each other.
+//!
+//! Opt-in per fluid with [`FluidParams::mixture`] (DFSPH only for now); a fluid without it
+//! pays one check per substep. The fractions are read and written with
+//! [`crate::Fluid::fractions`], [`crate::Fluid::fractions_mut`] and
+//! [`crate::Fluid::set_fractions`]; new particles (added, emitted) are pure phase 0.
+//!
+//! # The model
+//!
+//! Ren, Li, Yan, Lin & Hu 2014, "Multiple-fluid SPH simulation using a mixture model" (ACM
+//! TOG 33(5)), the mixture model of multiphase flow (Manninen et al. 1996) on particles:
+//! particle `i` holds fractions `α_k,i` of phases `k` (`Σ_k α_k,i = 1`), each phase with its
+//! rest density `ρ_k` and viscosity `ε_k`. Its rest density is `ρ0_i = Σ_k α_k,i ρ_k`, its
+//! viscosity `Σ_k α_k,i ε_k`, and its volume is the fluid's particle volume
+//! `V = particle_mass/rest_density` whatever its fractions, so its mass is `V·ρ0_i`. The
+//! solver holds every particle at its own rest density with the number-density form of
+//! interacting liquids (`crate::fluid::interaction`: Solenthaler & Pajarola 2008; each
+//! particle's factor `r_i = ρ_ref/ρ0_i` on its pair accelerations, `√(ε_i/ε)` on its
+//! viscosity), recomputed from the fractions at every substep.
+//!
+//! Relative to the particle, phase `k` drifts with (Ren et al. eq. 9, the diffusion term
+//! written as a diffusivity):
+//!
+//! ```text
+//! u_k = τ·(ρ_k − ρ0_i)·(g − a_i)  −  D·∇α_k/α_k
+//! ```
+//!
+//! `τ` ([`Mixture::drift`], m³·s/kg) the phases' mobility, `a_i` the particle's acceleration
+//! over the substep (`g − a` is what the pressure gradient holds up: a denser phase sinks
+//! along it, in a spun tank outwards), `D` ([`Mixture::diffusivity`], m²/s; Ren et al.'s
+//! `τ·σ`) the phases' mutual diffusion. For droplets of diameter `d` of one liquid in
+//! another of viscosity `μ`, Stokes' law gives `τ = d²/(18μ)`: oil droplets of 1 mm in
+//! water, `τ` = 5.6·10⁻⁵ m³·s/kg, drift at `τ·Δρ·g` = 0.11 m/s against the water.
+//!
+//! One departure from the paper: the drift is taken relative to the particle's
+//! volume-averaged velocity (`Σ_k α_k u_k = 0`, since `Σ_k α_k (ρ_k − ρ0_i) = 0`), not the
+//! mass average. The solver holds each particle's volume, so what phases exchange between
+//! two particles is then a swap of equal volumes: no particle's volume changes, and no
+//! pressure correction of the fractions is needed (Ren et al. correct the pressure after
+//! their transport for the volume it moves).
+//!
+//! # The transport, conservative pair by pair
+//!
+//! `∂α_k/∂t = −∇·(α_k u_k)`. The drift flux `α_k u_k = τ·g·Σ_l α_k α_l (ρ_k − ρ_l)` is a
+//! sum of swaps between phase pairs `(k, l)`: `k` moves along `τ(ρ_k − ρ_l)(g − a)`, `l`
+//! the other way, at the rate `α_k α_l`. Between particles `i` and `j` (`e_ij` from `i` to
+//! `j`, `|∇W_ij|` the pressure kernel's gradient), with `c = τ(ρ_k − ρ_l)·ḡ_ij·e_ij` and
+//! `ḡ_ij` the pair's mean `g − a`, the phase `k` moves downwind and `l` upwind in the
+//! volume fraction
+//!
+//! ```text
+//! s = 2·V·|∇W_ij|·dt·|c|·α_k,donor·α_l,receiver      (donor: i when c > 0, j when c < 0)
+//! ```
+//!
+//! (upwinded: a particle gives only the phase it holds, and receives only against a phase
+//! the other holds; with uniform fractions it is SPH's symmetric divergence
+//! `Σ_j V (J_i + J_j)·∇W_ij` of the flux). Every swap is one number added to one particle
+//! and taken from the other, computed from the same operands in the same order in both
+//! particles' loops, so each phase's total volume `V·Σ_i α_k,i` is conserved to round-off
+//! and every particle keeps `Σ_k α_k = 1`. No swap crosses a wall or the free surface (there
+//! is no particle there): closed tanks hold their phases.
+//!
+//! **Bounded.** A particle gives at most `α_k,i·R_i` of phase `k` per substep, `R_i = Σ_j
+//! 2V|∇W_ij|·dt·τ·(ρ_max − ρ_min)·|ḡ_ij|`; every pair's swaps are scaled by
+//! `1/max(1, 2R_i, 2R_j)` (symmetric, so still conservative), so a particle keeps at least
+//! half of each phase it holds: fractions stay in `[0, 1]` without clipping, at any setting.
+//! At the test's oil-in-water setting `R` is about 0.01 per substep: no pair is scaled.
+//! The diffusion `D·∇²α_k` runs after it with the scalars' bounded, conservative exchange
+//! (`crate::scalars`), the same weights for every phase (so `Σ_k α_k` stays 1).
+//!
+//! A particle's mass follows its fractions; its velocity is kept (the swapped volumes'
+//! momentum, `O(drift)`, is not carried). The densities the fluid reports are each
+//! particle's own (`ρ0_i·V·δ_i`).
+//!
+//! # Measured
+//!
+//! A closed tank 0.1 m wide, 8 × 16 × 8 particles at 1.25 cm, oil (800) and water (1000) at
+//! 0.5 each, DFSPH (`cargo test --release --test mixture -- --nocapture`): see
+//! tests/mixture.rs and `docs/solvers.md` ("A mixture of liquids") for the figures: the
+//! separation time against `H/(τΔρg)`, the height where the oil fraction crosses 0.5 against
+//! the volumes, each phase's volume, the bottom pressure, and the interface's thickness.
+//!
+//! # What it does not do
+//!
+//! - No surface tension between the phases, and no sharp interface: the phases are miscible
+//!   at the particle scale, and the interface is as thick as the drift against the
+//!   diffusion (and the particles' spacing) makes it; a mixture is the model for emulsions
+//!   and suspensions that separate, not for two liquids that keep a sharp interface (use
+//!   interacting fluids, `crate::fluid::interaction`, for those).
+//! - The drift is Stokes' dilute one at every fraction (no hindered settling).
+//! - DFSPH only; not in a group of interacting fluids; the explicit viscosity only.
+
+use crate::domain::Separation;
+use crate::error::{SphError, SphResult};
+use crate::kernel::Kernel;
+use crate::math::{Real, Vector};
+use crate::neighbors::Pairs;
+#[cfg(feature = "parallel")]
+use rayon::prelude::*;
+
+/// The most phases a mixture may have.
+pub const MAX_PHASES: usize = 8;
+
+/// How far a particle's fractions may sum from 1, and each lie outside `[0, 1]` (the
+/// fractions a game writes, and round-off over a long run: the transport keeps the sum to
+/// a few 10⁻⁷ over hundreds of substeps).
+pub const FRACTION_SUM_TOLERANCE: Real = 1e-3;
+
+/// The prefix of the fractions' attribute names (`crate::fluid::Attributes`).
+pub(crate) const PREFIX: &str = "mixture:";
+
+/// The names of the fractions' attributes, `mixture:0` … (no allocation for the step).
+const NAMES: [&str; MAX_PHASES] = ["0", "1", "2", "3", "4", "5", "6", "7"];
+
+/// One phase of a [`Mixture`].
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub struct Phase {
+    /// Rest density (kg/m³, positive).
+    pub rest_density: Real,
+    /// Viscosity `ε` of the explicit viscosity force (Pa·s, ≥ 0; see
+    /// [`FluidParams::viscosity`]): a particle's is `Σ_k α_k ε_k`. At most the fluid's
+    /// [`FluidParams::viscosity`], which sets the solvers' explicit limit
+    /// ([`crate::FluidParamsBuilder::mixture`] sets it to the largest phase's).
+    pub viscosity: Real,
+}
+
+/// Phases mixed in every particle of a fluid ([`FluidParams::mixture`]; see the module's
+/// docs for the model).
+///
+/// # Examples
+/// ```
+/// use rapier_sph::mixture::{Mixture, Phase};
+/// use rapier_sph::prelude::*;
+/// let emulsion = Mixture {
+///     phases: vec![
+///         Phase { rest_density: 1000.0, viscosity: 0.5 }, // water
+///         Phase { rest_density: 800.0, viscosity: 0.5 },  // oil
+///     ],
+///     drift: 5.6e-5,      // oil droplets of 1 mm in water: d²/(18μ)
+///     diffusivity: 1e-5,
+/// };
+/// let params = FluidParamsBuilder::water(0.0125).mixture(emulsion).build()?;
+/// let mut fluid = Fluid::new(params)?;
+/// fluid.add_block(Vector::ZERO, Vector::splat(0.05))?;
+/// fluid.set_fractions(&[0.5, 0.5])?; // every particle half oil
+/// assert_eq!(fluid.fractions(1).unwrap()[0], 0.5);
+/// # Ok::<(), rapier_sph::SphError>(())
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub struct Mixture {
+    /// The phases (2 to [`MAX_PHASES`]); phase 0 is what new particles are made of.
+    pub phases: Vec<Phase>,
+    /// The mobility `τ` (m³·s/kg, ≥ 0): a phase drifts at `τ·(ρ_k − ρ0_i)·(g − a)` relative
+    /// to its particle; `d²/(18μ)` for droplets of diameter `d` in a liquid of viscosity `μ`.
+    /// 0 switches the drift off (the phases only diffuse).
+    pub drift: Real,
+    /// The phases' mutual diffusivity `D` (m²/s, ≥ 0; Ren et al.'s `τ·σ`).
+    pub diffusivity: Real,
+}
+
+fn invalid(field: &'static str, value: Real, reason: &'static str) -> SphError {
+    SphError::InvalidParameter {
+        field,
+        value: value as f64,
+        reason,
+    }
+}
+
+impl Mixture {
+    /// The number of phases.
+    pub fn len(&self) -> usize {
+        self.phases.len()
+    }
+
+    /// `false`: a mixture has at least two phases once validated.
+    pub fn is_empty(&self) -> bool {
+        self.phases.is_empty()
+    }
+
+    /// A particle's rest density from its fractions.
+    pub fn rest_density(&self, fractions: &[Real]) -> Real {
+        self.phases
+            .iter()
+            .zip(fractions)
+            .map(|(p, a)| p.rest_density * a)
+            .sum()
+    }
+
+    /// The largest phase viscosity.
+    pub fn max_viscosity(&self) -> Real {
+        self.phases.iter().map(|p| p.viscosity).fold(0.0, Real::max)
+    }
+
+    /// Checks the mixture against the fluid's rest density (the reference the solver's
+    /// factors are taken from) and viscosity.
+    ///
+    /// # Errors
+    /// [`SphError::InvalidParameter`] naming `mixture.phases` (fewer than two or more than
+    /// [`MAX_PHASES`]), `mixture.rest_density` (not finite and positive, or a ratio of more
+    /// than [`crate::fluid::interaction::MAX_DENSITY_RATIO`] between any two phases or a
+    /// phase and the fluid), `mixture.viscosity` (negative, or above the fluid's),
+    /// `mixture.drift` or `mixture.diffusivity` (negative or not finite).
+    pub fn validate(&self, rest_density: Real, viscosity: Real) -> SphResult<()> {
+        let n = self.phases.len();
+        if !(2..=MAX_PHASES).contains(&n) {
+            return Err(invalid(
+                "mixture.phases",
+                n as Real,
+                "a mixture has 2 to MAX_PHASES (8) phases",
+            ));
+        }
+        let (mut lo, mut hi) = (rest_density, rest_density);
+        for p in &self.phases {
+            if !(p.rest_density.is_finite() && p.rest_density > 0.0) {
+                return Err(invalid(
+                    "mixture.rest_density",
+                    p.rest_density,
+                    "a phase's rest density must be finite and positive",
+                ));
+            }
+            if !(p.viscosity.is_finite() && p.viscosity >= 0.0) || p.viscosity > viscosity {
+                return Err(invalid(
+                    "mixture.viscosity",
+                    p.viscosity,
+                    "a phase's viscosity must be finite, non-negative and at most the fluid's",
+                ));
+            }
+            lo = lo.min(p.rest_density);
+            hi = hi.max(p.rest_density);
+        }
+        if hi > crate::fluid::interaction::MAX_DENSITY_RATIO * lo {
+            return Err(invalid(
+                "mixture.rest_density",
+                hi / lo,
+                "the phases' and the fluid's rest densities differ by more than MAX_DENSITY_RATIO (10)",
+            ));
+        }
+        for (field, v) in [
+            ("mixture.drift", self.drift),
+            ("mixture.diffusivity", self.diffusivity),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(invalid(field, v, "must be finite and non-negative"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The name of phase `k`'s attribute, after [`PREFIX`].
+pub(crate) fn name(k: usize) -> &'static str {
+    NAMES[k]
+}
+
+/// Checks one particle's fractions: each in `[0, 1]` and their sum 1, within
+/// [`FRACTION_SUM_TOLERANCE`] (the transport's round-off leaves a fraction of 1 at
+/// `1 + 2⁻²³` at times).
+///
+/// # Errors
+/// [`SphError::InvalidParameter`] naming `mixture.fractions`.
+pub(crate) fn check_fractions(fractions: impl Iterator<Item = Real>) -> SphResult<()> {
+    let mut sum = 0.0;
+    let range = -FRACTION_SUM_TOLERANCE..=1.0 + FRACTION_SUM_TOLERANCE;
+    for a in fractions {
+        if !range.contains(&a) {
+            return Err(invalid(
+                "mixture.fractions",
+                a,
+                "a volume fraction must be in [0, 1]",
+            ));
+        }
+        sum += a;
+    }
+    if !((sum - 1.0).abs() <= FRACTION_SUM_TOLERANCE) {
+        return Err(invalid(
+            "mixture.fractions",
+            sum,
+            "a particle's volume fractions must sum to 1",
+        ));
+    }
+    Ok(())
+}
+
+/// What the transport reads besides the fractions.
+pub(crate) struct Transport<'a, S> {
+    /// The neighbour pairs at the current positions (`mass`/`h` the fluid's).
+    pub pairs: Pairs<'a, S>,
+    /// The particle volume `V` (m³).
+    pub volume: Real,
+    /// The substep (s).
+    pub dt: Real,
+    /// Each particle's `g − a` over the substep.
+    pub effective_gravity: &'a [Vector],
+}
+
+/// Scratch of the mixture's stage, held in the fluid's workspace.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Scratch {
+    /// Velocities at the substep's start (sorted order).
+    pub start_velocities: Vec<Vector>,
+    /// `g − a` per particle.
+    pub effective_gravity: Vec<Vector>,
+    /// Each particle's bound `R_i`.
+    pub rows: Vec<Real>,
+    /// The fraction changes, `phases` per particle.
+    pub changes: Vec<Real>,
+    /// The diffusion's scratch (`crate::scalars::diffuse`).
+    pub diffusion: (Vec<Real>, Vec<Real>),
+}
+
+impl Scratch {
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        let v = std::mem::size_of::<Vector>();
+        let r = std::mem::size_of::<Real>();
+        (self.start_velocities.capacity() + self.effective_gravity.capacity()) * v
+            + (self.rows.capacity()
+                + self.changes.capacity()
+                + self.diffusion.0.capacity()
+                + self.diffusion.1.capacity())
+                * r
+    }
+}
+
+/// Each particle's bound `R_i` (see the module's docs) into `rows`.
+fn row_bounds<K: Kernel, S: Separation>(t: &Transport<'_, S>, speed: Real, rows: &mut Vec<Real>) {
+    let n = t.pairs.positions.len();
+    let kernel = K::new(t.pairs.h);
+    let c = 2.0 * t.volume * t.dt * speed;
+    rows.clear();
+    rows.resize(n, 0.0);
+    crate::par_chunks_mut!(rows, crate::par::CHUNK)
+        .enumerate()
+        .for_each(|(chunk, out)| {
+            for (k, row) in out.iter_mut().enumerate() {
+                let i = chunk * crate::par::CHUNK + k;
+                let xi = t.pairs.positions[i];
+                let gi = t.effective_gravity[i];
+                *row = t
+                    .pairs
+                    .neighbors
+                    .of(i)
+                    .iter()
+                    .map(|&j| {
+                        let j = j as usize;
+                        let r = t.pairs.sep.sep(xi, t.pairs.positions[j]).length();
+                        let g = (gi + t.effective_gravity[j]) * 0.5;
+                        c * (-kernel.dw(r)).max(0.0) * g.length()
+                    })
+                    .sum();
+            }
+        });
+}
+
+/// The drift's swaps of one substep: the change of every particle's fractions into
+/// `changes` (`phases` per particle), from `fractions` (one slice per phase).
+fn drift_changes<K: Kernel, S: Separation>(
+    mixture: &Mixture,
+    t: &Transport<'_, S>,
+    fractions: &[&[Real]],
+    rows: &[Real],
+    changes: &mut Vec<Real>,
+) {
+    let np = mixture.phases.len();
+    let n = t.pairs.positions.len();
+    let kernel = K::new(t.pairs.h);
+    let rho: Vec<Real> = mixture.phases.iter().map(|p| p.rest_density).collect();
+    let base = 2.0 * t.volume * t.dt;
+    changes.clear();
+    changes.resize(n * np, 0.0);
+    crate::par_chunks_mut!(changes, crate::par::CHUNK * np)
+        .enumerate()
+        .for_each(|(chunk, out)| {
+            for (k, row) in out.chunks_mut(np).enumerate() {
+                let i = chunk * crate::par::CHUNK + k;
+                let xi = t.pairs.positions[i];
+                for &j in t.pairs.neighbors.of(i) {
+                    let j = j as usize;
+                    let d = t.pairs.sep.sep(xi, t.pairs.positions[j]);
+                    let r = d.length();
+                    let grad = (-kernel.dw(r)).max(0.0);
+                    if !(r > 0.0) || grad == 0.0 {
+                        continue;
+                    }
+                    // `e_ij = −d/r`, from i to j; `ḡ·e_ij`, exactly negated in j's loop.
+                    let g = (t.effective_gravity[i] + t.effective_gravity[j]) * 0.5;
+                    let ge = -g.dot(d) / r;
+                    let limit = (2.0 * rows[i].max(rows[j])).max(1.0);
+                    let beta = base * grad / limit;
+                    swap_pair(mixture, &rho, (i, j), beta * ge, fractions, row);
+                }
+            }
+        });
+}
+
+/// The swaps between particles `i` (whose changes are `row`) and `j` of every phase pair,
+/// `weighted` = `β·ḡ·e_ij` (see the module's docs).
+fn swap_pair(
+    mixture: &Mixture,
+    rho: &[Real],
+    (i, j): (usize, usize),
+    weighted: Real,
+    fractions: &[&[Real]],
+    row: &mut [Real],
+) {
+    let np = rho.len();
+    for k in 0..np {
+        for l in k + 1..np {
+            let c = mixture.drift * (rho[k] - rho[l]) * weighted;
+            // c > 0: k moves from i to j, l from j to i; c < 0 the other way.
+            let (donor, receiver, sign) = if c > 0.0 { (i, j, -1.0) } else { (j, i, 1.0) };
+            let s = c.abs() * (fractions[k][donor] * fractions[l][receiver]);
+            row[k] += sign * s;
+            row[l] -= sign * s;
+        }
+    }
+}
+
+/// One substep of the phases' drift and diffusion: `fractions` (one vector per phase,
+/// sorted like the particles) change in place. `scratch` holds the buffers.
+pub(crate) fn transport<K: Kernel, S: Separation>(
+    mixture: &Mixture,
+    t: &Transport<'_, S>,
+    fractions: &mut [&mut Vec<Real>],
+    scratch: &mut Scratch,
+) {
+    let n = t.pairs.positions.len();
+    let np = fractions.len();
+    let (lo, hi) = mixture
+        .phases
+        .iter()
+        .fold((Real::INFINITY, 0.0 as Real), |(lo, hi), p| {
+            (lo.min(p.rest_density), hi.max(p.rest_density))
+        });
+    if mixture.drift > 0.0 && hi > lo {
+        row_bounds::<K, S>(t, mixture.drift * (hi - lo), &mut scratch.rows);
+        {
+            let view: Vec<&[Real]> = fractions.iter().map(|f| &f[..]).collect();
+            drift_changes::<K, S>(mixture, t, &view, &scratch.rows, &mut scratch.changes);
+        }
+        for (k, f) in fractions.iter_mut().enumerate() {
+            for (i, a) in f.iter_mut().enumerate().take(n) {
+                *a += scratch.changes[i * np + k];
+            }
+        }
+    }
+    if mixture.diffusivity > 0.0 {
+        let rest = t.pairs.mass / t.volume;
+        let (a, b) = (&mut scratch.diffusion.0, &mut scratch.diffusion.1);
+        for f in fractions.iter_mut() {
+            crate::scalars::diffuse(&t.pairs, rest, (mixture.diffusivity, t.dt), f, (a, b));
+        }
+    }
+}
