@@ -11,6 +11,13 @@ const SPACING: Real = 0.1 / 8.0;
 /// Oil droplets of 1 mm in water: Stokes' `τ = d²/(18μ)`, μ = 10⁻³ Pa·s.
 const TAU: Real = 1e-6 / (18.0 * 1e-3);
 const DIFFUSIVITY: Real = 1e-5;
+/// DFSPH's bottom pressure error in this tank with one liquid: the same tank with the drift
+/// off (a uniform mix, one liquid of 900 kg/m³), averaged from 1 s to 5 s, reads +1.76 ±
+/// 0.95 % over five runs perturbed at round-off (the viscosity 0.5 + k·10⁻⁵; frame to frame
+/// it rings by 4.5 %; `cargo run --release --example mixture_probe -- --drift 0 --seconds 5
+/// --every 0.0167 --viscosity V`, column 5). Its mean plus three standard deviations. (With the
+/// drift, the same five runs: +1.31 ± 0.62 %.)
+const PRESSURE_TOLERANCE: Real = 0.0176 + 3.0 * 0.0095;
 
 fn emulsion(drift: Real) -> Mixture {
     Mixture {
@@ -51,7 +58,8 @@ struct Run {
     volume_change: [f64; 2],
     /// Substeps taken.
     substeps: u64,
-    /// The bottom pressure's error, averaged over the last second.
+    /// The bottom pressure's error, averaged over the last two seconds (the column's weight
+    /// does not depend on how the phases are layered, so neither does the reference).
     pressure_error: Real,
     /// Smallest fraction and largest `|Σ_k α_k − 1|` at the end.
     bounds: (Real, Real),
@@ -60,16 +68,18 @@ struct Run {
     thickness: Option<Real>,
 }
 
-/// Steps `seconds` at 60 frames per second.
-fn run(t: &mut MixedTank, seconds: Real) -> Run {
+/// Steps `seconds` at 60 frames per second, then measures; the bottom pressure is averaged
+/// from `average_from` seconds on.
+fn run(t: &mut MixedTank, seconds: Real, average_from: Real) -> Run {
     let v0 = [t.phase_volume(0), t.phase_volume(1)];
     let frames = (seconds * 60.0).round() as usize;
+    let first = (average_from * 60.0).round() as usize;
     let (mut sum, mut count, mut substeps) = (0.0, 0, 0u64);
     for k in 0..frames {
         let report = t.world.step().unwrap();
         assert_eq!(report.non_finite, 0, "frame {k}: {report:?}");
         substeps += report.substeps as u64;
-        if k + 60 >= frames {
+        if k >= first {
             sum += t.bottom_pressure_error();
             count += 1;
         }
@@ -87,7 +97,7 @@ fn run(t: &mut MixedTank, seconds: Real) -> Run {
         expected: t.volume_interface(0),
         volume_change: [0, 1].map(|k| t.phase_volume(k) / v0[k] - 1.0),
         substeps,
-        pressure_error: sum / count as Real,
+        pressure_error: if count > 0 { sum / count as Real } else { 0.0 },
         bounds: (min, sum_error),
         thickness: t.interface_thickness(1),
     }
@@ -102,10 +112,9 @@ fn separation_time(t: &MixedTank) -> Real {
 
 /// The checks of a run that separated: the oil fraction crosses 0.5 within one spacing of
 /// the height the volumes give; each phase's volume is conserved to round-off (each
-/// substep rounds each fraction's update twice, drift and diffusion, by at most 2⁻²⁴ for
-/// a fraction ≤ 1: at most `4·2⁻²⁴` per substep relative to a phase's `Σα = n/2`); the
-/// fractions stay in `[0, 1]` and sum to 1 to round-off; the bottom pressure is the two
-/// layers' weight within the 2 % the one-fluid tank holds (tests/validation.rs).
+/// substep rounds each fraction's update three times, drift, diffusion and the division by
+/// the sum, by at most 2⁻²⁴ for a fraction ≤ 1: at most `6·2⁻²⁴` per substep relative to a
+/// phase's `Σα = n/2`); the fractions stay in `[0, 1]` and sum to 1 to round-off.
 fn assert_separated(r: &Run, what: &str) {
     let crossing = r.crossing.unwrap_or(Real::INFINITY);
     assert!(
@@ -113,52 +122,58 @@ fn assert_separated(r: &Run, what: &str) {
         "{what}: the oil fraction crosses 0.5 at {crossing} m, the volumes give {} m: {r:?}",
         r.expected
     );
-    let bound = 4.0 * r.substeps as f64 * (2.0f64).powi(-24);
+    let bound = 6.0 * r.substeps as f64 * (2.0f64).powi(-24);
     for (k, dv) in r.volume_change.iter().enumerate() {
         assert!(
             dv.abs() <= bound,
             "{what}: phase {k} volume {dv:e} > {bound:e}"
         );
     }
-    assert!(r.bounds.0 >= -1e-6 && r.bounds.1 <= 1e-5, "{what}: {r:?}");
-    assert!(r.pressure_error.abs() <= 0.02, "{what}: {r:?}");
+    assert!(r.bounds.0 >= -1e-6 && r.bounds.1 <= 1e-6, "{what}: {r:?}");
+}
+
+/// Runs a tank to 1.5 times its separation time (checked), then on to 5 s (checked again:
+/// it stays layered). The bottom pressure, averaged from 1 s to 5 s, is the two layers'
+/// weight `ρ_oil·g·h_oil + ρ_water·g·h_water` within [`PRESSURE_TOLERANCE`], DFSPH's own in
+/// this tank (the column's weight does not depend on how the phases are layered, so neither
+/// does the reference). The same tank with the drift off does not separate.
+fn separate(start: MixedStart, what: &str) {
+    let mut t = tank(TAU, start.clone());
+    let seconds = 1.5 * separation_time(&t);
+    let first = run(&mut t, seconds, 1.0);
+    eprintln!("{what}, {seconds:.2} s: {first:?}");
+    assert_separated(&first, what);
+    let second = run(&mut t, 5.0 - seconds, 0.0);
+    eprintln!("{what}, 5 s: {second:?}");
+    assert_separated(&second, what);
+    let (w1, w2) = (seconds - 1.0, 5.0 - seconds);
+    let pressure = (first.pressure_error * w1 + second.pressure_error * w2) / (w1 + w2);
+    eprintln!("{what}: bottom pressure {pressure:+.4} (1 s to 5 s)");
+    assert!(pressure.abs() <= PRESSURE_TOLERANCE, "{what}: {pressure}");
+
+    let mut off = tank(0.0, start);
+    let r = run(&mut off, seconds, seconds);
+    eprintln!("{what}, drift off, {seconds:.2} s: {r:?}");
+    let crossing = r.crossing.unwrap_or(Real::INFINITY);
+    assert!(
+        (crossing - r.expected).abs() > SPACING,
+        "{what}: without drift the mix must not separate: {r:?}"
+    );
 }
 
 /// Every particle at half oil, half water: within 1.5 times the separation time the oil is
-/// on top; with the drift switched off (diffusion only) the same checks fail: the mix stays
-/// at 0.5 everywhere and its profile never rises through 0.5 cleanly.
+/// on top; with the drift switched off (diffusion only) the mix stays at 0.5 everywhere.
 #[test]
 fn an_emulsion_separates_into_layers() {
-    let mut t = tank(TAU, MixedStart::Uniform(vec![0.5, 0.5]));
-    let seconds = 1.5 * separation_time(&t);
-    let r = run(&mut t, seconds);
-    eprintln!("uniform 0.5, {seconds:.2} s: {r:?}");
-    assert_separated(&r, "uniform");
-    let mut off = tank(0.0, MixedStart::Uniform(vec![0.5, 0.5]));
-    let r_off = run(&mut off, seconds);
-    eprintln!("uniform 0.5, drift off: {r_off:?}");
-    let crossing = r_off.crossing.unwrap_or(Real::INFINITY);
-    assert!(
-        (crossing - r_off.expected).abs() > SPACING,
-        "without drift the mix must not separate: {r_off:?}"
-    );
+    separate(MixedStart::Uniform(vec![0.5, 0.5]), "uniform 0.5");
 }
 
 /// Pure particles of oil and water in a checkerboard: the phases swap between neighbours
 /// instead of the particles passing each other, and the tank separates as from the uniform
-/// mix (interacting fluids stall at 0.19 m for this start, `fluid::interaction`).
+/// mix (interacting fluids stall at 0.19 m from this start, `fluid::interaction`).
 #[test]
 fn a_checkerboard_of_pure_particles_separates() {
-    let mut t = tank(TAU, MixedStart::Checker);
-    let seconds = 1.5 * separation_time(&t);
-    let r = run(&mut t, seconds);
-    eprintln!("checkerboard, {seconds:.2} s: {r:?}");
-    assert_separated(&r, "checkerboard");
-    let mut off = tank(0.0, MixedStart::Checker);
-    let r_off = run(&mut off, seconds);
-    eprintln!("checkerboard, drift off: {r_off:?}");
-    let crossing = r_off.crossing.unwrap_or(Real::INFINITY);
-    assert!((crossing - r_off.expected).abs() > SPACING, "{r_off:?}");
+    separate(MixedStart::Checker, "checkerboard");
 }
 
 /// One and two threads give the same bits: positions, velocities and fractions.

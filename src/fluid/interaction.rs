@@ -181,7 +181,9 @@
 //! So the mix is held by the pressure solve's incompressibility at the particle scale, not by
 //! a wrong interface term: the pressure force is Solenthaler & Pajarola's symmetric
 //! `(p_i/δ_i² + p_j/δ_j²)` (checked above), and the layers, the lock exchange and the
-//! bottom pressure come out right.
+//! bottom pressure come out right. A mixture ([`crate::mixture`]) separates such a mix: its
+//! phases move through the particles instead (the checkerboard of single particles reaches
+//! 0.101 m in 2.75 s there).
 
 use super::{Fluid, FluidSet};
 use crate::error::{SphError, SphResult};

@@ -145,6 +145,11 @@ impl WorldBuilder<'_> {
             self.add_fill(&mut fluid, fill)
                 .map_err(|m| self.invalid(field(&format!(".fill[{k}]")), m))?;
         }
+        if let Some(fractions) = f.mixture.as_ref().and_then(|m| m.fractions.as_ref()) {
+            fluid
+                .set_fractions(fractions)
+                .map_err(|e| self.invalid(field(".mixture.fractions"), e.to_string()))?;
+        }
         self.add_sources(fi, f, &mut fluid)?;
         if f.capacity.is_some() {
             fluid

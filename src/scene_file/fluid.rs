@@ -416,6 +416,11 @@ pub struct FluidDesc {
     /// [`crate::fluid::interaction`]). Default: no.
     #[serde(default)]
     pub interacts: Option<bool>,
+    /// Phases mixed in every particle ([`crate::mixture`]): `Mixture(phases: [Phase(rest_density:
+    /// 1000.0, viscosity: 0.5), …], drift: 5.6e-5, diffusivity: 1e-5, fractions: [0.5, 0.5])`,
+    /// `fractions` every particle's at the start (default: pure phase 0). Default: none.
+    #[serde(default)]
+    pub mixture: Option<MixtureDesc>,
     /// Boxes filled with particles at the fluid's spacing ([`Fluid::add_block`](crate::Fluid::add_block)).
     #[serde(default)]
     pub blocks: Vec<BlockDesc>,
@@ -522,6 +527,9 @@ impl FluidDesc {
         if self.interacts == Some(true) {
             b = b.fluid_groups(rapier3d::geometry::InteractionGroups::all());
         }
+        if let Some(m) = &self.mixture {
+            b = b.mixture(m.mixture());
+        }
         b.build()
     }
 }
@@ -543,4 +551,50 @@ pub struct BlockDesc {
     pub min: Vec3,
     /// Size (m), every component positive.
     pub size: PositiveVec3,
+}
+
+/// One phase of a [`MixtureDesc`] ([`crate::mixture::Phase`]).
+#[derive(Copy, Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Phase")]
+pub struct PhaseDesc {
+    /// Rest density (kg/m³).
+    pub rest_density: Positive,
+    /// Viscosity ε (Pa·s).
+    #[serde(default)]
+    pub viscosity: NonNegative,
+}
+
+/// Phases mixed in every particle ([`crate::mixture::Mixture`]) and their fractions at the
+/// start.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename = "Mixture")]
+pub struct MixtureDesc {
+    /// The phases (phase 0 is what added particles are made of).
+    pub phases: Vec<PhaseDesc>,
+    /// The mobility τ (m³·s/kg).
+    pub drift: NonNegative,
+    /// The diffusivity D (m²/s).
+    #[serde(default)]
+    pub diffusivity: NonNegative,
+    /// Every particle's fractions at the start, one per phase (default: pure phase 0).
+    #[serde(default)]
+    pub fractions: Option<Vec<crate::math::Real>>,
+}
+
+impl MixtureDesc {
+    /// The mixture (checked when the parameters are built).
+    pub fn mixture(&self) -> crate::mixture::Mixture {
+        crate::mixture::Mixture {
+            phases: self
+                .phases
+                .iter()
+                .map(|p| crate::mixture::Phase {
+                    rest_density: p.rest_density.0,
+                    viscosity: p.viscosity.0,
+                })
+                .collect(),
+            drift: self.drift.0,
+            diffusivity: self.diffusivity.0,
+        }
+    }
 }

@@ -100,8 +100,8 @@ pub use build::BuiltScene;
 #[cfg(feature = "render")]
 pub use build::scene_bounds;
 pub use fluid::{
-    BlockDesc, EosDesc, FluidDesc, KernelDesc, Preset, SleepDesc, SolverDesc, SpringsDesc,
-    ViscositySolveDesc, WcsphPressureDesc,
+    BlockDesc, EosDesc, FluidDesc, KernelDesc, MixtureDesc, PhaseDesc, Preset, SleepDesc,
+    SolverDesc, SpringsDesc, ViscositySolveDesc, WcsphPressureDesc,
 };
 pub use shapes::{CompoundPart, ShapeDesc};
 pub use sources::{
