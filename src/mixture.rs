@@ -93,9 +93,10 @@
 //!   1155 substeps, and over the next 945);
 //!   `|Σ_k α_k − 1|` ≤ 6·10⁻⁸, the smallest fraction 4·10⁻¹⁵ (none below 0).
 //! - The bottom pressure averaged from 1 s to 5 s against `ρ_oil·g·h_oil +
-//!   ρ_water·g·h_water`: +1.31 ± 0.62 % over five runs perturbed at round-off; the same tank
-//!   without drift (one liquid of 900 kg/m³ in effect): +1.76 ± 0.95 %. The mixture adds no
-//!   error of its own to DFSPH's.
+//!   ρ_water·g·h_water`: +1.31 ± 0.62 % over five runs from the uniform start perturbed at
+//!   round-off (the test's: +2.33 % uniform, −1.25 % checkerboard); the same tank without
+//!   drift (one liquid of 900 kg/m³ in effect): +1.76 ± 0.95 %. The mixture adds no error
+//!   of its own to DFSPH's.
 //! - The interface's thickness (between the heights where the oil fraction's slab profile
 //!   crosses 0.1 and 0.9): 0.129 m at 1 s, 0.034 m at 2 s, then settled at 0.018 m (1.46
 //!   spacings) from 3 s on; with `D` = 0: 0.0175 m; with `D` = 10⁻⁴: 0.024–0.026 m. One slab
