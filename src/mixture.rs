@@ -2,7 +2,7 @@
 //! phases (oil and water, a slurry, a dressing), and the phases separate by drifting
 //! through the particles, not by particles passing each other.
 //!
-//! Opt-in per fluid with [`FluidParams::mixture`] (DFSPH only for now); a fluid without it
+//! Opt-in per fluid with [`FluidParams::mixture`](crate::FluidParams::mixture) (DFSPH only for now); a fluid without it
 //! pays one check per substep. The fractions are read and written with
 //! [`crate::Fluid::fractions`], [`crate::Fluid::fractions_mut`] and
 //! [`crate::Fluid::set_fractions`]; new particles (added, emitted) are pure phase 0.
@@ -113,6 +113,8 @@
 //!   interacting fluids, `crate::fluid::interaction`, for those).
 //! - The drift is Stokes' dilute one at every fraction (no hindered settling), and the
 //!   swapped volumes carry no momentum (a particle's mass changes, its velocity does not).
+//! - A fluid asleep ([`crate::Sleep`], off by default) does not drift: the sleep test
+//!   watches the particles, not their fractions.
 //! - DFSPH only (WCSPH, PBF and Clavet read the same per-particle factors but were not
 //!   tested with it: refused); not in a group of interacting fluids; the explicit viscosity
 //!   only; scalars are not carried by the phases (they stay with the particles).
@@ -146,13 +148,13 @@ pub struct Phase {
     /// Rest density (kg/m³, positive).
     pub rest_density: Real,
     /// Viscosity `ε` of the explicit viscosity force (Pa·s, ≥ 0; see
-    /// [`FluidParams::viscosity`]): a particle's is `Σ_k α_k ε_k`. At most the fluid's
-    /// [`FluidParams::viscosity`], which sets the solvers' explicit limit
+    /// [`FluidParams::viscosity`](crate::FluidParams::viscosity)): a particle's is `Σ_k α_k ε_k`. At most the fluid's
+    /// [`FluidParams::viscosity`](crate::FluidParams::viscosity), which sets the solvers' explicit limit
     /// ([`crate::FluidParamsBuilder::mixture`] sets it to the largest phase's).
     pub viscosity: Real,
 }
 
-/// Phases mixed in every particle of a fluid ([`FluidParams::mixture`]; see the module's
+/// Phases mixed in every particle of a fluid ([`FluidParams::mixture`](crate::FluidParams::mixture); see the module's
 /// docs for the model).
 ///
 /// # Examples

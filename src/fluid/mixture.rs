@@ -83,6 +83,21 @@ impl Fluid {
         Ok(())
     }
 
+    /// Each particle's mass with a mixture, `V·ρ0_i` from its fractions (`V` the particle
+    /// volume); `None` without one.
+    pub(crate) fn mixture_masses(&self) -> Option<Vec<f64>> {
+        let m = self.params.mixture.as_ref()?;
+        let v = (self.params.particle_mass / self.params.rest_density) as f64;
+        let mut out = vec![0.0f64; self.len()];
+        for (k, p) in m.phases.iter().enumerate() {
+            let a = self.fractions(k)?;
+            for (o, &x) in out.iter_mut().zip(a) {
+                *o += v * (p.rest_density as f64) * x as f64;
+            }
+        }
+        Some(out)
+    }
+
     /// The step's check of every particle's fractions (nothing without a mixture).
     ///
     /// # Errors

@@ -742,29 +742,44 @@ impl Fluid {
             .map(|s| (s.name.as_str(), s.diffusivity))
     }
 
-    /// Total mass (kg): particle count times particle mass.
+    /// Total mass (kg): particle count times particle mass (with a mixture, the sum of each
+    /// particle's, [`crate::mixture`]).
     pub fn total_mass(&self) -> Real {
-        self.len() as Real * self.params.particle_mass
+        match self.mixture_masses() {
+            Some(m) => m.iter().sum::<f64>() as Real,
+            None => self.len() as Real * self.params.particle_mass,
+        }
     }
 
-    /// Total linear momentum (kg·m/s), summed in f64.
+    /// Total linear momentum (kg·m/s), summed in f64 (with a mixture, each particle at its
+    /// own mass).
     pub fn linear_momentum(&self) -> [f64; 3] {
-        let m = self.params.particle_mass as f64;
+        let own = self.mixture_masses();
+        let m = |i: usize| {
+            own.as_ref()
+                .map_or(self.params.particle_mass as f64, |m| m[i])
+        };
         let mut p = [0.0f64; 3];
-        for v in &self.velocities {
-            p[0] += m * v.x as f64;
-            p[1] += m * v.y as f64;
-            p[2] += m * v.z as f64;
+        for (i, v) in self.velocities.iter().enumerate() {
+            p[0] += m(i) * v.x as f64;
+            p[1] += m(i) * v.y as f64;
+            p[2] += m(i) * v.z as f64;
         }
         p
     }
 
-    /// Total kinetic energy (J), summed in f64.
+    /// Total kinetic energy (J), summed in f64 (with a mixture, each particle at its own
+    /// mass).
     pub fn kinetic_energy(&self) -> f64 {
-        let m = self.params.particle_mass as f64;
+        let own = self.mixture_masses();
+        let m = |i: usize| {
+            own.as_ref()
+                .map_or(self.params.particle_mass as f64, |m| m[i])
+        };
         self.velocities
             .iter()
-            .map(|v| 0.5 * m * v.length_squared() as f64)
+            .enumerate()
+            .map(|(i, v)| 0.5 * m(i) * v.length_squared() as f64)
             .sum()
     }
 
