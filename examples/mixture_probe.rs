@@ -6,7 +6,8 @@
 //! through 0.5 (m; `-` if it does not), the height from the volumes (m), the interface's
 //! thickness between the profile's 0.1 and 0.9 crossings (m), the bottom pressure's error
 //! against `ρ_oil·g·h_oil + ρ_water·g·h_water`, each phase's volume's relative change, the
-//! smallest fraction and the largest `|Σ_k α_k − 1|`, the RMS particle speed (m/s).
+//! smallest fraction and the largest `|Σ_k α_k − 1|`, the RMS particle speed (m/s); at the
+//! end, the time the phases' transport took against the whole step's.
 //!
 //! `cargo run --release --example mixture_probe -- --start uniform --drift 5.6e-5`
 //! `cargo run --release --example mixture_probe -- --start checker --drift 0` (no drift)
@@ -78,8 +79,9 @@ fn main() {
     );
     let frames = (a.seconds * 60.0).round() as usize;
     let every = ((a.every * 60.0).round() as usize).max(1);
+    let mut timings = rapier_sph::StageTimings::default();
     for k in 1..=frames {
-        t.world.step().unwrap();
+        timings.accumulate(&t.world.step().unwrap().timings);
         if k % every != 0 {
             continue;
         }
@@ -107,6 +109,13 @@ fn main() {
             t.phase_volume(1) / v0[1] - 1.0,
         );
     }
+    let stage = timings.get(rapier_sph::Stage::ScalarDiffusion).as_secs_f64();
+    println!(
+        "# the phases' drift and diffusion (timed as scalar diffusion): {:.3} s of {:.3} s stepping ({:.1} %)",
+        stage,
+        timings.total().as_secs_f64(),
+        100.0 * stage / timings.total().as_secs_f64()
+    );
     let p: Vec<String> = t.profile(1).iter().map(|x| format!("{x:.2}")).collect();
     println!("# oil profile, floor up: {}", p.join(" "));
 }
