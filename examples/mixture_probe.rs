@@ -109,7 +109,9 @@ fn main() {
             t.phase_volume(1) / v0[1] - 1.0,
         );
     }
-    let stage = timings.get(rapier_sph::Stage::ScalarDiffusion).as_secs_f64();
+    let stage = timings
+        .get(rapier_sph::Stage::ScalarDiffusion)
+        .as_secs_f64();
     println!(
         "# the phases' drift and diffusion (timed as scalar diffusion): {:.3} s of {:.3} s stepping ({:.1} %)",
         stage,
