@@ -18,7 +18,8 @@
 //! solver's iterations, the mean compression (the summed density at each step's start, as
 //! the step report counts it) beside the solve's own predicted compression at its stop (what
 //! its 0.1 % target bounds; the difference is the linear prediction's error over a step, see
-//! docs/performance.md), and the particles that left the tank.
+//! docs/performance.md), and the particles that left the tank; then each row's stages (wall
+//! seconds per simulated second, from the step reports' timings).
 //!
 //! Each case runs 3 times (2 with `--quick`) from the same initial state; the fastest run is
 //! reported, because timing on a shared VM varies by ±25 % from run to run.
@@ -145,6 +146,7 @@ fn salva_scene(quick: bool, dfsph: rapier_sph::Dfsph) {
         .num_threads(2)
         .build()
         .unwrap();
+    let mut stages = Vec::new();
     for &n in counts {
         let run = || {
             let params = FluidParamsBuilder::water(0.05)
@@ -159,10 +161,12 @@ fn salva_scene(quick: bool, dfsph: rapier_sph::Dfsph) {
             scene.world.physics.step();
             let steps = 200;
             let (mut it, mut div, mut err, mut predicted) = (0u64, 0u64, 0.0f64, 0.0f64);
+            let mut timings = StageTimings::default();
             let t0 = Instant::now();
             let c0 = cpu_seconds();
             for _ in 0..steps {
                 let r = scene.world.step_fluids().unwrap();
+                timings.accumulate(&r.timings);
                 it += r.solver_iterations as u64;
                 div += r.divergence_iterations as u64;
                 err += r.mean_density_error as f64;
@@ -177,14 +181,15 @@ fn salva_scene(quick: bool, dfsph: rapier_sph::Dfsph) {
                 (it, div),
                 (err / steps as f64, predicted / steps as f64),
                 scene.escaped(),
-                steps,
+                (steps, timings),
             )
         };
         let best = (0..2)
             .map(|_| pool.install(run))
             .min_by(|a, b| a.0.0.total_cmp(&b.0.0))
             .unwrap();
-        let ((wall, cpu), particles, (it, div), (err, predicted), escaped, steps) = best;
+        let ((wall, cpu), particles, (it, div), (err, predicted), escaped, (steps, timings)) = best;
+        stages.push((particles, timings, steps as f64 * 0.005));
         let sps = steps as f64 / wall;
         println!(
             "| {} | {:.2} | {:.2} | {:.1} | {:.3} | {:.2} | {:.2} | {:.3} % | {:.3} % | {} |",
@@ -199,6 +204,34 @@ fn salva_scene(quick: bool, dfsph: rapier_sph::Dfsph) {
             100.0 * predicted,
             escaped
         );
+    }
+    print_salva_stages(&stages);
+}
+
+/// The salva rows' stage times (the fastest run's), in wall seconds per simulated second;
+/// stages that took no time are left out.
+fn print_salva_stages(stages: &[(usize, StageTimings, f64)]) {
+    let used: Vec<Stage> = Stage::ALL
+        .into_iter()
+        .filter(|&s| stages.iter().any(|(_, t, _)| t.get(s).as_secs_f64() > 0.0))
+        .collect();
+    println!();
+    print!("| particles (stages: wall s per simulated s) |");
+    for s in &used {
+        print!(" {} |", s.name());
+    }
+    println!();
+    print!("|---|");
+    for _ in &used {
+        print!("---|");
+    }
+    println!();
+    for (n, t, simulated) in stages {
+        print!("| {n} |");
+        for &s in &used {
+            print!(" {:.3} |", t.get(s).as_secs_f64() / simulated);
+        }
+        println!();
     }
 }
 

@@ -100,11 +100,13 @@ pub struct Dfsph {
     /// density iterations per step against 5.1 and 9.7 (`cargo bench --bench step --
     /// --salva --carry-density-error`; docs/performance.md). With the one-sided solve (the
     /// default warm start) the carried errors diverged in that scene (1,639 particles
-    /// escaped), hence the requirement. **Experimental: it diverges in the bench's larger
-    /// salva tank** (62,234 particles, the same 5 cm and 5 ms: 4,085 particles escaped, 28 %
-    /// mean compression; `full_warm_start` alone runs it at 0.19 %, `cargo bench --bench
-    /// step -- --salva --full-warm-start [--carry-density-error]`): not for use until that
-    /// is understood.
+    /// escaped), hence the requirement. Each carried value is clamped to ±5 % of `ρ0`: where
+    /// the front hits a wall the prediction misses by tens of percent for one step, and
+    /// carried unbounded that drove a runaway (the bench's 62,234-particle tank diverged,
+    /// 4,085 particles escaped; the 2,500-particle one at 10 ms steps too). With the clamp
+    /// the 62,234-particle tank reads 0.105 % at 7.2 iterations per step (`full_warm_start`
+    /// alone 0.19 % at 6.6; `cargo bench --bench step -- --salva --carry-density-error`).
+    /// Opt-in: measured in the dam breaks of the salva bench and `tests/solvers.rs` only.
     #[cfg_attr(feature = "snapshot", serde(default))]
     pub carry_density_error: bool,
 }
