@@ -19,13 +19,6 @@ const KNOWN_FAILURES: &[(&str, &str, &str)] = &[
     // (`TimeStepping::Adaptive`) DFSPH (0.65x) and PBF (0.59x) pass, and WCSPH at a quarter
     // of that limit still reaches 3.4x. No NaN, nothing escaped.
     ("16 surface tension x10^4", "WCSPH", "energy grows"),
-    // Clavet's default cohesion throws the tank's spawn lattice (its faces are pulled in,
-    // the layers under them pushed out: `solver::clavet`, "Cohesion"), with one liquid as with
-    // two: two waters in the same tank reach a kinetic energy of 1.18 J, 0.60 of their
-    // initial 1.96 J; the liquid of 100 kg/m³ on top holds a tenth of that potential energy,
-    // and the water's 0.89 J is 1.40 times the initial 0.64 J. Without cohesion the largest
-    // total energy is 0.997 of the initial (tests/interaction.rs). No NaN, nothing escaped.
-    ("18 layers 1:10", "Clavet", "energy grows"),
 ];
 
 /// Runs that take 10–30 s each: left to the example (their verdicts are in docs/stability.md).

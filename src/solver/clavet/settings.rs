@@ -22,17 +22,18 @@ use crate::math::Real;
 pub struct Clavet {
     /// Stiffness `k`, as a multiple of `c²/(h·ρ0)` (default 1).
     pub stiffness: Real,
-    /// Cohesion `k_c`: the stiffness of the pressure where the fluid is below its rest density
-    /// (negative: it pulls particles together; the method's surface tension), same units
-    /// (default 1, the default stiffness; the module's "Cohesion" says why it is not
-    /// `stiffness`). Setting it equal to `stiffness` gives the paper's relaxation.
+    /// Cohesion `k_c`: the stiffness of the tension that pulls in particles sparser than a
+    /// flat free surface of the rest lattice (its top layer's density,
+    /// [`super::cohesion_threshold`]: edges, corners and curved parts of a surface, sheets,
+    /// threads, droplets), same units (default 1, the default stiffness). It holds the liquid
+    /// together (the method's surface tension) without holding its bulk: at rest and in
+    /// the bulk there is no tension (the module's "Cohesion" says why). 0: no cohesion.
     #[cfg_attr(feature = "snapshot", serde(default = "default_cohesion"))]
     pub cohesion: Real,
-    /// Near stiffness `k_near`, same units. `None` (default): the value that makes a flat
-    /// free surface of the rest lattice an equilibrium against the cohesion (see
-    /// [`super::surface_equilibrium_near_ratio`]; about 1.07·k_c at `h = 2s`), so a resting pool
-    /// neither boils off its top layer (near pressure too strong: the paper's ratio 2.5 did,
-    /// the fluid expanded at once) nor pulls it in.
+    /// Near stiffness `k_near`, same units: the short-range push against near densities
+    /// above what the particle's density gives in the rest lattice (clumps, compression; the
+    /// module's "Near pressure"). `None` (default): `cohesion`, so a fluid without cohesion has
+    /// no near pressure.
     pub near_stiffness: Option<Real>,
     /// Viscoelastic springs between neighbours (section 5 of the paper; see
     /// `solver/springs.rs`). `None` (default): a plain liquid, and the spring stage is skipped.

@@ -104,15 +104,18 @@ impl PressureSolver for ClavetState {
         });
         ctx.report.solver_iterations += 1;
         ctx.report.solver_density_error = ctx.report.solver_density_error.max(error);
-        // Densities: the relative density times ρ0; pressures: a linear equation of state
-        // with the fluid's speed of sound at that density (the acceleration the relaxation
-        // applies). The method's densities do not count the particle itself: a particle whose
-        // only neighbour sits at the support's edge has a density near 0, and `1/ρ` (the
-        // particle's volume in the viscosity term) near 10^38, which turned the viscosity into
-        // NaN (20–50 m/s at 0.2–0.4 m spacing: up to 118 of 512 particles quarantined). `1/ρ`
-        // counts the particle's own kernel `(1 − 0)² = 1`, as an SPH density does: at most
-        // `ρ0_lattice/ρ0` with `ρ0_lattice` the lattice's `Σ(1 − q)²`.
+        // Densities: the relative density times ρ0; pressures: the relaxation's pressure as a
+        // linear equation of state with the fluid's speed of sound (the acceleration the
+        // relaxation applies): the stiffness above ρ0, none between the cohesion threshold and
+        // ρ0, the cohesion below the threshold. The method's densities do not count the
+        // particle itself: a particle whose only neighbour sits at the support's edge has a
+        // density near 0, and `1/ρ` (the particle's volume in the viscosity term) near 10^38,
+        // which turned the viscosity into NaN (20–50 m/s at 0.2–0.4 m spacing: up to 118 of
+        // 512 particles quarantined). `1/ρ` counts the particle's own kernel `(1 − 0)² = 1`,
+        // as an SPH density does: at most `ρ0_lattice/ρ0` with `ρ0_lattice` the lattice's
+        // `Σ(1 − q)²`.
         let self_density = p.rest_density / super::lattice_rest_density(h, p.particle_spacing);
+        let threshold = super::cohesion_threshold(h, p.particle_spacing);
         for ((rho, pr), inv) in ctx
             .densities
             .iter_mut()
@@ -122,14 +125,14 @@ impl PressureSolver for ClavetState {
             let rel = *rho;
             *rho = rel * p.rest_density;
             *inv = 1.0 / rho.max(self_density);
-            let k = if rel < 1.0 {
-                settings.cohesion
+            let excess = if rel >= 1.0 {
+                settings.stiffness * (rel - 1.0)
             } else {
-                settings.stiffness
+                settings.cohesion * (rel - threshold).min(0.0)
             };
             // Clamped to the largest finite `f32`: at the fastest accepted speed of sound
             // `c²·ρ0` overflows (c = 10¹⁸ m/s gave −∞).
-            *pr = (k * p.rest_density * c * c * (rel - 1.0)).clamp(-Real::MAX, Real::MAX);
+            *pr = (excess * p.rest_density * c * c).clamp(-Real::MAX, Real::MAX);
         }
         // Interacting fluids: each particle's own fluid's pressure, `ρ0_i/ρ_ref` times the
         // reference's at the same relative density (`crate::fluid::interaction`).
@@ -167,11 +170,13 @@ impl PressureSolver for ClavetState {
     /// stiffnesses are in units of `c²/(h·ρ0)`, its springs' in `c²/(h²·N)`). Linear
     /// stability: with the forces taken at the predicted positions, a mode of stiffness λ (per
     /// unit mass) evolves as `x' = (1 − θ)(x + dt·v)`, `θ = λ·dt²`, bounded iff θ ≤ 4/3. The
-    /// stiffest mode of the rest lattice at `h = 2s` (power iteration on periodic lattices of
-    /// 6–12 spacings) has λ ≈ 6.4–6.8·k·c²/h², so θ ≈ 6.8·courant² = 1.08 at the default
-    /// Courant number 0.4. It grows faster than c²/h² with the support in spacings (λ·h²/c² =
-    /// 6.6, 12.1, 21.1 at h/s = 2, 2.5, 3), so the fluid's own stiffest mode, computed once per
-    /// parameter set, also bounds the substep: θ ≤ [`THETA_PER_COURANT2`]·courant².
+    /// stiffest mode of the lattice (power iteration on a periodic lattice 0.1 % compressed,
+    /// where both pressures act) has λ ≈ 4.1·k·c²/h² at `h = 2s`, so θ ≈ 4.1·courant² = 0.66
+    /// at the default Courant number 0.4. It grows faster than c²/h² with the support in
+    /// spacings (λ·h²/c² = 4.1, 6.9, 11.1 at h/s = 2, 2.5, 3; the paper's pressures, whose
+    /// tension and near pressure were on at rest, had 6.6, 12.1, 21.1), so the fluid's own
+    /// stiffest mode, computed once per parameter set, also bounds the substep:
+    /// θ ≤ [`THETA_PER_COURANT2`]·courant².
     fn time_step_limit(
         &mut self,
         settings: &Clavet,
