@@ -50,9 +50,9 @@
 //! has its own stiffness `k_c` ([`Clavet::cohesion`], default 1, the default `k`), so a
 //! stiffer (less compressible) fluid is not also a more cohesive one. Measured on the column
 //! above (`cargo run --release --example column -- --solver clavet[-walls] --n 8 --spacing
-//! 0.0125 --seconds 2 --support S`): largest kinetic energy 0.0013 / 0.0015 of the potential
+//! 0.0125 --seconds 2 --support S`): largest kinetic energy 0.0013 / 0.0016 of the potential
 //! energy with walls in the densities (2 / 3 spacings; none of the faces is free but the top),
-//! 0.058 / 0.68 with contact-only walls (non-wetting for the cohesion: the column rounds off
+//! 0.058 / 0.46 with contact-only walls (non-wetting for the cohesion: the column rounds off
 //! the tank's vertical edges, at 3 spacings most of its 8 × 8 section). The 2,000 kg/m³ box
 //! lands on one layer (0.0400 m) and sinks through the 0.44 m of water in 1–2.5 s
 //! (`tests/light_bodies.rs`). A block thrown apart in zero gravity at 1–3 m/s stays one group
