@@ -733,7 +733,7 @@ fn clavet_column_with_walls_in_its_densities_stays_at_rest() {
 /// The same column with Clavet's default cohesion: the spawn lattice is at rest, its flat top
 /// face included (the cohesion pulls only particles sparser than a flat face's top layer;
 /// `solver::clavet`, "Cohesion"). Measured: largest kinetic energy 0.13 % of the potential
-/// energy at 2 spacings, 0.15 % at 3. While the cohesion pulled every particle under `ρ0` and
+/// energy at 2 spacings, 0.16 % at 3. While the cohesion pulled every particle under `ρ0` and
 /// the near pressure pushed everywhere, this column was thrown up (2.1 and 17 times the
 /// potential energy) and stuck to the tank's lid.
 #[test]
