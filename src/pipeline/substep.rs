@@ -83,6 +83,7 @@ pub(crate) fn substep(
         coupling.as_deref_mut(),
         report,
     );
+    let contacts_before = report.contacts;
     let depenetrated = collider_contact(
         fluid,
         &mut rt.ws,
@@ -91,6 +92,7 @@ pub(crate) fn substep(
         coupling,
         report,
     );
+    let non_finite = outcome.non_finite + contact_non_finite(fluid, report, contacts_before);
     let max_speed = limit_near_kinematic(fluid, &rt.ws, outcome.max_speed, report);
     diffuse_scalars(fluid, &mut rt.ws, input.dt, report);
     // Particles pushed out of a solid land on its surface, on top of each other: the next
@@ -98,12 +100,24 @@ pub(crate) fn substep(
     fluid.needs_depenetration = depenetrated > 0;
     wrap_periodic(fluid, report);
     rt.ws.max_speed = max_speed;
-    report.non_finite += outcome.non_finite;
+    report.non_finite += non_finite;
     report.max_speed = report.max_speed.max(max_speed);
     SubstepResult {
         mean_error,
-        non_finite: outcome.non_finite,
+        non_finite,
     }
+}
+
+/// Particles the contact stage left non-finite (counted only when it touched any): a
+/// finite but absurd speed (the fuzz's 5·10¹⁴ m/s) can overflow the reflection or the body
+/// exchange, and the frame's quarantine must see it before the next substep's sums do.
+fn contact_non_finite(fluid: &Fluid, report: &mut StepReport, contacts_before: usize) -> usize {
+    if report.contacts == contacts_before {
+        return 0;
+    }
+    report.timed(Stage::Contact, || {
+        integrate::scan(fluid.positions(), fluid.velocities()).0
+    })
 }
 
 /// The overlap relaxation (pipeline/relax.rs) when particles were added or pushed out of a
