@@ -52,6 +52,21 @@ pub fn has_avx512() -> bool {
     }
 }
 
+/// `true` when the CPU has the `popcnt` instruction (checked at run time; `false` off
+/// x86-64). The AVX-512 neighbour scan counts each block's accepted candidates with it
+/// (without it, a bit-twiddling count of ten instructions per block and member).
+#[inline(always)]
+pub fn has_popcnt() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("popcnt")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
 /// The widest explicit vector path the pair passes may take (`pressure::fused`, `density`):
 /// 2 AVX-512 F and VL, 1 AVX2, 0 none (detected at run time; in this crate's unit tests,
 /// also bounded by the ceiling [`wide`] obeys, so one test compares every path).
@@ -170,6 +185,67 @@ pub(crate) mod avx {
     pub(crate) unsafe fn gather(base: *const f32, idx: __m256i) -> __m256 {
         // SAFETY: as the caller promised.
         unsafe { _mm256_i32gather_ps::<4>(base, idx) }
+    }
+
+    /// The indices `rest` (at most [`LANES`]) padded with `pad` to a block. A masked load
+    /// and one register store, not a copy loop: the copy became a `memcpy` call, and the
+    /// block's 8-lane load after it a store-forwarding stall.
+    ///
+    /// # Safety
+    /// AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn padded_block(rest: &[u32], pad: u32) -> [u32; LANES] {
+        assert!(rest.len() <= LANES);
+        let mut out = [0u32; LANES];
+        // SAFETY: AVX2 (the caller's); the masked load reads only the lanes below
+        // `rest.len()`, which are inside `rest`; `out` holds 8 u32.
+        unsafe {
+            let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+            let valid = _mm256_cmpgt_epi32(_mm256_set1_epi32(rest.len() as i32), lane);
+            let got = _mm256_maskload_epi32(rest.as_ptr() as *const i32, valid);
+            let idx = _mm256_blendv_epi8(_mm256_set1_epi32(pad as i32), got, valid);
+            _mm256_storeu_si256(out.as_mut_ptr() as *mut __m256i, idx);
+        }
+        out
+    }
+
+    /// The 8×8 transpose: lane `l` of output `k` is lane `k` of input `l`.
+    ///
+    /// # Safety
+    /// AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn transpose(a: [__m256; 8]) -> [__m256; 8] {
+        // SAFETY: AVX (the caller's).
+        unsafe {
+            let t0 = _mm256_unpacklo_ps(a[0], a[1]);
+            let t1 = _mm256_unpackhi_ps(a[0], a[1]);
+            let t2 = _mm256_unpacklo_ps(a[2], a[3]);
+            let t3 = _mm256_unpackhi_ps(a[2], a[3]);
+            let t4 = _mm256_unpacklo_ps(a[4], a[5]);
+            let t5 = _mm256_unpackhi_ps(a[4], a[5]);
+            let t6 = _mm256_unpacklo_ps(a[6], a[7]);
+            let t7 = _mm256_unpackhi_ps(a[6], a[7]);
+            let u0 = _mm256_shuffle_ps::<0x44>(t0, t2);
+            let u1 = _mm256_shuffle_ps::<0xEE>(t0, t2);
+            let u2 = _mm256_shuffle_ps::<0x44>(t1, t3);
+            let u3 = _mm256_shuffle_ps::<0xEE>(t1, t3);
+            let u4 = _mm256_shuffle_ps::<0x44>(t4, t6);
+            let u5 = _mm256_shuffle_ps::<0xEE>(t4, t6);
+            let u6 = _mm256_shuffle_ps::<0x44>(t5, t7);
+            let u7 = _mm256_shuffle_ps::<0xEE>(t5, t7);
+            [
+                _mm256_permute2f128_ps::<0x20>(u0, u4),
+                _mm256_permute2f128_ps::<0x20>(u1, u5),
+                _mm256_permute2f128_ps::<0x20>(u2, u6),
+                _mm256_permute2f128_ps::<0x20>(u3, u7),
+                _mm256_permute2f128_ps::<0x31>(u0, u4),
+                _mm256_permute2f128_ps::<0x31>(u1, u5),
+                _mm256_permute2f128_ps::<0x31>(u2, u6),
+                _mm256_permute2f128_ps::<0x31>(u3, u7),
+            ]
+        }
     }
 
     /// Eight lanes stored as an array.

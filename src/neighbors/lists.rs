@@ -55,7 +55,7 @@ impl Isa {
     fn best(periodic: bool) -> Self {
         if periodic {
             Isa::Portable
-        } else if crate::par::has_avx512() {
+        } else if crate::par::has_avx512() && crate::par::has_popcnt() {
             Isa::Avx512
         } else if crate::par::has_avx2() {
             Isa::Avx2
@@ -493,7 +493,7 @@ fn scan_block<S: Separation, const AVX2: bool>(
 /// # Safety
 /// The CPU must support AVX-512F.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
+#[target_feature(enable = "avx512f,popcnt")]
 // Indexed loops over the group: the same loops with `zip`/`enumerate` made the neighbour
 // search 12 % slower (217 → 244 µs at 2,500 particles on one thread).
 #[allow(clippy::needless_range_loop)]
@@ -523,7 +523,7 @@ unsafe fn scan_chunk_avx512<S: Separation>(
 /// # Safety
 /// The CPU must support AVX-512F, and the coordinate arrays must hold `n + WIDE` entries.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
+#[target_feature(enable = "avx512f,popcnt")]
 #[allow(clippy::needless_range_loop)] // indexed group loops (see `scan_chunk_avx512`)
 unsafe fn scan_groups_avx512<S: Separation>(
     (start, end): (usize, usize),
@@ -577,7 +577,7 @@ unsafe fn scan_groups_avx512<S: Separation>(
 /// # Safety
 /// The CPU must support AVX-512F, and `j0 + WIDE` must not pass the coordinate arrays' end.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
+#[target_feature(enable = "avx512f,popcnt")]
 #[inline]
 #[allow(clippy::needless_range_loop)] // indexed group loops (see `scan_chunk_avx512`)
 unsafe fn scan_wide_block<S: Separation>(
@@ -624,10 +624,13 @@ unsafe fn scan_wide_block<S: Separation>(
             mask &= !(1 << (me - j0));
         }
         let packed = _mm512_maskz_compress_epi32(mask as __mmask16, index);
-        // Each member's region holds `PAD = WIDE` entries of slack per range.
-        let out = &mut buf[group.cursor[q]..group.cursor[q] + WIDE];
-        // SAFETY: `out` is 16 u32 long; unaligned store.
-        unsafe { _mm512_storeu_si512(out.as_mut_ptr() as *mut __m512i, packed) };
+        // Each member's region holds `PAD = WIDE` entries of slack per range: a block
+        // starts at most `e − s − 1` entries past its range's start and stores `WIDE`.
+        let at = group.cursor[q];
+        debug_assert!(at + WIDE <= buf.len());
+        // SAFETY: `at + WIDE ≤ (q + 1)·room ≤ buf.len()` (see `reserve_group`: the room
+        // counts every candidate and `PAD` per range); unaligned store of 16 u32.
+        unsafe { _mm512_storeu_si512(buf.as_mut_ptr().add(at) as *mut __m512i, packed) };
         group.cursor[q] += mask.count_ones() as usize;
     }
 }
@@ -806,7 +809,7 @@ mod tests {
         if crate::par::has_avx2() {
             out.push(Isa::Avx2);
         }
-        if crate::par::has_avx512() {
+        if crate::par::has_avx512() && crate::par::has_popcnt() {
             out.push(Isa::Avx512);
         }
         out
