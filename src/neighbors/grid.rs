@@ -519,11 +519,13 @@ impl NeighborGrid {
                 // after a cell `pc` of key `pk` was found, a larger key of the same row, with
                 // the keys between them looked up and absent, can only be cell `pc + 1`.
                 let mut prev: Option<(u32, u64)> = None;
-                let mut cells = [EMPTY; 3];
+                // The row's cells are found in place in the window, entry by entry: a
+                // local array copied there whole after 4-byte writes made an 8-byte read of
+                // 4-byte stores (a store-forwarding stall per row: 11 % of the scan's time
+                // at 100,000 particles).
+                let cells = &mut window.cells[row];
                 let first = if slide {
-                    let [_, a, b] = window.cells[row];
-                    cells[0] = a;
-                    cells[1] = b;
+                    (cells[0], cells[1], cells[2]) = (cells[1], cells[2], EMPTY);
                     for k in 0..2 {
                         if cells[k] != EMPTY {
                             prev = Some((cells[k], pack(xs[k], cy, cz)));
@@ -533,6 +535,7 @@ impl NeighborGrid {
                     }
                     2
                 } else {
+                    *cells = [EMPTY; 3];
                     0
                 };
                 for (k, &cx) in xs.iter().enumerate().skip(first) {
@@ -552,9 +555,8 @@ impl NeighborGrid {
                         cells[k] = n;
                     }
                 }
-                window.cells[row] = cells;
                 row += 1;
-                for n in cells {
+                for &n in cells.iter() {
                     if n != EMPTY {
                         let (s, e) = self.cell_range(n);
                         if out.len > 0 && out.ranges[out.len - 1].1 == s {
