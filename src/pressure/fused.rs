@@ -643,7 +643,12 @@ mod tests {
         x[count - 1] = x[0];
         let mut grid = NeighborGrid::default();
         grid.sort(&x, h);
-        assert!(grid.permutation().iter().enumerate().all(|(k, p)| p.1 as usize == k));
+        assert!(
+            grid.permutation()
+                .iter()
+                .enumerate()
+                .all(|(k, p)| p.1 as usize == k)
+        );
         grid.build_cells();
         let mut lists = NeighborLists::default();
         lists.build(&grid, &x, h);
