@@ -77,8 +77,82 @@ fn add_joints(w: &mut FluidWorld) {
     }
 }
 
+/// The joints' world with resting contacts, a sensor, contact-force events and a multibody
+/// lying on a floor ([`add_resting`]), stepped until they rest: what the narrow phase keeps
+/// for the solver (per-pair hints, the solver contact graph's buckets, the force-event list)
+/// and the multibodies' matrices are all in use.
+fn cache_snapshot_bytes() -> &'static [u8] {
+    static BYTES: OnceLock<Vec<u8>> = OnceLock::new();
+    BYTES.get_or_init(|| {
+        let mut w = world(true);
+        add_resting(&mut w);
+        for _ in 0..40 {
+            w.step().unwrap();
+        }
+        snapshot::to_bytes(&w).unwrap()
+    })
+}
+
+/// Beside the tank, on a floor of its own: a stack of two boxes (a dynamic pair), a box with
+/// contact-force events at threshold 0, a box inside a sensor, and a multibody chain of
+/// three balls on revolute joints lying on the floor (its contacts are solved by the
+/// generic path).
+fn add_resting(w: &mut FluidWorld) {
+    use rapier_sph::rapier3d::prelude::{ActiveEvents, RevoluteJointBuilder};
+    let p = &mut w.physics;
+    p.insert_collider(
+        ColliderBuilder::cuboid(0.6, 0.05, 0.3).translation(Vector::new(-2.0, 0.0, 0.0)),
+        None,
+    );
+    let cube = |p: &mut rapier_sph::rapier3d::prelude::PhysicsWorld, x: f32, y: f32| {
+        let h = p.insert_body(RigidBodyBuilder::dynamic().translation(Vector::new(x, y, 0.0)));
+        p.insert_collider(ColliderBuilder::cuboid(0.05, 0.05, 0.05), Some(h));
+        h
+    };
+    cube(p, -2.4, 0.1);
+    cube(p, -2.4, 0.2);
+    let loud = p.insert_body(RigidBodyBuilder::dynamic().translation(Vector::new(-2.2, 0.1, 0.0)));
+    p.insert_collider(
+        ColliderBuilder::cuboid(0.05, 0.05, 0.05)
+            .active_events(ActiveEvents::CONTACT_FORCE_EVENTS)
+            .contact_force_event_threshold(0.0),
+        Some(loud),
+    );
+    cube(p, -2.0, 0.1);
+    p.insert_collider(
+        ColliderBuilder::cuboid(0.1, 0.1, 0.1)
+            .translation(Vector::new(-2.0, 0.1, 0.0))
+            .sensor(true),
+        None,
+    );
+    let root = p.insert_body(RigidBodyBuilder::fixed().translation(Vector::new(-1.8, 0.1, 0.0)));
+    p.insert_collider(ColliderBuilder::ball(0.05), Some(root));
+    let mut parent = root;
+    for k in 1..4 {
+        let b = p.insert_body(RigidBodyBuilder::dynamic().translation(Vector::new(
+            -1.8 + 0.11 * k as f32,
+            0.1,
+            0.0,
+        )));
+        p.insert_collider(ColliderBuilder::ball(0.05), Some(b));
+        let joint =
+            RevoluteJointBuilder::new(Vector::Z).local_anchor2(Vector::new(-0.11, 0.0, 0.0));
+        p.multibody_joints.insert(parent, b, joint, true).unwrap();
+        parent = b;
+    }
+}
+
 /// [`snapshot_bytes`]'s world, with joints or without.
 fn world_bytes(joints: bool) -> Vec<u8> {
+    let mut w = world(joints);
+    for _ in 0..6 {
+        w.step().unwrap();
+    }
+    snapshot::to_bytes(&w).unwrap()
+}
+
+/// [`snapshot_bytes`]'s world before it steps.
+fn world(joints: bool) -> FluidWorld {
     {
         let params = FluidParamsBuilder::water(0.05).build().unwrap();
         let mut d = dam_break(&DamBreakConfig::tower(params, 0.4)).unwrap();
@@ -121,10 +195,7 @@ fn world_bytes(joints: bool) -> Vec<u8> {
         if joints {
             add_joints(w);
         }
-        for _ in 0..6 {
-            w.step().unwrap();
-        }
-        snapshot::to_bytes(w).unwrap()
+        d.world
     }
 }
 
@@ -189,6 +260,36 @@ fn joints_span() -> (usize, usize) {
         let start = at.next().expect("the joints' bytes are in the file");
         assert!(at.next().is_none(), "found twice");
         (start, start + part.len())
+    })
+}
+
+/// Where a part of rapier's world lies in [`cache_snapshot_bytes`]: its own encoding, found
+/// once.
+fn cache_span_of(part: Vec<u8>) -> (usize, usize) {
+    let bytes = cache_snapshot_bytes();
+    let mut at = (HEADER..=bytes.len() - part.len()).filter(|&i| bytes[i..].starts_with(&part));
+    let start = at.next().expect("the part's bytes are in the file");
+    assert!(at.next().is_none(), "found twice");
+    (start, start + part.len())
+}
+
+/// Where the narrow phase (its graphs, the collider → node map and the solver's caches)
+/// lies in [`cache_snapshot_bytes`].
+fn narrow_phase_span() -> (usize, usize) {
+    static SPAN: OnceLock<(usize, usize)> = OnceLock::new();
+    *SPAN.get_or_init(|| {
+        let world = snapshot::from_bytes(cache_snapshot_bytes()).unwrap();
+        cache_span_of(postcard::to_allocvec(&world.physics.narrow_phase).unwrap())
+    })
+}
+
+/// Where the multibody joint set (its multibodies' links, vectors, matrices and
+/// workspaces) lies in [`cache_snapshot_bytes`].
+fn multibodies_span() -> (usize, usize) {
+    static SPAN: OnceLock<(usize, usize)> = OnceLock::new();
+    *SPAN.get_or_init(|| {
+        let world = snapshot::from_bytes(cache_snapshot_bytes()).unwrap();
+        cache_span_of(postcard::to_allocvec(&world.physics.multibody_joints).unwrap())
     })
 }
 
@@ -443,6 +544,7 @@ fn a_body_outside_the_active_set_is_refused() {
 fn the_fuzzed_snapshot_loads() {
     load_and_step(snapshot_bytes()).unwrap();
     load_and_step(joint_snapshot_bytes()).unwrap();
+    load_and_step(cache_snapshot_bytes()).unwrap();
 }
 
 /// Counts the outcomes of many resealed corruptions (prints; `--ignored --nocapture`).
@@ -454,17 +556,20 @@ fn resealed_corruption_outcomes() {
     let mut rng = rand_pcg::Pcg64::seed_from_u64(7);
     let (mut encoding, mut invalid, mut ok, mut panics) = (0, 0, 0, 0);
     let mut reasons = std::collections::BTreeMap::<String, usize>::new();
-    std::panic::set_hook(Box::new(|info| {
-        if std::env::var("PANICS").is_ok() {
-            eprintln!("PANIC {info}");
-        }
+    std::panic::set_hook(Box::new(|info| match std::env::var("PANICS").as_deref() {
+        Ok("bt") => eprintln!(
+            "PANIC {info}\n{}",
+            std::backtrace::Backtrace::force_capture()
+        ),
+        Ok(_) => eprintln!("PANIC {info}"),
+        Err(_) => {}
     }));
     for _ in 0..n {
-        let joints = std::env::var("PART").as_deref() == Ok("joints");
-        let mut bytes = if joints {
-            joint_snapshot_bytes()
-        } else {
-            snapshot_bytes()
+        let part = std::env::var("PART");
+        let mut bytes = match part.as_deref() {
+            Ok("joints") => joint_snapshot_bytes(),
+            Ok("narrow_phase" | "multibodies") => cache_snapshot_bytes(),
+            _ => snapshot_bytes(),
         }
         .to_vec();
         let edits: Vec<Edit> = (0..rng.random_range(1..4))
@@ -486,6 +591,8 @@ fn resealed_corruption_outcomes() {
             Ok("islands") => islands_span(),
             Ok("bodies") => bodies_span(),
             Ok("joints") => joints_span(),
+            Ok("narrow_phase") => narrow_phase_span(),
+            Ok("multibodies") => multibodies_span(),
             _ => (HEADER, snapshot_bytes().len()),
         };
         let mut tail = bytes.split_off(to);

@@ -169,6 +169,15 @@ pub(crate) fn mirror_islands(p: &PhysicsWorld) -> Option<(Islands, Vec<u8>)> {
     }
 }
 
+/// The island manager's active-set epoch (the first field of its encoding), which rapier
+/// bumps whenever a body's place in the awake set changes.
+pub(crate) fn active_set_epoch(p: &PhysicsWorld) -> Option<u32> {
+    let bytes = postcard::to_allocvec(&p.islands).ok()?;
+    postcard::take_from_bytes::<u32>(&bytes)
+        .ok()
+        .map(|(epoch, _)| epoch)
+}
+
 /// A body's private ids, decoded from the front of its encoding.
 pub(crate) fn body_ids(rb: &RigidBody) -> Option<BodyIds> {
     let bytes = postcard::to_allocvec(rb).ok()?;

@@ -237,6 +237,12 @@ pub(crate) fn mirror_multibody(set: &MultibodyJointSet) -> Option<MultibodyJoint
     }
 }
 
+/// The multibody set's topology epoch (the last field of its encoding), which rapier bumps
+/// whenever a body joins or leaves a multibody.
+pub(crate) fn topology_epoch(set: &MultibodyJointSet) -> Option<u32> {
+    mirror_multibody(set).map(|m| m.topology_epoch)
+}
+
 /// The arena and the graph well formed; every body the map names (with its generation, a
 /// body of the set) is a link of a multibody of the arena, that link's body, at its graph
 /// node; each multibody's links well formed ([`check_links`]), each link's body mapping back

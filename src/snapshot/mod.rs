@@ -72,6 +72,7 @@
 #![cfg_attr(docsrs, doc(cfg(feature = "snapshot")))]
 
 mod bvh;
+mod caches;
 mod graphs;
 mod islands;
 mod joints;
@@ -340,11 +341,13 @@ fn check_physics(p: &PhysicsWorld) -> Result<(), SphError> {
     check_integration(&p.integration_parameters)?;
     check_bodies(p)?;
     check_colliders(p)?;
-    check_references(p)?;
+    // The graphs first: listing the intersection pairs follows their edges' endpoints.
     graphs::check_narrow_phase(&p.narrow_phase, &p.colliders)?;
+    check_references(p)?;
     islands::check_islands(p)?;
     joints::check_joints(p)?;
     joints::check_set_arenas(p)?;
+    caches::check_solver_caches(p)?;
     bvh::check_broad_phase(&p.broad_phase)?;
     bvh::check_collider_shapes(&p.colliders)
 }
