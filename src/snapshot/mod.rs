@@ -76,6 +76,7 @@ mod caches;
 mod graphs;
 mod islands;
 mod joints;
+mod multibodies;
 
 use crate::error::SphError;
 use crate::fluid::snapshot::FluidState;
