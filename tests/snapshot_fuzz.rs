@@ -5,13 +5,18 @@
 //! checksum refuses them), and random bytes changed in the fluids' part of the payload with
 //! the header's length and checksum rewritten to match, as a file crafted to pass the checksum
 //! would be (the decoder and the state's validation must then refuse it, or the state must
-//! step). The same, resealed, in rapier's broad phase, its island manager and bodies, and
-//! anywhere in the payload: loading's checks refuse it or the world steps.
+//! step). The same, resealed, in rapier's broad phase, its island manager and bodies, its
+//! narrow phase's solver caches and multibodies' matrices, and anywhere in the payload:
+//! loading's checks refuse it or the world steps.
 //! `resealed_corruption_outcomes` (ignored; `PART=physics N=2000 cargo test --release
 //! --features snapshot --test snapshot_fuzz -- --ignored --nocapture`, fixed seed; `PART` =
-//! `fluids`, `physics`, `broad_phase`, `islands`, `bodies`, `joints` or the whole payload when
-//! unset; `joints` corrupts the joint sets of the same world with a rope, a hinged door and a
-//! multibody chain added) counts what resealed corruptions do.
+//! `fluids`, `physics`, `broad_phase`, `islands`, `bodies`, `joints`, `narrow_phase`,
+//! `multibodies` or the whole payload when unset; `joints` corrupts the joint sets of the same
+//! world with a rope, a hinged door and a multibody chain added; `narrow_phase` and
+//! `multibodies` corrupt the narrow phase or the multibody set of that world with, beside the
+//! tank, boxes resting on a floor, a sensor, force events and a multibody lying on it;
+//! `PANICS=1` prints each panic, `PANICS=bt` with a backtrace) counts what resealed
+//! corruptions do.
 #![cfg(feature = "snapshot")]
 
 use proptest::prelude::*;
@@ -510,6 +515,17 @@ proptest! {
         let (from, to) = joints_span();
         let _ = load_and_step(&resealed_in(joint_snapshot_bytes(), from, to, &edits));
     }
+
+    /// Random bytes changed in the narrow phase (its graphs and what it keeps for the solver:
+    /// hints, the solver contact graph, the force-event list, manifolds' solver contacts) or
+    /// in the multibody set (its multibodies' vectors, matrices and workspaces) of a world
+    /// with resting contacts, a sensor, force events and a multibody on a floor, the header
+    /// rewritten to match: refused, or the world steps without panic.
+    #[test]
+    fn resealed_solver_cache_corruptions_never_panic(edits in byte_edits(), multibodies in any::<bool>()) {
+        let (from, to) = if multibodies { multibodies_span() } else { narrow_phase_span() };
+        let _ = load_and_step(&resealed_in(cache_snapshot_bytes(), from, to, &edits));
+    }
 }
 
 /// A resealed file whose dynamic body's place in the active set is outside it (rapier's
@@ -536,6 +552,53 @@ fn a_body_outside_the_active_set_is_refused() {
             assert_eq!(field, "islands");
         }
         other => panic!("expected a refused body, got {:?}", other.map(|_| ())),
+    }
+}
+
+/// A resealed file whose solver contact names a point its manifold does not have (rapier's
+/// solver would read and write the point out of bounds in the first step) is refused, naming
+/// the narrow phase.
+#[test]
+fn a_solver_contact_past_its_points_is_refused() {
+    let world = snapshot::from_bytes(cache_snapshot_bytes()).unwrap();
+    let (m, c) = world
+        .physics
+        .narrow_phase
+        .contact_pairs()
+        .filter_map(|p| p.rigid())
+        .flat_map(|r| &r.manifolds)
+        .find_map(|m| m.data.solver_contacts.first().map(|c| (m, c)))
+        .expect("a manifold with solver contacts");
+    // A solver contact's encoding: anchors, distance, tangent velocity, then its point's
+    // index (a varint, with the "new contact" bit 31 kept so its length stays) and padding.
+    let contact = postcard::to_allocvec(c).unwrap();
+    let front = postcard::to_allocvec(&(c.anchor1, c.anchor2, c.dist, c.tangent_velocity)).unwrap();
+    assert!(contact.starts_with(&front));
+    let id = postcard::to_allocvec(&c.contact_id).unwrap();
+    let past = [(c.contact_id[0] & (1 << 31)) | m.points.len() as u32];
+    let past = postcard::to_allocvec(&past).unwrap();
+    assert_eq!(id.len(), past.len());
+    let mut bytes = cache_snapshot_bytes().to_vec();
+    let at = bytes
+        .windows(contact.len())
+        .position(|w| w == contact.as_slice())
+        .expect("the solver contact is in the file")
+        + front.len();
+    bytes[at..at + id.len()].copy_from_slice(&past);
+    reseal(&mut bytes);
+    match snapshot::from_bytes(&bytes) {
+        Err(SnapshotError::Invalid(rapier_sph::SphError::InvalidParameter {
+            field,
+            reason,
+            ..
+        })) => {
+            assert_eq!(field, "narrow_phase");
+            assert!(reason.contains("solver contact"), "{reason}");
+        }
+        other => panic!(
+            "expected a refused solver contact, got {:?}",
+            other.map(|_| ())
+        ),
     }
 }
 

@@ -54,20 +54,30 @@
 //!   and its collider → node map consistent with the nodes; the joint sets (the impulse
 //!   joints' graph, handle → edge arena and body → node map, each joint's bodies its edge's;
 //!   the multibodies' arena, body → link map, links in order with their degrees of freedom
-//!   the next ones of the multibody's vectors, couplings, connectivity graph); the body and
-//!   collider arenas' counts and free lists (the next insertion follows them).
+//!   the next ones of the multibody's vectors, couplings, connectivity graph; each
+//!   multibody's vectors, Jacobians, mass matrices and Coriolis workspaces of its links' and
+//!   degrees of freedom's sizes where rapier does not size them again); the body and
+//!   collider arenas' counts and free lists (the next insertion follows them); the narrow
+//!   phase's solver caches (the solver contact graph's 130 buckets, each entry a rigid pair's
+//!   solver manifold whose `graph_pos` names it back and the other way round while the graph
+//!   is valid, the solver-body ids stamped on its members awake bodies' while it is current,
+//!   every pair's solver colour a colour, the force-event list and its back links naming each
+//!   other, every solver contact's index a point of its manifold).
 //!   Parry and rapier follow these without bounds checks and keep them private, so they are
-//!   read through mirrors of their serde layouts (the `bvh`, `islands`, `graphs` and `joints`
-//!   modules); rebuilding them instead would change the order in which rapier finds pairs
-//!   and solves bodies, and with it the bitwise equality of a restored run.
+//!   read through mirrors of their serde layouts (the `bvh`, `islands`, `graphs`, `joints`,
+//!   `multibodies` and `caches` modules); rebuilding them instead would change the order in
+//!   which rapier finds pairs and solves bodies, and with it the bitwise equality of a
+//!   restored run. A cache rapier has marked for rebuilding (a solver contact graph not
+//!   valid, or of another epoch) is not read where rapier does not read it.
 //!
-//! Not checked beyond the references above: the narrow phase's solver caches (per-pair solver
-//! hints, the solver contact graph's colour buckets, the force-event lists), the multibodies'
-//! matrices and workspaces (whether rapier resizes them from the degrees of freedom was not
-//! verified), soft bodies, and the trees inside voxel shapes (private in parry): the checksum
-//! guards them against corruption, not against a file crafted to pass it. `RigidBodySet`'s list of
-//! modified bodies needs no check: rapier looks each of its handles up (`get`, `contains`)
-//! before use, so a stale or foreign handle is skipped.
+//! Not checked beyond the references above: soft bodies, and the trees inside voxel shapes
+//! (private in parry): the checksum guards them against corruption, not against a file
+//! crafted to pass it. Values in range but inconsistent with the rest (a solver-body id of
+//! another awake body, one parallel solver colour shared by two pairs of one body) are not
+//! looked for: the solver indexes with them within its arrays, and that step's contact forces
+//! are wrong. `RigidBodySet`'s list of modified bodies needs no check:
+//! rapier looks each of its handles up (`get`, `contains`) before use, so a stale or foreign
+//! handle is skipped.
 
 #![cfg_attr(docsrs, doc(cfg(feature = "snapshot")))]
 
