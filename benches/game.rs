@@ -15,13 +15,15 @@
 //! cargo bench --bench game -- --preset game --modes moving,still --max-density-error 0.005
 //! cargo bench --bench game -- --particles 10000 --threads 2 --sleep-drift 0.1,3
 //! cargo bench --bench game -- --preset game --modes still --gravity-substep inf --regions
+//! cargo bench --bench game -- --preset game --particle-radius 0.4
 //! ```
 //!
 //! `--preset water`, `--preset game` or `--preset water,game` (default) picks the presets,
 //! `--modes` the rows (default `moving,still,asleep`). The DFSPH flags (`--warm-start`,
 //! `--min-iterations`, `--hydrostatic-walls`, `--full-warm-start`, `--max-density-error`,
 //! `--gravity-substep`, which takes `inf` to lift DFSPH's gravity bound on the substep) change
-//! the given field of `Dfsph` in every preset's settings. `--regions` prints, after each row,
+//! the given field of `Dfsph` in every preset's settings; `--particle-radius F` sets the
+//! contact radius (`FluidParams::particle_radius`) to `F` spacings. `--regions` prints, after each row,
 //! where the compression is (see `Regions`).
 //!
 //! The scene (`rapier_sph::scenes::WavePool`): a closed pool 2.0 × 0.8 × 0.7 m (inside),
@@ -167,6 +169,18 @@ static WATER: std::sync::OnceLock<Dfsph> = std::sync::OnceLock::new();
 /// The same for the game preset.
 static GAME: std::sync::OnceLock<Dfsph> = std::sync::OnceLock::new();
 
+/// `--particle-radius`: the contact radius as a fraction of the spacing (the presets' own
+/// when not given).
+static RADIUS: std::sync::OnceLock<Option<Real>> = std::sync::OnceLock::new();
+
+/// A preset's builder at `spacing`, with the command line's contact radius.
+fn with_radius(b: FluidParamsBuilder, spacing: Real) -> FluidParamsBuilder {
+    match RADIUS.get().copied().flatten() {
+        Some(f) => b.particle_radius(f * spacing),
+        None => b,
+    }
+}
+
 /// The DFSPH settings of a preset's parameters.
 fn dfsph_of(params: SphResult<FluidParams>) -> Dfsph {
     match params.map(|p| p.solver) {
@@ -217,6 +231,7 @@ impl Args {
             }
             dfsph
         };
+        let _ = RADIUS.set(value("--particle-radius").and_then(|s| s.parse().ok()));
         let _ = WATER.set(settings(dfsph_of(FluidParamsBuilder::water(0.04).build())));
         let _ = GAME.set(settings(dfsph_of(
             FluidParamsBuilder::game_water(0.04).build(),
@@ -295,13 +310,13 @@ fn run(n: usize, preset: Preset, mode: Mode, args: &Args) -> SphResult<Row> {
     let params: fn(Real) -> SphResult<FluidParams> = match preset {
         Preset::Water => |s| {
             let dfsph = WATER.get().copied().expect("set by Args::parse");
-            FluidParamsBuilder::water(s)
+            with_radius(FluidParamsBuilder::water(s), s)
                 .solver(Solver::Dfsph(dfsph))
                 .build()
         },
         Preset::Game => |s| {
             let dfsph = GAME.get().copied().expect("set by Args::parse");
-            FluidParamsBuilder::game_water(s)
+            with_radius(FluidParamsBuilder::game_water(s), s)
                 .solver(Solver::Dfsph(dfsph))
                 .build()
         },
