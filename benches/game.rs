@@ -16,12 +16,14 @@
 //! cargo bench --bench game -- --particles 10000 --threads 2 --sleep-drift 0.1,3
 //! cargo bench --bench game -- --preset game --modes still --gravity-substep inf --regions
 //! cargo bench --bench game -- --preset game --particle-radius 0.4
+//! cargo bench --bench game -- --preset game --gravity-substep inf --predict-walls true
 //! ```
 //!
 //! `--preset water`, `--preset game` or `--preset water,game` (default) picks the presets,
 //! `--modes` the rows (default `moving,still,asleep`). The DFSPH flags (`--warm-start`,
 //! `--min-iterations`, `--hydrostatic-walls`, `--full-warm-start`, `--max-density-error`,
-//! `--gravity-substep`, which takes `inf` to lift DFSPH's gravity bound on the substep) change
+//! `--gravity-substep`, which takes `inf` to lift DFSPH's gravity bound on the substep,
+//! `--predict-walls`) change
 //! the given field of `Dfsph` in every preset's settings; `--particle-radius F` sets the
 //! contact radius (`FluidParams::particle_radius`) to `F` spacings. `--regions` prints, after each row,
 //! where the compression is (see `Regions`).
@@ -228,6 +230,9 @@ impl Args {
             }
             if let Some(k) = value("--gravity-substep").and_then(|s| s.parse().ok()) {
                 dfsph.gravity_substep = k;
+            }
+            if let Some(w) = value("--predict-walls").and_then(|s| s.parse().ok()) {
+                dfsph.predict_walls = w;
             }
             dfsph
         };

@@ -293,6 +293,7 @@ fn project(
                 viscous: false,
                 predicted: false,
                 watch: None,
+                planes: false,
             };
             let positions = &particles.positions[..];
             report.timed(Stage::WallDensity, || {

@@ -327,6 +327,7 @@ fn wall_query<'a>(
         // bodies are taken there too.
         predicted: solver.predicts_positions(),
         watch: Some(scene.watch).filter(|w| w.any_forces),
+        planes: request.planes,
     };
     Some((query, request.double_density))
 }

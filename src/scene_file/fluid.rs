@@ -156,6 +156,10 @@ pub enum SolverDesc {
         /// ([`crate::solver::Dfsph::carry_density_error`]; needs `full_warm_start`).
         #[serde(default)]
         carry_density_error: Option<bool>,
+        /// Predict the walls' density at the substep's end from the walls' planes
+        /// ([`crate::solver::Dfsph::predict_walls`]).
+        #[serde(default)]
+        predict_walls: Option<bool>,
     },
     /// Position-based fluids ([`crate::solver::Pbf`]).
     Pbf {
@@ -231,6 +235,7 @@ impl SolverDesc {
                 full_warm_start,
                 gravity_substep,
                 carry_density_error,
+                predict_walls,
             } => {
                 let d = Dfsph::default();
                 Solver::Dfsph(Dfsph {
@@ -247,6 +252,7 @@ impl SolverDesc {
                     full_warm_start: full_warm_start.unwrap_or(d.full_warm_start),
                     gravity_substep: gravity_substep.map_or(d.gravity_substep, |v| v.0),
                     carry_density_error: carry_density_error.unwrap_or(d.carry_density_error),
+                    predict_walls: predict_walls.unwrap_or(d.predict_walls),
                 })
             }
             SolverDesc::Pbf {

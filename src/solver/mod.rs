@@ -58,6 +58,9 @@ pub(crate) struct WallRequest {
     pub hydrostatic: bool,
     /// Clavet's two densities' wall tables.
     pub double_density: bool,
+    /// Each particle's walls as planes (`boundary::WallWorkspace::planes`; DFSPH's
+    /// `predict_walls`).
+    pub planes: bool,
 }
 
 impl WallRequest {
@@ -68,6 +71,7 @@ impl WallRequest {
             force_kernel: params.density_kernel,
             hydrostatic,
             double_density: false,
+            planes: false,
         }
     }
 }

@@ -37,6 +37,7 @@ impl PressureSolver for WcsphState {
             force_kernel: params.pressure_kernel,
             hydrostatic: params.wcsph_pressure == WcsphPressure::Adami,
             double_density: false,
+            planes: false,
         }
     }
 

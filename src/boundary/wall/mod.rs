@@ -49,10 +49,13 @@ use crate::par::CHUNK;
 use parry3d::partitioning::Bvh;
 use rapier3d::dynamics::RigidBodySet;
 use rapier3d::geometry::ColliderSet;
+use rapier3d::glamx::Vec3A;
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
+mod planes;
 mod terms;
+pub(crate) use planes::WallPlanes;
 pub(crate) use terms::ClavetCoupled;
 pub(crate) use terms::surface_near;
 use terms::{Rows, Terms, clavet_walls, update_chunk};
@@ -77,6 +80,8 @@ pub(crate) struct WallQuery<'a> {
     /// The watched colliders, when some collider's forces are watched: each particle's
     /// shares of its walls are recorded in [`WallWorkspace::share_chunks`].
     pub watch: Option<&'a Watch>,
+    /// Keep each particle's walls as planes ([`WallWorkspace::planes`]).
+    pub planes: bool,
 }
 
 impl WallQuery<'_> {
@@ -199,6 +204,11 @@ pub struct WallWorkspace {
     near: usize,
     /// See [`Self::pinch_fraction`].
     pinch_fraction: Real,
+    /// Per chunk of particles, each particle's walls as planes (empty unless
+    /// [`WallQuery::planes`]; see [`Self::predicted_density`]).
+    pub(crate) plane_chunks: Vec<Vec<WallPlanes>>,
+    /// `ρ0` times the density kernel's full integral: the walls' density of a coverage of 1.
+    plane_density: Real,
 }
 
 impl WallWorkspace {
@@ -249,8 +259,47 @@ impl WallWorkspace {
             .map_or(0.0, |(_, _, _, _, _, tf)| rest_density * tf.full())
     }
 
+    /// With [`WallQuery::planes`]: the walls' density of particle `i` after it moves with
+    /// velocity `v` for `dt`, the colliders near it taken as the planes at their closest
+    /// points (see `planes.rs`). `None` where no plane was kept: no wall within the
+    /// support, more walls than kept, or planes not asked for.
+    #[inline]
+    pub(crate) fn predicted_density(&self, i: usize, v: Vector, dt: Real) -> Option<Real> {
+        let planes = self.plane_chunks.get(i / CHUNK)?.get(i % CHUNK)?;
+        let (_, _, _, _, td, _) = self.tables.as_ref()?;
+        let u = planes.coverage_after(v, dt, td, td.full())?;
+        Some(self.plane_density * u)
+    }
+
+    /// With [`WallQuery::planes`]: every particle's velocity in `v` as contact at `radius`
+    /// will leave it after `dt` (see `WallPlanes::clip`), into `out`; a particle without
+    /// planes keeps its own.
+    pub(crate) fn clip_velocities(
+        &self,
+        v: &[Vec3A],
+        (dt, radius): (Real, Real),
+        out: &mut Vec<Vec3A>,
+    ) {
+        out.resize(v.len(), Vec3A::ZERO);
+        let planes = &self.plane_chunks;
+        crate::par_chunks_mut!(out, CHUNK)
+            .enumerate()
+            .for_each(|(c, out)| {
+                let v = &v[c * CHUNK..][..out.len()];
+                match planes.get(c).filter(|p| p.len() == out.len()) {
+                    Some(p) => {
+                        for ((o, &v), p) in out.iter_mut().zip(v).zip(p) {
+                            *o = Vec3A::from(p.clip(Vector::from(v), dt, radius));
+                        }
+                    }
+                    None => out.copy_from_slice(v),
+                }
+            });
+    }
+
     /// Forgets every contribution (no collider near the fluid).
     pub fn clear(&mut self) {
+        self.plane_chunks.clear();
         self.candidates.clear();
         self.near = 0;
         self.density.clear();
@@ -353,6 +402,11 @@ impl WallWorkspace {
         if watch.is_some() {
             self.share_chunks.iter_mut().for_each(Vec::clear);
         }
+        self.plane_chunks
+            .resize_with(positions.len().div_ceil(CHUNK), Vec::new);
+        if !self.candidates.any() || !query.planes {
+            self.plane_chunks.iter_mut().for_each(Vec::clear);
+        }
         if !self.candidates.any() {
             self.zero(query.viscous);
             return 0;
@@ -361,6 +415,7 @@ impl WallWorkspace {
             unreachable!("tables are made above")
         };
         let gravity = query.hydrostatic.unwrap_or(Vector::ZERO);
+        self.plane_density = p.rest_density * td.full();
         let terms = Terms {
             query,
             grid: &search.grid,
@@ -385,6 +440,7 @@ impl WallWorkspace {
             .zip(crate::par_chunks_mut!(self.viscous, CHUNK))
             .zip(crate::par_chunks_mut!(self.viscous_velocity, CHUNK))
             .zip(crate::par_iter_mut!(self.share_chunks[..]))
+            .zip(crate::par_iter_mut!(self.plane_chunks[..]))
             .enumerate()
             .map(
                 |(
@@ -392,14 +448,23 @@ impl WallWorkspace {
                     (
                         (
                             (
-                                (((((density, gradient), motion), coverage), coupled), hydrostatic),
-                                viscous,
+                                (
+                                    (
+                                        ((((density, gradient), motion), coverage), coupled),
+                                        hydrostatic,
+                                    ),
+                                    viscous,
+                                ),
+                                viscous_velocity,
                             ),
-                            viscous_velocity,
+                            out,
                         ),
-                        out,
+                        planes,
                     ),
                 )| {
+                    if query.planes {
+                        planes.resize(density.len(), WallPlanes::default());
+                    }
                     let rows = Rows {
                         density,
                         gradient,
@@ -409,6 +474,7 @@ impl WallWorkspace {
                         hydrostatic,
                         viscous,
                         viscous_velocity,
+                        planes,
                     };
                     update_chunk(c * CHUNK, rows, &terms, watch, out)
                 },
@@ -593,6 +659,11 @@ impl WallWorkspace {
             + self.clavet_gradient.capacity() * std::mem::size_of::<[Vector; 2]>()
             + self.clavet_coupled.capacity() * std::mem::size_of::<ClavetCoupled>()
             + self.adhesion.capacity() * std::mem::size_of::<Vector>()
+            + self
+                .plane_chunks
+                .iter()
+                .map(|c| c.capacity() * std::mem::size_of::<WallPlanes>() + 24)
+                .sum::<usize>()
             + self
                 .share_chunks
                 .iter()

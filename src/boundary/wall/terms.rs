@@ -2,6 +2,7 @@
 //! every collider near (union of half-spaces), the walls' velocity and viscosity terms, the
 //! pinch test, and Clavet's two wall densities; evaluated per chunk of particles.
 
+use super::planes::WallPlanes;
 use super::{Coupled, WallQuery};
 use crate::boundary::ContactWorkspace;
 use crate::boundary::bodies::{MovingCollider, entry_of};
@@ -51,6 +52,8 @@ struct Sum {
     lv: Vector,
     lc: Real,
     lvc: Vector,
+    /// The walls as planes (filled when the query asks for them).
+    planes: WallPlanes,
 }
 
 impl Terms<'_> {
@@ -71,6 +74,7 @@ impl Terms<'_> {
             lv: Vector::ZERO,
             lc: 0.0,
             lvc: Vector::ZERO,
+            planes: WallPlanes::default(),
         };
         let (_, colliders, _) = self.query.scene;
         for &handle in self.candidates.of_cell(self.grid.cell_of(i)) {
@@ -118,6 +122,13 @@ impl Terms<'_> {
         let Some((d, normal, point)) = surface_near(co, pose, x, h) else {
             return;
         };
+        if self.query.planes {
+            // Every wall within the support, also one the particle does not reach yet.
+            let speed = self
+                .wall_velocity(co, entry, point)
+                .map_or(0.0, |v| v.dot(normal));
+            s.planes.push(d, normal, speed);
+        }
         let (phi, _) = self.td.eval(d);
         let (_, area) = self.tf.eval(d);
         let a = (phi / full_d).min(1.0);
@@ -264,6 +275,8 @@ pub(super) struct Rows<'c> {
     pub(super) hydrostatic: &'c mut [Vector],
     pub(super) viscous: &'c mut [Real],
     pub(super) viscous_velocity: &'c mut [Vector],
+    /// The chunk's planes (empty unless the query asks for them).
+    pub(super) planes: &'c mut [WallPlanes],
 }
 
 impl Rows<'_> {
@@ -281,6 +294,9 @@ impl Rows<'_> {
         if t.query.viscous {
             self.viscous[k] = s.ls;
             self.viscous_velocity[k] = s.lv;
+        }
+        if t.query.planes {
+            self.planes[k] = s.planes;
         }
         if t.any_dynamic {
             self.coupled[k] = Coupled {

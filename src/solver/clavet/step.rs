@@ -43,6 +43,7 @@ impl PressureSolver for ClavetState {
             force_kernel: params.density_kernel,
             hydrostatic: false,
             double_density: true,
+            planes: false,
         }
     }
 

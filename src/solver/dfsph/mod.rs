@@ -127,6 +127,8 @@ pub(crate) struct DfsphBuffers {
     /// 12, against −0.1 / +0.9 / +0.3 % with the coupling kept in every iteration: while it
     /// settles, a solve diverges now and then and finishes without it).
     pub applied_neighbour: Vec<Real>,
+    /// The velocities as contact will leave them (see `SolveContext::contact_radius`).
+    pub clipped: Vec<Vec3A>,
 }
 
 /// Most halvings of the Jacobi relaxation `ω` (down to 1/8). Jacobi with DFSPH's diagonal
@@ -172,7 +174,7 @@ impl DfsphBuffers {
         (self.alpha.capacity() + self.pi.capacity() + self.rates.capacity()) * 4
             + self.applied_neighbour.capacity() * 4
             + self.partials.capacity() * 16
-            + self.velocities.capacity() * std::mem::size_of::<Vec3A>()
+            + (self.velocities.capacity() + self.clipped.capacity()) * std::mem::size_of::<Vec3A>()
     }
 }
 
@@ -276,6 +278,7 @@ fn rate_pass<F: Fn(usize, Real) -> (Real, Real) + Sync>(
     finish: F,
 ) {
     let (mass, wall) = (ctx.mass, ctx.wall);
+    let predict = ctx.predict_walls.then_some(ctx.dt);
     crate::par_chunks_mut!(pi, CHUNK)
         .zip(crate::par_iter_mut!(partials))
         .zip(crate::par_chunks_mut!(rates, CHUNK))
@@ -297,7 +300,12 @@ fn rate_pass<F: Fn(usize, Real) -> (Real, Real) + Sync>(
                         let mut rate = (a.x + a.y + a.z) * mass;
                         if let Some(wall) = wall {
                             let vi = Vector::from(vi);
-                            rate += vi.dot(wall.gradient[i]) - wall.motion[i];
+                            rate += match predict
+                                .and_then(|dt| Some((wall.predicted_density(i, vi, dt)?, dt)))
+                            {
+                                Some((after, dt)) => (after - wall.density[i]) / dt,
+                                None => vi.dot(wall.gradient[i]) - wall.motion[i],
+                            };
                         }
                         let (p, e) = finish(i, rate);
                         pi[k] = p;

@@ -60,6 +60,14 @@ pub(crate) struct SolveContext<'a> {
     /// A particle's own share of its density, `m·W(0)` (for
     /// [`WallWorkspace::pinched`]).
     pub self_density: Real,
+    /// The rate pass takes the walls' part of the rate as their predicted change over `dt`,
+    /// `(ρ_wall(after dt) − ρ_wall)/dt`, from the walls' planes
+    /// ([`WallWorkspace::predicted_density`], [`Dfsph::predict_walls`]); `false`: the
+    /// instantaneous rate `(v_i − v_wall)·∇ρ_wall`.
+    pub predict_walls: bool,
+    /// With `predict_walls`: the contact radius; the rate pass then reads each particle's
+    /// velocity as contact will leave it (`WallWorkspace::clip_velocity`).
+    pub contact_radius: Option<Real>,
 }
 
 /// `true` when a fluid of `n` particles of `mass` in `domain` has no free surface: the domain
@@ -145,6 +153,7 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
         velocities: wide,
         relaxation_halvings,
         applied_neighbour,
+        clipped,
     } = buffers;
     // The passes work on a 16-byte copy of the velocities (see [`PairGradients`]).
     if !matches!(solve.warm_start, WarmStart::Pushed(true)) {
@@ -160,6 +169,7 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
         partials,
         wide,
         applied: track.then_some(&mut applied_neighbour[..]),
+        clipped: Some(clipped),
         finish,
     };
     it.warm_start(solve.warm_start, warm);
@@ -181,6 +191,7 @@ struct Jacobi<'a, F> {
     partials: &'a mut [(f64, Real)],
     wide: &'a mut [Vec3A],
     applied: Option<&'a mut [Real]>,
+    clipped: Option<&'a mut Vec<Vec3A>>,
     finish: F,
 }
 
@@ -188,9 +199,19 @@ impl<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync> Jacobi<'_, F> {
     /// Pass A into `π` (see [`rate_pass`]).
     fn rate(&mut self) {
         let (alpha, finish) = (self.alpha, &self.finish);
+        let ctx = self.ctx;
+        // Predicting the walls: the velocities as contact will leave them.
+        let velocities: &[Vec3A] = match (ctx.contact_radius, ctx.wall, self.clipped.as_deref_mut())
+        {
+            (Some(radius), Some(wall), Some(clipped)) => {
+                wall.clip_velocities(self.wide, (ctx.dt, radius), clipped);
+                clipped
+            }
+            _ => self.wide,
+        };
         rate_pass(
             self.ctx,
-            self.wide,
+            velocities,
             (&mut *self.pi, &mut *self.rates),
             self.partials,
             #[inline(always)]

@@ -88,6 +88,8 @@ macro_rules! solve_context {
             expected_neighbours: p.expected_neighbours(),
             closed: $closed,
             self_density: p.particle_mass * p.density_kernel.w(0.0, p.smoothing_length),
+            predict_walls: false,
+            contact_radius: None,
         }
     }};
 }
@@ -111,7 +113,10 @@ impl PressureSolver for DfsphState {
     const WALL_REACTION: WallReaction = WallReaction::Impulse { added_mass: true };
 
     fn walls(settings: &Dfsph, params: &FluidParams) -> WallRequest {
-        WallRequest::density_kernel(params, settings.hydrostatic_walls)
+        WallRequest {
+            planes: settings.predict_walls,
+            ..WallRequest::density_kernel(params, settings.hydrostatic_walls)
+        }
     }
 
     fn step<S: Separation>(
@@ -393,7 +398,9 @@ impl DfsphState {
         let limit = CARRIED_ERROR_LIMIT * ctx.params.rest_density;
         let wp = carry.then(|| carried_errors(ctx.attributes, ctx.densities, ctx.dt, limit));
         let (warm_density, predicted) = ctx.attributes.pair_mut(wd, wp.unwrap_or(wv));
-        let solve = solve_context!(&self.gradients, ctx, closed);
+        let mut solve = solve_context!(&self.gradients, ctx, closed);
+        solve.predict_walls = settings.predict_walls;
+        solve.contact_radius = settings.predict_walls.then_some(ctx.params.particle_radius);
         let stats = super::density_solve(
             &solve,
             settings,
