@@ -156,7 +156,7 @@ pub enum SolverDesc {
         /// ([`crate::solver::Dfsph::carry_density_error`]; needs `full_warm_start`).
         #[serde(default)]
         carry_density_error: Option<bool>,
-        /// Predict the walls' density at the substep's end from the walls' planes
+        /// Predict what contact and the walls do to each particle over the substep
         /// ([`crate::solver::Dfsph::predict_walls`]).
         #[serde(default)]
         predict_walls: Option<bool>,

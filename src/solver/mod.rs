@@ -58,7 +58,7 @@ pub(crate) struct WallRequest {
     pub hydrostatic: bool,
     /// Clavet's two densities' wall tables.
     pub double_density: bool,
-    /// Each particle's walls as planes (`boundary::WallWorkspace::planes`; DFSPH's
+    /// Each particle's walls as planes (`boundary::WallWorkspace::plane_chunks`; DFSPH's
     /// `predict_walls`).
     pub planes: bool,
 }

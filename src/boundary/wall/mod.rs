@@ -80,7 +80,7 @@ pub(crate) struct WallQuery<'a> {
     /// The watched colliders, when some collider's forces are watched: each particle's
     /// shares of its walls are recorded in [`WallWorkspace::share_chunks`].
     pub watch: Option<&'a Watch>,
-    /// Keep each particle's walls as planes ([`WallWorkspace::planes`]).
+    /// Keep each particle's walls as planes ([`WallWorkspace::plane_chunks`]).
     pub planes: bool,
 }
 

@@ -1,5 +1,6 @@
-//! Each particle's walls as planes, for a prediction of the walls' density at the substep's
-//! end (DFSPH's `predict_walls`).
+//! Each particle's walls as planes, for DFSPH's `predict_walls`: the velocity contact will
+//! leave a particle (it stops at the contact radius from each wall; [`WallPlanes::clip`]) and
+//! the walls' density at the substep's end ([`WallPlanes::coverage_after`]).
 //!
 //! The walls' density of a particle is `ρ0·Φ_full·U`, `U = 1 − Π_k (1 − a_k)` the union of
 //! the half-spaces of the colliders near, `a_k = Φ(d_k)/Φ_full` a function of the distance
@@ -8,7 +9,9 @@
 //! towards a wall crosses the curvature of `Φ` (`Φ'' > 0` next to a wall: the linear
 //! prediction comes out low). Kept as planes (the distance, the normal and the wall's normal
 //! speed at the closest point), the walls' density at the substep's end is the same union at
-//! `d_k + dt·(v_i − v_k)·n_k`: a table look-up per wall.
+//! `d_k + dt·(v_i − v_k)·n_k`: a table look-up per wall. (In the game pool that curvature
+//! is a small part of the floor layer's prediction error; contact is the large one, see
+//! `Dfsph::predict_walls`.)
 
 use crate::kernel::HalfSpaceTable;
 use crate::math::{Real, Vector};

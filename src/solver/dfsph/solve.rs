@@ -66,7 +66,7 @@ pub(crate) struct SolveContext<'a> {
     /// instantaneous rate `(v_i − v_wall)·∇ρ_wall`.
     pub predict_walls: bool,
     /// With `predict_walls`: the contact radius; the rate pass then reads each particle's
-    /// velocity as contact will leave it (`WallWorkspace::clip_velocity`).
+    /// velocity as contact will leave it (`WallWorkspace::clip_velocities`).
     pub contact_radius: Option<Real>,
 }
 
