@@ -35,7 +35,8 @@
 //! samples' instantaneous profiles (as the scene reports it) and of the time-averaged profile.
 //! `--solver wcsph-walls` is WCSPH with walls counting in the density (the buoyancy tests'
 //! setting), `wcsph-adami` with Adami's wall pressure and the symmetric pressure force
-//! (`WcsphPressure::Adami`); `--radius r` sets the contact radius to `r` spacings (the preset's is 0.5);
+//! (`WcsphPressure::Adami`), `wcsph-delta` that with δ-SPH densities
+//! (`WcsphDensity::DELTA_SPH`); `--radius r` sets the contact radius to `r` spacings (the preset's is 0.5);
 //! `--solver pbf-hydrostatic` is PBF with hydrostatic walls;
 //! `--support r` the kernel support to `r` spacings (the presets' is 2); `--solver clavet`
 //! runs Clavet's relaxation (walls by contact only; `clavet-walls`: walls in its densities),
@@ -98,7 +99,7 @@ fn main() {
                 step = 1;
             }
             other => exit(&format!(
-                "unknown argument {other} (--n, --spacing, --seconds, --solver default|wcsph|wcsph-walls|wcsph-adami|dfsph|pbf|pbf-hydrostatic|clavet|clavet-walls, \
+                "unknown argument {other} (--n, --spacing, --seconds, --solver default|wcsph|wcsph-walls|wcsph-adami|wcsph-delta|dfsph|pbf|pbf-hydrostatic|clavet|clavet-walls, \
                  --warm-start, --[no-]hydrostatic-walls, --threads, --radius (fraction of the spacing), --support (h in spacings), --cohesion (Clavet), --courant (adaptive substeps' Courant number, default 0.4), \
                  --trace)"
             )),
@@ -124,6 +125,13 @@ fn main() {
                 .solver(Solver::Wcsph)
                 .wall_density(true)
                 .wcsph_pressure(rapier_sph::WcsphPressure::Adami)
+        }
+        "wcsph-delta" => {
+            b = b
+                .solver(Solver::Wcsph)
+                .wall_density(true)
+                .wcsph_pressure(rapier_sph::WcsphPressure::Adami)
+                .wcsph_density(rapier_sph::WcsphDensity::DELTA_SPH)
         }
         "dfsph" => b = b.solver(Solver::dfsph()).wall_density(true),
         "pbf" => b = b.solver(Solver::pbf()).wall_density(true),
@@ -182,6 +190,7 @@ fn main() {
             solver: params.solver,
             wall_density: params.wall_density,
             wcsph_pressure: params.wcsph_pressure,
+            wcsph_density: params.wcsph_density,
         };
         for res in validation {
             let r = Scene::Hydrostatic

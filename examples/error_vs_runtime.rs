@@ -63,6 +63,9 @@ struct Args {
     /// Adds WCSPH with wall density and [`rapier_sph::WcsphPressure::Adami`] (reported as
     /// `WCSPH-A`) beside the report's WCSPH.
     wcsph_adami: bool,
+    /// Adds `WCSPH-A` with its densities from the continuity equation with δ-SPH diffusion
+    /// ([`rapier_sph::WcsphDensity::DELTA_SPH`]; reported as `WCSPH-D`).
+    wcsph_delta: bool,
     /// Only the methods whose name is listed (all if empty).
     solvers: Vec<String>,
 }
@@ -75,6 +78,7 @@ fn parse_args() -> Args {
         skip_scaling: false,
         hydrostatic_walls: false,
         wcsph_adami: false,
+        wcsph_delta: false,
         solvers: Vec::new(),
     };
     let mut it = std::env::args().skip(1);
@@ -94,12 +98,14 @@ fn parse_args() -> Args {
             "--no-scaling" => args.skip_scaling = true,
             "--hydrostatic-walls" => args.hydrostatic_walls = true,
             "--wcsph-adami" => args.wcsph_adami = true,
+            "--wcsph-delta" => args.wcsph_delta = true,
             "--solver" => args.solvers.push(it.next().expect("--solver NAME")),
             "-h" | "--help" => {
                 println!(
                     "error_vs_runtime [--quick | --full] [--out DIR] [--scene NAME] [--no-scaling]\n\
                      \x20                [--hydrostatic-walls]   (DFSPH runs as DFSPH-HW, hydrostatic walls on)\n\
                      \x20                [--wcsph-adami]   (adds WCSPH-A: WCSPH with wall density and Adami's wall pressure)\n\
+                     \x20                [--wcsph-delta]   (adds WCSPH-D: WCSPH-A with δ-SPH densities, the continuity equation)\n\
                      \x20                [--solver NAME]...   (only these methods, by their printed name)\n\
                      scenes: {}",
                     Scene::ALL.map(|s| s.name()).join(", ")
@@ -727,17 +733,25 @@ fn main() {
             }
         }
     }
-    if args.wcsph_adami {
-        let at = methods
-            .iter()
-            .position(|m| m.solver == rapier_sph::Solver::Wcsph);
-        if let Some(k) = at {
-            let adami = rapier_sph::validation::Method {
-                name: "WCSPH-A",
-                wall_density: true,
-                wcsph_pressure: rapier_sph::WcsphPressure::Adami,
-                ..methods[k]
+    let at = methods
+        .iter()
+        .position(|m| m.solver == rapier_sph::Solver::Wcsph);
+    if let Some(k) = at {
+        let adami = rapier_sph::validation::Method {
+            name: "WCSPH-A",
+            wall_density: true,
+            wcsph_pressure: rapier_sph::WcsphPressure::Adami,
+            ..methods[k]
+        };
+        if args.wcsph_delta {
+            let delta = rapier_sph::validation::Method {
+                name: "WCSPH-D",
+                wcsph_density: rapier_sph::WcsphDensity::DELTA_SPH,
+                ..adami
             };
+            methods.insert(k + 1, delta);
+        }
+        if args.wcsph_adami {
             methods.insert(k + 1, adami);
         }
     }

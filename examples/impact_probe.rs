@@ -12,10 +12,13 @@
 //! cargo run --release --example impact_probe -- DFSPH 15 0.0005
 //! cargo run --release --example impact_probe -- WCSPH 15 0.0005 on   # wall density on
 //! cargo run --release --example impact_probe -- WCSPH-A 15 0.0005     # WCSPH, Adami's walls
+//! cargo run --release --example impact_probe -- WCSPH-D 15 0.0005     # and δ-SPH densities
 //! ```
-//! `SOLVER` is a name of `validation::methods()` (WCSPH, DFSPH, PBF, Clavet) or `WCSPH-A`
-//! (WCSPH with wall density and `WcsphPressure::Adami`), `N` the particles across H; the
-//! last argument overrides the method's wall density.
+//! `SOLVER` is a name of `validation::methods()` (WCSPH, DFSPH, PBF, Clavet), `WCSPH-A`
+//! (WCSPH with wall density and `WcsphPressure::Adami`) or `WCSPH-D` (`WCSPH-A` with its
+//! densities from the continuity equation with δ-SPH diffusion, `WcsphDensity::DELTA_SPH`),
+//! `N` the particles across H (`WCSPH-D=δ` sets the diffusion coefficient, 0.1 without it);
+//! the last argument overrides the method's wall density.
 use rapier_sph::math::{Real, Vector};
 use rapier_sph::scenes::add_closed_box;
 use rapier_sph::validation::lobovsky::{COLUMN_LENGTH, H, TANK_HEIGHT, TANK_LENGTH, probe};
@@ -27,12 +30,20 @@ fn main() {
     let solver = a.get(1).map(String::as_str).unwrap_or("WCSPH");
     let n: usize = a.get(2).and_then(|s| s.parse().ok()).unwrap_or(15);
     let frame: Real = a.get(3).and_then(|s| s.parse().ok()).unwrap_or(0.0005);
-    let adami = solver == "WCSPH-A";
+    // `WCSPH-D=δ` sets the diffusion coefficient (0.1 without it).
+    let (solver, delta) = match solver.split_once('=') {
+        Some((s, d)) => (s, d.parse().expect("WCSPH-D=δ")),
+        None => (solver, 0.1),
+    };
+    let adami = solver == "WCSPH-A" || solver == "WCSPH-D";
     let name = if adami { "WCSPH" } else { solver };
     let mut m = methods().into_iter().find(|m| m.name == name).unwrap();
     if adami {
         m.wall_density = true;
         m.wcsph_pressure = rapier_sph::WcsphPressure::Adami;
+    }
+    if solver == "WCSPH-D" {
+        m.wcsph_density = rapier_sph::WcsphDensity::Continuity { delta };
     }
     if let Some(w) = a.get(4) {
         m.wall_density = w == "on";
@@ -41,6 +52,7 @@ fn main() {
         .solver(m.solver)
         .wall_density(m.wall_density)
         .wcsph_pressure(m.wcsph_pressure)
+        .wcsph_density(m.wcsph_density)
         .build()
         .unwrap();
     let s = params.particle_spacing;

@@ -112,6 +112,7 @@
 
 pub(crate) mod boundary;
 pub mod check;
+pub(crate) mod delta_sph;
 pub(crate) mod density;
 pub mod diagnostics;
 pub mod domain;
@@ -172,7 +173,7 @@ pub use params::{
 pub use pipeline::{FluidPipeline, TimeStepping};
 pub use query::{FluidAmount, FluidSampler, Region, RegionTracker, WaterColumn, WaterSurface};
 pub use sleep::{Sleep, SleepInfo};
-pub use solver::{Clavet, Dfsph, Pbf, Solver, Springs, WcsphPressure};
+pub use solver::{Clavet, Dfsph, Pbf, Solver, Springs, WcsphDensity, WcsphPressure};
 pub use world::FluidWorld;
 
 /// Re-export of the rapier version this crate is built on.
@@ -194,6 +195,6 @@ pub mod prelude {
     pub use crate::{ImplicitViscosity, ViscositySolve};
     // Sleeping water (off unless set in the parameters).
     pub use crate::{Sleep, SleepInfo};
-    // WCSPH's pressure force and wall pressure.
-    pub use crate::WcsphPressure;
+    // WCSPH's pressure force and wall pressure, and its density (summation or δ-SPH).
+    pub use crate::{WcsphDensity, WcsphPressure};
 }

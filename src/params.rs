@@ -10,7 +10,7 @@
 use crate::error::{SphError, SphResult};
 use crate::kernel::KernelKind;
 use crate::math::Real;
-use crate::solver::settings::{Solver, WcsphPressure};
+use crate::solver::settings::{Solver, WcsphDensity, WcsphPressure};
 use rapier3d::geometry::InteractionGroups;
 
 /// Most iterations a solver may run per substep: PBF's `iterations`
@@ -204,6 +204,11 @@ pub struct FluidParams {
     /// other solvers ignore it. Both presets: [`WcsphPressure::Paper`].
     #[cfg_attr(feature = "snapshot", serde(default))]
     pub wcsph_pressure: WcsphPressure,
+    /// How WCSPH gets its densities: kernel summation, or the continuity equation with δ-SPH
+    /// density diffusion (see [`WcsphDensity`]); other solvers ignore it. Both presets:
+    /// [`WcsphDensity::Summation`].
+    #[cfg_attr(feature = "snapshot", serde(default))]
+    pub wcsph_density: WcsphDensity,
     /// Viscosity constant `ε` of the Müller/Unity viscosity force (Pa·s), 0 switches the
     /// viscosity stage off entirely. Water preset: 0.5 (a numerical viscosity that keeps
     /// weakly-compressible SPH calm at game resolutions, far above water's 0.001).
@@ -430,6 +435,15 @@ impl FluidParams {
                 "needs wall_density (the walls' viscous term uses its half-space integrals)",
             );
         }
+        if let WcsphDensity::Continuity { delta } = self.wcsph_density
+            && !(0.0..=1.0).contains(&delta)
+        {
+            return invalid(
+                "wcsph_density",
+                delta,
+                "the δ-SPH diffusion coefficient must be within 0..=1 (0.1 in the papers)",
+            );
+        }
         if self.wcsph_pressure == WcsphPressure::Adami && !self.wall_density {
             return invalid(
                 "wcsph_pressure",
@@ -577,6 +591,7 @@ impl FluidParamsBuilder {
                 },
                 clamp_negative_pressure: true,
                 wcsph_pressure: WcsphPressure::Paper,
+                wcsph_density: WcsphDensity::Summation,
                 viscosity: 0.5,
                 wall_viscosity: 0.0,
                 viscosity_solve: ViscositySolve::Explicit,
@@ -644,6 +659,7 @@ impl FluidParamsBuilder {
                 equation_of_state: EquationOfState::Linear { stiffness: 3.0 },
                 clamp_negative_pressure: false,
                 wcsph_pressure: WcsphPressure::Paper,
+                wcsph_density: WcsphDensity::Summation,
                 viscosity: 0.02,
                 wall_viscosity: 0.0,
                 viscosity_solve: ViscositySolve::Explicit,
@@ -759,6 +775,11 @@ impl FluidParamsBuilder {
     /// Sets [`FluidParams::wcsph_pressure`].
     pub fn wcsph_pressure(mut self, v: WcsphPressure) -> Self {
         self.params.wcsph_pressure = v;
+        self
+    }
+    /// Sets [`FluidParams::wcsph_density`].
+    pub fn wcsph_density(mut self, v: WcsphDensity) -> Self {
+        self.params.wcsph_density = v;
         self
     }
     /// Viscosity constant ε (Pa·s); 0 switches the viscosity stage off.

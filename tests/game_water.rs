@@ -31,6 +31,7 @@ fn game_water_column_bottom_pressure() {
         solver: game_solver(),
         wall_density: true,
         wcsph_pressure: rapier_sph::WcsphPressure::Paper,
+        wcsph_density: rapier_sph::WcsphDensity::Summation,
     };
     let scene = Scene::Hydrostatic;
     let r = scene

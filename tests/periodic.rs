@@ -447,6 +447,7 @@ fn closed_box_dfsph_is_bitwise_identical_across_thread_counts() {
         solver: Solver::dfsph(),
         wall_density: true,
         wcsph_pressure: rapier_sph::WcsphPressure::Paper,
+        wcsph_density: rapier_sph::WcsphDensity::Summation,
     };
     let run = || {
         let (mut world, h) = tg::world(&m, 8, 100).unwrap();

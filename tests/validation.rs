@@ -221,6 +221,7 @@ fn pbf_hydrostatic_walls_bring_the_bottom_pressure_within_5_percent() {
         }),
         wall_density: true,
         wcsph_pressure: rapier_sph::WcsphPressure::Paper,
+        wcsph_density: rapier_sph::WcsphDensity::Summation,
     };
     for n in [8, 12] {
         let r = Scene::Hydrostatic
@@ -248,6 +249,7 @@ fn wcsph_adami_walls_bring_the_bottom_pressure_within_2_percent() {
         solver: rapier_sph::Solver::Wcsph,
         wall_density: true,
         wcsph_pressure: rapier_sph::WcsphPressure::Adami,
+        wcsph_density: rapier_sph::WcsphDensity::Summation,
     };
     for n in [8, 12] {
         let r = Scene::Hydrostatic

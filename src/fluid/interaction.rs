@@ -368,12 +368,20 @@ fn check_pair(a: &FluidParams, b: &FluidParams) -> SphResult<()> {
             a.clamp_negative_pressure == b.clamp_negative_pressure,
         ),
         ("wcsph_pressure", a.wcsph_pressure == b.wcsph_pressure),
+        ("wcsph_density", a.wcsph_density == b.wcsph_density),
         ("solver", merge_solver(a.solver, b.solver).is_some()),
     ];
     for (field, ok) in shared {
         if !ok {
             return Err(invalid(field, 0.0, "interacting fluids must share it"));
         }
+    }
+    if a.solver == Solver::Wcsph && a.wcsph_density != crate::WcsphDensity::Summation {
+        return Err(invalid(
+            "wcsph_density",
+            0.0,
+            "the continuity density (δ-SPH) does not take interacting fluids",
+        ));
     }
     if matches!(a.solver, Solver::Wcsph | Solver::Clavet(_))
         && a.equation_of_state != b.equation_of_state

@@ -93,6 +93,7 @@ pub(crate) fn substep(
         report,
     );
     let non_finite = outcome.non_finite + contact_non_finite(fluid, report, contacts_before);
+    continuity_density(fluid, &rt.ws, input, report);
     let max_speed = limit_near_kinematic(fluid, &rt.ws, outcome.max_speed, report);
     diffuse_scalars(fluid, &mut rt.ws, input.dt, report);
     // Particles pushed out of a solid land on its surface, on top of each other: the next
@@ -118,6 +119,35 @@ fn contact_non_finite(fluid: &Fluid, report: &mut StepReport, contacts_before: u
     report.timed(Stage::Contact, || {
         integrate::scan(fluid.positions(), fluid.velocities()).0
     })
+}
+
+/// WCSPH's continuity density (`crate::delta_sph`, `WcsphDensity::Continuity`): advanced
+/// after contact, so every move of the substep counts; skipped for other densities.
+fn continuity_density(
+    fluid: &mut Fluid,
+    ws: &Workspace,
+    input: &SubstepInput<'_>,
+    report: &mut StepReport,
+) {
+    let (params, particles) = fluid.split_mut();
+    let crate::WcsphDensity::Continuity { delta } = params.wcsph_density else {
+        return;
+    };
+    if params.solver != crate::Solver::Wcsph {
+        return;
+    }
+    let motion = crate::delta_sph::Motion {
+        start: &ws.previous_positions,
+        neighbors: &ws.search.lists,
+        inv_densities: &ws.inv_densities,
+        gravity: input.gravity,
+        dt: input.dt,
+    };
+    let moved = (&particles.positions[..], &particles.densities[..]);
+    report.timed(Stage::Density, || {
+        crate::with_kernel!(params.density_kernel, K => crate::with_separation!(params.domain, S, sep =>
+            crate::delta_sph::advance::<K, S>(params, moved, particles.attributes, &motion, delta, sep)))
+    });
 }
 
 /// The overlap relaxation (pipeline/relax.rs) when particles were added or pushed out of a

@@ -5,6 +5,7 @@ use super::sources::{EmitterDesc, FillDesc, SinkDesc};
 use super::values::{self, NonNegative, Positive, PositiveVec3, Vec3};
 use crate::error::SphError;
 use crate::kernel::KernelKind;
+use crate::math::Real;
 use crate::params::{EquationOfState, FluidParams, FluidParamsBuilder};
 use serde::{Deserialize, Serialize};
 
@@ -35,6 +36,29 @@ impl From<WcsphPressureDesc> for crate::WcsphPressure {
         match d {
             WcsphPressureDesc::Paper => crate::WcsphPressure::Paper,
             WcsphPressureDesc::Adami => crate::WcsphPressure::Adami,
+        }
+    }
+}
+
+/// WCSPH's densities, as in [`crate::WcsphDensity`].
+#[derive(Copy, Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum WcsphDensityDesc {
+    /// Kernel summation (the default).
+    Summation,
+    /// The continuity equation with δ-SPH density diffusion of coefficient `delta` (0.1 in
+    /// the papers; checked within `0..=1` when the parameters are built).
+    Continuity {
+        /// The diffusion coefficient δ.
+        delta: Real,
+    },
+}
+
+impl From<WcsphDensityDesc> for crate::WcsphDensity {
+    fn from(d: WcsphDensityDesc) -> Self {
+        match d {
+            WcsphDensityDesc::Summation => crate::WcsphDensity::Summation,
+            WcsphDensityDesc::Continuity { delta } => crate::WcsphDensity::Continuity { delta },
         }
     }
 }
@@ -418,6 +442,11 @@ pub struct FluidDesc {
     /// `wall_density`). Other solvers ignore it.
     #[serde(default)]
     pub wcsph_pressure: Option<WcsphPressureDesc>,
+    /// How WCSPH gets its densities ([`crate::WcsphDensity`]): `Summation` (the default) or
+    /// `Continuity(delta: 0.1)` (the continuity equation with δ-SPH density diffusion; best
+    /// with `wcsph_pressure: Adami`). Other solvers ignore it.
+    #[serde(default)]
+    pub wcsph_density: Option<WcsphDensityDesc>,
     /// Interacts with every other fluid of the scene that says so (`fluid_groups` all; see
     /// [`crate::fluid::interaction`]). Default: no.
     #[serde(default)]
@@ -529,6 +558,9 @@ impl FluidDesc {
         }
         if let Some(v) = self.wcsph_pressure {
             b = b.wcsph_pressure(v.into());
+        }
+        if let Some(v) = self.wcsph_density {
+            b = b.wcsph_density(v.into());
         }
         if self.interacts == Some(true) {
             b = b.fluid_groups(rapier3d::geometry::InteractionGroups::all());

@@ -101,7 +101,7 @@ pub use build::BuiltScene;
 pub use build::scene_bounds;
 pub use fluid::{
     BlockDesc, EosDesc, FluidDesc, KernelDesc, MixtureDesc, PhaseDesc, Preset, SleepDesc,
-    SolverDesc, SpringsDesc, ViscositySolveDesc, WcsphPressureDesc,
+    SolverDesc, SpringsDesc, ViscositySolveDesc, WcsphDensityDesc, WcsphPressureDesc,
 };
 pub use shapes::{CompoundPart, ShapeDesc};
 pub use sources::{

@@ -47,7 +47,7 @@ pub(crate) fn relaxation(halvings: u32) -> Real {
     Real::powi(0.5, halvings as i32)
 }
 pub use dfsph::{HYDROSTATIC_WALL_MIRROR, WALL_MIRROR};
-pub use settings::{Clavet, Dfsph, Pbf, Solver, Springs, WcsphPressure};
+pub use settings::{Clavet, Dfsph, Pbf, Solver, Springs, WcsphDensity, WcsphPressure};
 
 /// What a solver asks of the wall stage (`boundary::wall`).
 #[derive(Copy, Clone, Debug)]

@@ -6,6 +6,8 @@ pub use super::clavet::settings::{Clavet, Springs};
 pub use super::dfsph::settings::Dfsph;
 pub use super::pbf::settings::Pbf;
 
+use crate::math::Real;
+
 /// Which pressure solver a fluid uses.
 ///
 /// # Examples
@@ -76,6 +78,55 @@ pub enum WcsphPressure {
     /// [`crate::FluidParams::wall_density`]. A settled column's bottom pressure reads within
     /// a few per cent of `ρ0·g·depth` instead of +116 to +132 % (docs/solvers.md).
     Adami,
+}
+
+/// How WCSPH ([`Solver::Wcsph`]) gets its densities ([`crate::FluidParams::wcsph_density`];
+/// other solvers ignore it).
+///
+/// # Examples
+///
+/// ```
+/// use rapier_sph::{FluidParamsBuilder, Solver, SphError, WcsphDensity, WcsphPressure};
+/// // δ-SPH: the continuity equation with density diffusion, on Adami's walls.
+/// let params = FluidParamsBuilder::water(0.02)
+///     .solver(Solver::Wcsph)
+///     .wcsph_pressure(WcsphPressure::Adami)
+///     .wcsph_density(WcsphDensity::DELTA_SPH)
+///     .build()?;
+/// assert_eq!(params.wcsph_density, WcsphDensity::Continuity { delta: 0.1 });
+/// // The diffusion coefficient is checked, naming the field.
+/// let err = FluidParamsBuilder::water(0.02)
+///     .wcsph_density(WcsphDensity::Continuity { delta: -1.0 })
+///     .build()
+///     .unwrap_err();
+/// assert!(matches!(err, SphError::InvalidParameter { field: "wcsph_density", .. }));
+/// # Ok::<(), SphError>(())
+/// ```
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "snapshot", derive(serde::Serialize, serde::Deserialize))]
+pub enum WcsphDensity {
+    /// Kernel summation `ρ_i = Σ_j m·W_ij` (plus the walls' density) every substep: the
+    /// Unity paper's (the default).
+    #[default]
+    Summation,
+    /// The continuity equation `dρ_i/dt = ρ_i Σ_j V_j (v_i − v_j)·∇W_ij` integrated from
+    /// step to step, with the δ-SPH density diffusion of Molteni & Colagrossi (2009) /
+    /// Antuono et al. (2010) in the hydrostatic-consistent form of Fourtakas et al. (2019):
+    /// `δ·ĥ·c0 Σ_j 2(ρ_j − ρ_i − ρ^H_ji)(r_ji·∇W_ij)/|r_ij|² V_j`, `ĥ` half the crate's
+    /// support radius (δ-SPH's smoothing length), `ρ^H_ji = ρ0·g·(x_j − x_i)/c0²`. The walls'
+    /// share of the density is summed every substep as with summation (`crate::delta_sph`).
+    /// A particle's first density is its summed one, at least `ρ0` (free-surface particles
+    /// start at rest density). Not for interacting fluids.
+    Continuity {
+        /// The diffusion coefficient δ (0.1 in the δ-SPH papers; 0: the continuity equation
+        /// alone). Within `0..=1`.
+        delta: Real,
+    },
+}
+
+impl WcsphDensity {
+    /// The continuity equation with δ = 0.1 (Antuono et al. 2010's value).
+    pub const DELTA_SPH: Self = WcsphDensity::Continuity { delta: 0.1 };
 }
 
 impl Solver {

@@ -10,8 +10,8 @@ use crate::domain::Separation;
 use crate::math::{Real, Vector};
 use crate::neighbors::Pairs;
 use crate::params::FluidParams;
-use crate::solver::settings::WcsphPressure;
-use crate::{density, forces, integrate, pressure};
+use crate::solver::settings::{WcsphDensity, WcsphPressure};
+use crate::{delta_sph, density, forces, integrate, pressure};
 
 /// WCSPH keeps no state between substeps (only scratch for interacting fluids and Adami's
 /// walls).
@@ -44,11 +44,21 @@ impl PressureSolver for WcsphState {
     fn step<S: Separation>(&mut self, _: &(), ctx: &mut StepContext<'_>, sep: S) -> Outcome {
         let p = ctx.params;
         let wall = ctx.wall;
-        ctx.report.timed(Stage::Density, || {
-            crate::with_kernel!(p.density_kernel, K => density::compute::<K, S>(
-                ctx.positions, ctx.neighbors, p.particle_mass, p.smoothing_length,
-                wall.map(|w| &w.density[..]), ctx.densities, ctx.inv_densities, sep));
-        });
+        let continuity = match p.wcsph_density {
+            WcsphDensity::Summation => None,
+            WcsphDensity::Continuity { delta } => Some(delta),
+        };
+        if continuity.is_some() {
+            let t0 = std::time::Instant::now();
+            crate::with_kernel!(p.density_kernel, K => delta_sph::densities::<K, S>(ctx, sep));
+            ctx.report.timings.add(Stage::Density, t0.elapsed());
+        } else {
+            ctx.report.timed(Stage::Density, || {
+                crate::with_kernel!(p.density_kernel, K => density::compute::<K, S>(
+                    ctx.positions, ctx.neighbors, p.particle_mass, p.smoothing_length,
+                    wall.map(|w| &w.density[..]), ctx.densities, ctx.inv_densities, sep));
+            });
+        }
         ctx.report.timed(Stage::Pressure, || {
             pressure::eos::compute(
                 ctx.densities,
@@ -120,17 +130,18 @@ impl PressureSolver for WcsphState {
                 }
             });
         }
-        ctx.report
-            .timed(Stage::ParticleUpdate, || {
-                integrate::symplectic_euler(
-                    ctx.dt,
-                    ctx.accelerations,
-                    ctx.velocities,
-                    ctx.positions,
-                    ctx.previous_positions,
-                )
-            })
-            .into()
+        let outcome: (usize, Real) = ctx.report.timed(Stage::ParticleUpdate, || {
+            integrate::symplectic_euler(
+                ctx.dt,
+                ctx.accelerations,
+                ctx.velocities,
+                ctx.positions,
+                ctx.previous_positions,
+            )
+        });
+        // With the continuity density, the pipeline advances it after contact
+        // (`pipeline::substep`, `delta_sph::advance`).
+        outcome.into()
     }
 
     /// The wall pressure force over the substep: `−m·g_c·p/(2ρ²)` with the paper's forces,

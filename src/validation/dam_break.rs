@@ -226,6 +226,7 @@ impl Case {
             .solver(method.solver)
             .wall_density(method.wall_density)
             .wcsph_pressure(method.wcsph_pressure)
+            .wcsph_density(method.wcsph_density)
             .build()
     }
 }

@@ -47,6 +47,7 @@ pub fn run(
         .solver(method.solver)
         .wall_density(method.wall_density)
         .wcsph_pressure(method.wcsph_pressure)
+        .wcsph_density(method.wcsph_density)
         .build()?;
     let n = resolution;
     let mut tank = HydrostaticTank::new(params.clone(), [n, 2 * n, n])?;

@@ -286,6 +286,7 @@ impl Tank {
             .solver(method.solver)
             .wall_density(method.wall_density)
             .wcsph_pressure(method.wcsph_pressure)
+            .wcsph_density(method.wcsph_density)
             .build()?;
         let s = params.particle_spacing;
         let layers = super::dam_break::LAYERS;

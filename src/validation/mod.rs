@@ -50,6 +50,8 @@ pub struct Method {
     pub wall_density: bool,
     /// [`crate::FluidParams::wcsph_pressure`] (WCSPH only).
     pub wcsph_pressure: crate::WcsphPressure,
+    /// [`crate::FluidParams::wcsph_density`] (WCSPH only).
+    pub wcsph_density: crate::WcsphDensity,
 }
 
 /// Every solver the crate has, as the report sweeps them. A new solver is one line here.
@@ -60,24 +62,28 @@ pub fn methods() -> Vec<Method> {
             solver: Solver::Wcsph,
             wall_density: false,
             wcsph_pressure: crate::WcsphPressure::Paper,
+            wcsph_density: crate::WcsphDensity::Summation,
         },
         Method {
             name: Solver::dfsph().name(),
             solver: Solver::dfsph(),
             wall_density: true,
             wcsph_pressure: crate::WcsphPressure::Paper,
+            wcsph_density: crate::WcsphDensity::Summation,
         },
         Method {
             name: Solver::pbf().name(),
             solver: Solver::pbf(),
             wall_density: true,
             wcsph_pressure: crate::WcsphPressure::Paper,
+            wcsph_density: crate::WcsphDensity::Summation,
         },
         Method {
             name: Solver::clavet().name(),
             solver: Solver::clavet(),
             wall_density: false,
             wcsph_pressure: crate::WcsphPressure::Paper,
+            wcsph_density: crate::WcsphDensity::Summation,
         },
     ]
 }

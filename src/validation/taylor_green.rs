@@ -98,6 +98,7 @@ pub fn params(method: &Method, resolution: usize, re: u32) -> SphResult<crate::F
         .solver(method.solver)
         .wall_density(method.wall_density)
         .wcsph_pressure(method.wcsph_pressure)
+        .wcsph_density(method.wcsph_density)
         .periodic(Vector::ZERO, Vector::splat(BOX))
         .build()
 }
