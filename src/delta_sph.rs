@@ -4,29 +4,33 @@
 //! Each particle carries the fluid's share of its density, `ρ_f`, as the attribute
 //! [`ATTRIBUTE`] (so re-sorts, sinks and snapshots move it with the particle). A substep
 //! reads `ρ_i = ρ_f,i + ρ_wall,i`, the walls' share summed from the walls' current pose as
-//! with summation (`boundary::wall`: a moving body's walls are where they are), and after the
-//! particle update advances
+//! with summation (`boundary::wall`: a moving body's walls are where they are), and once the
+//! particle update and contact have moved the particles (`pipeline::substep`) advances
 //!
 //! ```text
-//! dρ_f,i/dt = ρ_i Σ_j V_j (v_i − v_j)·∇W_ij                                  (continuity)
-//!           + δ·ĥ·c0 Σ_j 2(ρ_j − ρ_i − ρ^H_ji) (r_ji·∇W_ij)/(|r_ij|² + η²) V_j   (diffusion)
+//! Δρ_f,i = ρ_i Σ_j V_j (Δx_i − Δx_j)·∇W_ij                                  (continuity)
+//!        + dt·δ·ĥ·c0 Σ_j 2(ρ_j − ρ_i − ρ^H_ji) (r_ji·∇W_ij)/(|r_ij|² + η²) V_j   (diffusion)
 //! ```
 //!
-//! with `V_j = m/ρ_j`, the positions of the substep's start and the velocities the update
-//! just gave (`x^{n+1} = x^n + dt·v^{n+1}`, so the density follows the positions' own
-//! step). The first line is the continuity equation in the form of Antuono et al. (2010,
-//! "Free-surface flows solved by means of SPH schemes with numerical diffusive terms",
-//! Comput. Phys. Commun. 181, 532–549, eq. 2); the second is the density diffusion of
+//! with `V_j = m/ρ_j`, the gradients at the substep's start and `Δx` each particle's move over
+//! the substep: `dt·v^{n+1}` for a particle only the update moved (the continuity equation
+//! `dρ_i/dt = ρ_i Σ_j V_j (v_i − v_j)·∇W_ij` of Antuono et al. 2010, "Free-surface flows
+//! solved by means of SPH schemes with numerical diffusive terms", Comput. Phys. Commun. 181,
+//! 532–549), and where it ended for a particle contact pushed out of a wall. Contact moves
+//! particles without a velocity; integrated from the velocities alone, a settled column
+//! lost half its height in two seconds (contact squeezing it at the walls, unseen by the
+//! density: bottom pressure −85 %, N = 8). The second line is the density diffusion of
 //! Molteni & Colagrossi (2009, Comput. Phys. Commun. 180, 861–872), `ĥ` the δ-SPH smoothing
 //! length (half this crate's support radius `h`), `η = 0.1·ĥ`, with the hydrostatic
 //! correction of Fourtakas et al. (2019, "Local uniform stencil (LUST) boundary condition
 //! for arbitrary 3-D boundaries in parallel smoothed particle hydrodynamics (SPH) models",
-//! Comput. Fluids 190, 346–361, eq. 15; DualSPHysics' "DDT Fourtakas"): the diffusion acts
-//! on the density's difference from the hydrostatic one, `ρ^H_ji = ρ0·g·(x_j − x_i)/c0²`
-//! (Fourtakas' `ρ0((1 + ρ0·g·z_ij/C_B)^{1/γ} − 1)` to first order in `ρ0·g·z/C_B`, under
-//! 0.3 % at the support's length in water at c0 = 30 m/s; exact for the linear equation of
+//! Comput. Fluids 190, 346–361; DualSPHysics' "DDT Fourtakas"): the diffusion acts on the
+//! density's difference from the hydrostatic one, `ρ^H_ji = ρ0·g·(x_j − x_i)/c0²`
+//! (Fourtakas' `ρ0((1 + ρ0·g·z_ij/C_B)^{1/γ} − 1)` to first order in `ρ0·g·z/C_B`: 0.13 %
+//! apart over a 4 cm support in water at c0 = 30 m/s; exact for the linear equation of
 //! state), so a settled column keeps its hydrostatic densities instead of diffusing them
-//! away (Molteni & Colagrossi's term alone does).
+//! away (Molteni & Colagrossi's term alone does). The overlap relaxation's moves (after
+//! particles are added or pushed out of a solid, `pipeline::relax`) are not counted.
 //!
 //! A particle seen for the first time (a new attribute value is zero) starts at its summed
 //! density, at least `ρ0`: free-surface particles, which summation leaves short of

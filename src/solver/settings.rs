@@ -110,13 +110,17 @@ pub enum WcsphDensity {
     #[default]
     Summation,
     /// The continuity equation `dρ_i/dt = ρ_i Σ_j V_j (v_i − v_j)·∇W_ij` integrated from
-    /// step to step, with the δ-SPH density diffusion of Molteni & Colagrossi (2009) /
+    /// step to step (from each pair's relative move over the substep, contact's pushes
+    /// included), with the δ-SPH density diffusion of Molteni & Colagrossi (2009) /
     /// Antuono et al. (2010) in the hydrostatic-consistent form of Fourtakas et al. (2019):
     /// `δ·ĥ·c0 Σ_j 2(ρ_j − ρ_i − ρ^H_ji)(r_ji·∇W_ij)/|r_ij|² V_j`, `ĥ` half the crate's
     /// support radius (δ-SPH's smoothing length), `ρ^H_ji = ρ0·g·(x_j − x_i)/c0²`. The walls'
     /// share of the density is summed every substep as with summation (`crate::delta_sph`).
     /// A particle's first density is its summed one, at least `ρ0` (free-surface particles
-    /// start at rest density). Not for interacting fluids.
+    /// start at rest density). Not for interacting fluids. Best with
+    /// [`WcsphPressure::Adami`]: a settled column's bottom pressure then reads within 1.4 % of
+    /// `ρ0·g·depth` (N = 8 and 12, `tests/delta_sph.rs`). It does not lower impact pressure
+    /// peaks (docs/validation.md, "Impact pressure").
     Continuity {
         /// The diffusion coefficient δ (0.1 in the δ-SPH papers; 0: the continuity equation
         /// alone). Within `0..=1`.
