@@ -185,3 +185,24 @@ fn delta_sph_bad_settings_are_typed_errors() {
         "{err}"
     );
 }
+
+/// The scene-file field: `wcsph_density: Continuity(delta: 0.1)` reads as
+/// `WcsphDensity::DELTA_SPH` (the shipped `scenes/wcsph_delta_sph.ron`), a coefficient out
+/// of range is refused naming the field.
+#[cfg(feature = "scene")]
+#[test]
+fn delta_sph_from_a_scene_file() {
+    use rapier_sph::scene_file::SceneFile;
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/wcsph_delta_sph.ron");
+    let text = std::fs::read_to_string(path).unwrap();
+    let scene = SceneFile::parse(&text, "wcsph_delta_sph.ron").unwrap();
+    let params = scene.fluids[0].params().unwrap();
+    assert_eq!(params.wcsph_density, WcsphDensity::DELTA_SPH);
+    assert_eq!(params.wcsph_pressure, WcsphPressure::Adami);
+    let bad = text.replace("Continuity(delta: 0.1)", "Continuity(delta: 2.0)");
+    let message = match SceneFile::parse(&bad, "bad.ron") {
+        Ok(s) => s.fluids[0].params().unwrap_err().to_string(),
+        Err(e) => e.to_string(),
+    };
+    assert!(message.contains("wcsph_density"), "{message}");
+}
