@@ -43,51 +43,11 @@ use crate::math::{Real, Vector};
 use crate::neighbors::NeighborLists;
 use crate::par::CHUNK;
 use crate::params::FluidParams;
-use crate::solver::context::StepContext;
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
 /// The attribute holding each particle's fluid share of its density, `ρ_f` (kg/m³).
 pub(crate) const ATTRIBUTE: &str = "wcsph.continuity_density";
-
-/// `ρ_i = ρ_f,i + ρ_wall,i` into `ctx.densities` and `1/ρ_i` into `ctx.inv_densities`;
-/// particles without a stored density first take their summed one, at least `ρ0`.
-pub(crate) fn densities<K: Kernel, S: Separation>(ctx: &mut StepContext<'_>, sep: S) {
-    let p = ctx.params;
-    let n = ctx.positions.len();
-    let k = ctx.attributes.ensure(ATTRIBUTE, n);
-    let wall = ctx.wall.map(|w| &w.density[..]);
-    let stored = ctx.attributes.get_mut(k);
-    if stored.iter().any(|&r| r <= 0.0) {
-        crate::density::compute::<K, S>(
-            ctx.positions,
-            ctx.neighbors,
-            p.particle_mass,
-            p.smoothing_length,
-            wall,
-            ctx.densities,
-            ctx.inv_densities,
-            sep,
-        );
-        for (i, (s, &summed)) in stored.iter_mut().zip(ctx.densities.iter()).enumerate() {
-            if *s <= 0.0 {
-                *s = summed.max(p.rest_density) - wall.map_or(0.0, |w| w[i]);
-            }
-        }
-    }
-    let stored = &*stored;
-    crate::par_chunks_mut!(ctx.densities, CHUNK)
-        .zip(crate::par_chunks_mut!(ctx.inv_densities, CHUNK))
-        .enumerate()
-        .for_each(|(c, (rho, inv))| {
-            let base = c * CHUNK;
-            for (k, (r, v)) in rho.iter_mut().zip(inv.iter_mut()).enumerate() {
-                let i = base + k;
-                *r = stored[i] + wall.map_or(0.0, |w| w[i]);
-                *v = 1.0 / *r;
-            }
-        });
-}
 
 /// The substep's motion, as the pipeline holds it after contact: where the particles
 /// started, their neighbours there and their `1/ρ` of the substep.

@@ -7,11 +7,14 @@ use super::context::{Outcome, StepContext};
 use super::{PressureSolver, WallReaction, WallRequest};
 use crate::diagnostics::Stage;
 use crate::domain::Separation;
+use crate::kernel::Kernel;
 use crate::math::{Real, Vector};
 use crate::neighbors::Pairs;
 use crate::params::FluidParams;
 use crate::solver::settings::{WcsphDensity, WcsphPressure};
 use crate::{delta_sph, density, forces, integrate, pressure};
+#[cfg(feature = "parallel")]
+use rayon::prelude::*;
 
 /// WCSPH keeps no state between substeps (only scratch for interacting fluids and Adami's
 /// walls).
@@ -50,7 +53,7 @@ impl PressureSolver for WcsphState {
         };
         if continuity.is_some() {
             let t0 = std::time::Instant::now();
-            crate::with_kernel!(p.density_kernel, K => delta_sph::densities::<K, S>(ctx, sep));
+            crate::with_kernel!(p.density_kernel, K => continuity_densities::<K, S>(ctx, sep));
             ctx.report.timings.add(Stage::Density, t0.elapsed());
         } else {
             ctx.report.timed(Stage::Density, || {
@@ -233,4 +236,43 @@ impl WcsphState {
             }
         });
     }
+}
+
+/// WCSPH's continuity density (`crate::delta_sph`): `ρ_i = ρ_f,i + ρ_wall,i` into `ctx.densities` and `1/ρ_i` into `ctx.inv_densities`;
+/// particles without a stored density first take their summed one, at least `ρ0`.
+fn continuity_densities<K: Kernel, S: Separation>(ctx: &mut StepContext<'_>, sep: S) {
+    let p = ctx.params;
+    let n = ctx.positions.len();
+    let k = ctx.attributes.ensure(delta_sph::ATTRIBUTE, n);
+    let wall = ctx.wall.map(|w| &w.density[..]);
+    let stored = ctx.attributes.get_mut(k);
+    if stored.iter().any(|&r| r <= 0.0) {
+        crate::density::compute::<K, S>(
+            ctx.positions,
+            ctx.neighbors,
+            p.particle_mass,
+            p.smoothing_length,
+            wall,
+            ctx.densities,
+            ctx.inv_densities,
+            sep,
+        );
+        for (i, (s, &summed)) in stored.iter_mut().zip(ctx.densities.iter()).enumerate() {
+            if *s <= 0.0 {
+                *s = summed.max(p.rest_density) - wall.map_or(0.0, |w| w[i]);
+            }
+        }
+    }
+    let stored = &*stored;
+    crate::par_chunks_mut!(ctx.densities, crate::par::CHUNK)
+        .zip(crate::par_chunks_mut!(ctx.inv_densities, crate::par::CHUNK))
+        .enumerate()
+        .for_each(|(c, (rho, inv))| {
+            let base = c * crate::par::CHUNK;
+            for (k, (r, v)) in rho.iter_mut().zip(inv.iter_mut()).enumerate() {
+                let i = base + k;
+                *r = stored[i] + wall.map_or(0.0, |w| w[i]);
+                *v = 1.0 / *r;
+            }
+        });
 }
