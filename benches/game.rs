@@ -57,7 +57,11 @@
 //! its expected draft (density ratio × height: 1 is Archimedes), averaged over the frames.
 //! "ms/frame" is the median wall time of a frame, with its 10th and 90th percentiles;
 //! "CPU ms" the processor time of all threads per frame (Linux `/proc/self/stat`, 10 ms ticks
-//! summed over the run), which other jobs on a shared machine inflate less than wall time.
+//! summed over the run), which other jobs on a shared machine inflate less than wall time;
+//! "CPU µs per particle-substep" that divided by the substeps and particles (the cost a
+//! faster substep must cut). "near walls / in contact" are the shares of the particles, per
+//! substep, with a collider within their kernel support (the walls' terms are computed for
+//! them) and touched by collider contact.
 //! Stages are the fluid pipeline's own timings (ms per frame, summed over substeps); rapier's
 //! step is in "rapier".
 
@@ -77,13 +81,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!();
     print!(
         "| preset | particles | spacing (mm) | paddle | threads | ms/frame [p10–p90] | CPU ms/frame | \
-         substeps/frame | iterations/substep (density, divergence) | relaxation halvings | mean density error [worst frame] | largest particle compression | water KE (J) 1st / 2nd half | left the pool | hull draft / expected | rapier (ms) |"
+         CPU µs per particle-substep | substeps/frame | near walls / in contact (per substep) | iterations/substep (density, divergence) | relaxation halvings | mean density error [worst frame] | largest particle compression | water KE (J) 1st / 2nd half | left the pool | hull draft / expected | rapier (ms) |"
     );
     for s in Stage::ALL {
         print!(" {} |", s.name());
     }
     println!();
-    print!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    print!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for _ in Stage::ALL {
         print!("---|");
     }
@@ -297,6 +301,9 @@ struct Row {
     frame_ms: (f64, f64, f64),
     cpu_ms: f64,
     substeps: f64,
+    /// Per substep, the shares of the particles with a collider within their support
+    /// (`StepReport::particles_near_walls`) and touched by contact (`StepReport::contacts`).
+    near: (f64, f64),
     iterations: (f64, f64),
     halvings: u32,
     density_error: f64,
@@ -348,6 +355,7 @@ fn run(n: usize, preset: Preset, mode: Mode, args: &Args) -> SphResult<Row> {
     let (mut times, mut rapier) = (Vec::with_capacity(frames), Duration::ZERO);
     let (mut stages, mut substeps, mut error) = (StageTimings::default(), 0u64, 0.0f64);
     let mut iterations = (0u64, 0u64);
+    let mut near = (0u64, 0u64);
     let mut halvings = 0;
     let mut draft = 0.0;
     let (mut worst_error, mut largest_compression) = (0.0 as Real, 0.0 as Real);
@@ -363,6 +371,8 @@ fn run(n: usize, preset: Preset, mode: Mode, args: &Args) -> SphResult<Row> {
         substeps += report.substeps as u64;
         iterations.0 += report.solver_iterations as u64;
         iterations.1 += report.divergence_iterations as u64;
+        near.0 += report.particles_near_walls as u64;
+        near.1 += report.contacts as u64;
         error += report.mean_density_error as f64;
         halvings = halvings.max(report.solver_relaxation_halvings);
         worst_error = worst_error.max(report.mean_density_error);
@@ -393,9 +403,11 @@ fn run(n: usize, preset: Preset, mode: Mode, args: &Args) -> SphResult<Row> {
     };
     times.sort_by(f64::total_cmp);
     let pick = |q: f64| times[((times.len() - 1) as f64 * q).round() as usize];
+    let particles = pool.world.fluids[pool.water].len();
+    let per_particle_substep = (substeps.max(1) * particles.max(1) as u64) as f64;
     Ok(Row {
         preset,
-        particles: pool.world.fluids[pool.water].len(),
+        particles,
         spacing: pool.spacing,
         mode,
         slept,
@@ -403,6 +415,10 @@ fn run(n: usize, preset: Preset, mode: Mode, args: &Args) -> SphResult<Row> {
         frame_ms: (pick(0.1), pick(0.5), pick(0.9)),
         cpu_ms: cpu * 1e3 / frames as f64,
         substeps: substeps as f64 / frames as f64,
+        near: (
+            near.0 as f64 / per_particle_substep,
+            near.1 as f64 / per_particle_substep,
+        ),
         iterations: (
             iterations.0 as f64 / substeps.max(1) as f64,
             iterations.1 as f64 / substeps.max(1) as f64,
@@ -468,7 +484,7 @@ impl Row {
     fn print(&self, threads: usize) {
         let (p10, p50, p90) = self.frame_ms;
         print!(
-            "| {} | {} | {:.1} | {} | {threads} | {p50:.3} [{p10:.3}–{p90:.3}] | {:.1} | {:.2} | {:.1}, {:.1} | {} | {:.3} % [{:.3} %] | {:.2} % | {:.3} / {:.3} | {} | {:.2} | {:.2} |",
+            "| {} | {} | {:.1} | {} | {threads} | {p50:.3} [{p10:.3}–{p90:.3}] | {:.1} | {:.3} | {:.2} | {:.1} % / {:.1} % | {:.1}, {:.1} | {} | {:.3} % [{:.3} %] | {:.2} % | {:.3} / {:.3} | {} | {:.2} | {:.2} |",
             self.preset.name(),
             self.particles,
             self.spacing * 1e3,
@@ -478,7 +494,10 @@ impl Row {
                 Mode::Asleep => "asleep",
             },
             self.cpu_ms,
+            1e3 * self.cpu_ms / (self.substeps * self.particles as f64).max(1.0),
             self.substeps,
+            100.0 * self.near.0,
+            100.0 * self.near.1,
             self.iterations.0,
             self.iterations.1,
             self.halvings,
