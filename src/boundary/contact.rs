@@ -777,13 +777,16 @@ fn moving_particle(
     counts: &mut ContactCounts,
 ) {
     let input = m.input;
-    let cands = input.candidates.of_cell(input.grid.cell_of(i));
+    let (cands, boxes) = input.candidates.of_cell_with_boxes(input.grid.cell_of(i));
     if cands.is_empty() {
         return;
     }
     let (colliders, table) = (input.colliders, m.table);
     let r = input.response.radius;
     let slack = r * SLACK;
+    if static_and_far(m, (cands, boxes), input.previous[i], *x) {
+        return;
+    }
     let v_orig = *v;
     let mut kicks = Kicks {
         table,
@@ -849,6 +852,29 @@ fn moving_particle(
     let integrated = *x;
     p.finish(fallback, counts, x, v);
     settle_records(&mut kicks, integrated, *x, v_orig);
+}
+
+/// `true` when every candidate of `cands` is outside the coupling table (at rest, at its own
+/// pose, its box the shape's there) and its box farther than the contact radius (less the
+/// slack, plus a few ulps of the coordinates) from the box of the motion `start → end`: the
+/// static path's `reach` test. No sweep can then hit, no push can reach the end point (and
+/// without a push it never moves), no start is inside: the particle would come out of
+/// [`moving_particle`] untouched, so skipping it is exact.
+#[inline(always)]
+fn static_and_far(
+    m: &Moving<'_>,
+    (cands, boxes): (&[ColliderHandle], &[Aabb]),
+    start: Vector,
+    end: Vector,
+) -> bool {
+    let r = m.input.response.radius;
+    let scale = start.abs().max_element().max(end.abs().max_element());
+    let margin = r - r * SLACK + 8.0 * Real::EPSILON * scale;
+    let (lo, hi) = (start.min(end), start.max(end));
+    cands
+        .iter()
+        .zip(boxes)
+        .all(|(&h, b)| entry_of(m.table, h).is_none() && apart(b, lo, hi, margin))
 }
 
 /// The last pushes of step 2 on one particle, each as `(entry, outward normal, surface
