@@ -859,7 +859,7 @@ fn moving_particle(
 /// slack, plus a few ulps of the coordinates) from the box of the motion `start → end`: the
 /// static path's `reach` test. No sweep can then hit, no push can reach the end point (and
 /// without a push it never moves), no start is inside: the particle would come out of
-/// [`moving_particle`] untouched, so skipping it is exact.
+/// `moving_particle` untouched, so skipping it is exact.
 #[inline(always)]
 fn static_and_far(
     m: &Moving<'_>,
