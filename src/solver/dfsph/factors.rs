@@ -2,7 +2,7 @@
 //! over the pairs, with the pair gradients kept for the solves.
 
 use super::super::pairs::{Block, KernelSums, PairGradients, PairSink, kernel_sums};
-use super::{WarmPush, to_vectors, wall_weights};
+use super::{WarmPush, wall_weights};
 use crate::boundary::WallWorkspace;
 use crate::domain::Separation;
 use crate::kernel::{Kernel, ViscosityLaplacian};
@@ -75,7 +75,7 @@ pub(crate) fn density_and_factors<K: Kernel, S: Separation>(
                     let base = c * CHUNK;
                     let (offsets, indices) = neighbors.chunk(c);
                     let in_chunk = offsets[dens.len()] as usize;
-                    gc.grad.resize(in_chunk, Vec3A::ZERO);
+                    gc.grad.resize(in_chunk);
                     gc.laplacian.resize(viscosity.map_or(0, |_| in_chunk), 0.0);
                     gc.wall_weight
                         .resize(if averaged { in_chunk } else { 0 }, 0.0);
@@ -85,18 +85,18 @@ pub(crate) fn density_and_factors<K: Kernel, S: Separation>(
                         let i = base + k;
                         let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
                         let nb = &indices[s..e];
-                        let out = &mut gc.grad[s..e];
                         let lap_out: &mut [Real] = match viscosity {
                             Some(_) => &mut gc.laplacian[s..e],
                             None => &mut [],
                         };
                         let mut store = StorePairs {
-                            grad: &mut *out,
+                            grad: gc.grad.range_mut(s, e),
                             lap: lap_out,
                             viscosity,
                         };
                         let KernelSums { w: wsum, g, g2 } =
                             kernel_sums(pairs, &kernel, i, nb, &mut store);
+                        let out = gc.grad.range(s, e);
                         let sw = match wall {
                             Some(w) if averaged => {
                                 wall_weights(out, w.gradient[i], &mut gc.wall_weight[s..e])
@@ -161,7 +161,9 @@ pub(crate) fn phase_factors(
                 let i = c * CHUNK + k;
                 let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
                 let (mut g, mut g2r) = (Vec3A::ZERO, 0.0);
-                for (&j, &gij) in indices[s..e].iter().zip(&gc[s..e]) {
+                let grads = gc.range(s, e);
+                for (t, &j) in indices[s..e].iter().enumerate() {
+                    let gij = grads.at(t);
                     g += gij;
                     g2r += ratio[j as usize] * gij.length_squared();
                 }
@@ -181,10 +183,11 @@ pub(crate) fn phase_factors(
         });
 }
 
-/// The density pass's pair values of one particle: gradients (16 bytes wide) and, for a
-/// viscous fluid, the viscosity Laplacians.
+/// The density pass's pair values of one particle: gradients (packed `x, y, z`, see
+/// [`PackedGradients`](super::super::pairs::PackedGradients)) and, for a viscous fluid, the
+/// viscosity Laplacians.
 struct StorePairs<'a> {
-    grad: &'a mut [Vec3A],
+    grad: &'a mut [Real],
     lap: &'a mut [Real],
     viscosity: Option<ViscosityLaplacian>,
 }
@@ -192,7 +195,13 @@ struct StorePairs<'a> {
 impl PairSink for StorePairs<'_> {
     #[inline(always)]
     fn block(&mut self, o: usize, b: &Block) {
-        to_vectors(&b.gx, &b.gy, &b.gz, &mut self.grad[o..o + LANES]);
+        let out: &mut [Real; 3 * LANES] =
+            (&mut self.grad[3 * o..3 * (o + LANES)]).try_into().unwrap();
+        for l in 0..LANES {
+            out[3 * l] = b.gx[l];
+            out[3 * l + 1] = b.gy[l];
+            out[3 * l + 2] = b.gz[l];
+        }
         if let Some(l) = &self.viscosity {
             let lap: &mut [Real; LANES] = (&mut self.lap[o..o + LANES]).try_into().unwrap();
             for (o, &d) in lap.iter_mut().zip(&b.d) {
@@ -203,7 +212,7 @@ impl PairSink for StorePairs<'_> {
 
     #[inline(always)]
     fn one(&mut self, t: usize, gradient: Vector, d: Real) {
-        self.grad[t] = Vec3A::from(gradient);
+        self.grad[3 * t..3 * t + 3].copy_from_slice(&[gradient.x, gradient.y, gradient.z]);
         if let Some(l) = &self.viscosity {
             self.lap[t] = l.laplacian(d);
         }

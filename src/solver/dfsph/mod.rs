@@ -37,11 +37,11 @@
 //! The solver uses the fluid's *density* kernel for every gradient, so the factor is exact for
 //! the forces it predicts (the pressure-kernel setting is used by WCSPH only).
 
-use super::pairs::PairGradients;
+use super::pairs::{GradientSlice, PairGradients};
 use crate::boundary::WallWorkspace;
 use crate::math::{Real, Vector};
 use crate::neighbors::NeighborLists;
-use crate::par::{CHUNK, LANES};
+use crate::par::CHUNK;
 use rapier3d::glamx::Vec3A;
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
@@ -178,44 +178,6 @@ impl DfsphBuffers {
     }
 }
 
-/// `out[l] = (x[l], y[l], z[l])` for the [`LANES`] lanes of a block: a 4×4 transpose of
-/// shuffles on x86-64 (built lane by lane, the vectors went through the stack and stalled
-/// on store forwarding).
-#[inline(always)]
-fn to_vectors(x: &[Real; LANES], y: &[Real; LANES], z: &[Real; LANES], out: &mut [Vec3A]) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::*;
-        for (h, out) in out.chunks_exact_mut(4).enumerate() {
-            let o = 4 * h;
-            // SAFETY: the loads read lanes `o..o + 4` of arrays of LANES = 8 (o is 0 or 4);
-            // SSE is part of every x86-64 CPU.
-            let v = unsafe {
-                let xv = _mm_loadu_ps(x.as_ptr().add(o));
-                let yv = _mm_loadu_ps(y.as_ptr().add(o));
-                let zv = _mm_loadu_ps(z.as_ptr().add(o));
-                let xy_lo = _mm_unpacklo_ps(xv, yv); // x0 y0 x1 y1
-                let xy_hi = _mm_unpackhi_ps(xv, yv); // x2 y2 x3 y3
-                let zz_lo = _mm_unpacklo_ps(zv, zv); // z0 z0 z1 z1
-                let zz_hi = _mm_unpackhi_ps(zv, zv); // z2 z2 z3 z3
-                [
-                    _mm_movelh_ps(xy_lo, zz_lo),
-                    _mm_movehl_ps(zz_lo, xy_lo),
-                    _mm_movelh_ps(xy_hi, zz_hi),
-                    _mm_movehl_ps(zz_hi, xy_hi),
-                ]
-            };
-            for (o, v) in out.iter_mut().zip(v) {
-                *o = Vec3A::from(v);
-            }
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    for l in 0..LANES {
-        out[l] = Vec3A::new(x[l], y[l], z[l]);
-    }
-}
-
 /// The divergence solve's warm start, applied by [`density_and_factors`] in its pass over
 /// the neighbours (it needs only the pairs' gradients, which that pass computes), which
 /// saves the solve one pass; see [`divergence_warm_start`].
@@ -244,24 +206,56 @@ impl<'a> WarmPush<'a> {
     }
 }
 
+/// A particle's values per pair (pair `t` at `at(t)`): a slice, or the pair gradients.
+trait PairValues: Copy {
+    /// The value of one pair.
+    type T: Copy;
+    /// Number of pairs.
+    fn len(&self) -> usize;
+    /// The value of pair `t`.
+    fn at(&self, t: usize) -> Self::T;
+}
+
+impl<T: Copy> PairValues for &[T] {
+    type T = T;
+    #[inline(always)]
+    fn len(&self) -> usize {
+        <[T]>::len(self)
+    }
+    #[inline(always)]
+    fn at(&self, t: usize) -> T {
+        self[t]
+    }
+}
+
+impl PairValues for GradientSlice<'_> {
+    type T = Vec3A;
+    #[inline(always)]
+    fn len(&self) -> usize {
+        GradientSlice::len(self)
+    }
+    #[inline(always)]
+    fn at(&self, t: usize) -> Vec3A {
+        GradientSlice::at(self, t)
+    }
+}
+
 /// `Σ_t term(nb[t], values[t])` over a particle's pairs, pair `t` into accumulator
 /// `t % ACC`, summed as `(a0 + a1) + (a2 + a3)`: independent add chains, and a fixed order,
 /// so the result depends on the data only. The terms run over 16-byte vectors (one packed
-/// operation per component-wise step).
+/// operation per component-wise step); only their `x, y, z` lanes are meaningful.
 #[inline(always)]
-fn pair_sum<T: Copy>(nb: &[u32], values: &[T], term: impl Fn(usize, T) -> Vec3A) -> Vec3A {
+fn pair_sum<V: PairValues>(nb: &[u32], values: V, term: impl Fn(usize, V::T) -> Vec3A) -> Vec3A {
+    assert_eq!(values.len(), nb.len(), "one value per pair");
     let mut acc = [Vec3A::ZERO; ACC];
     let full = nb.len() / ACC * ACC;
-    for (j, v) in nb[..full]
-        .chunks_exact(ACC)
-        .zip(values[..full].chunks_exact(ACC))
-    {
+    for (b, j) in nb[..full].chunks_exact(ACC).enumerate() {
         for l in 0..ACC {
-            acc[l] += term(j[l] as usize, v[l]);
+            acc[l] += term(j[l] as usize, values.at(b * ACC + l));
         }
     }
-    for (l, (&j, &v)) in nb[full..].iter().zip(&values[full..]).enumerate() {
-        acc[l] += term(j as usize, v);
+    for (l, &j) in nb[full..].iter().enumerate() {
+        acc[l] += term(j as usize, values.at(full + l));
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3])
 }
@@ -295,8 +289,9 @@ fn rate_pass<F: Fn(usize, Real) -> (Real, Real) + Sync>(
                         let i = c * CHUNK + k;
                         let vi = velocities[i];
                         let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
-                        let a =
-                            pair_sum(&indices[s..e], &gc[s..e], |j, g| (vi - velocities[j]) * g);
+                        let a = pair_sum(&indices[s..e], gc.range(s, e), |j, g| {
+                            (vi - velocities[j]) * g
+                        });
                         let mut rate = (a.x + a.y + a.z) * mass;
                         if let Some(wall) = wall {
                             let vi = Vector::from(vi);
@@ -340,7 +335,7 @@ impl Pusher<'_> {
     #[inline(always)]
     fn push(
         &self,
-        (nb, g): (&[u32], &[Vec3A]),
+        (nb, g): (&[u32], GradientSlice<'_>),
         weights: (&[Real], Real),
         pi: &[Real],
         i: usize,
@@ -372,25 +367,35 @@ impl Pusher<'_> {
 /// the same loop, `Σ_t w_t·π_j` in pair order (the wall's neighbour average's numerator, see
 /// [`weighted_average`]): each neighbour's value is gathered once.
 #[inline(always)]
-fn pair_sum_weighted(nb: &[u32], g: &[Vec3A], w: &[Real], pi: &[Real], pii: Real) -> (Vec3A, Real) {
+fn pair_sum_weighted(
+    nb: &[u32],
+    g: GradientSlice<'_>,
+    w: &[Real],
+    pi: &[Real],
+    pii: Real,
+) -> (Vec3A, Real) {
+    assert!(
+        g.len() == nb.len() && w.len() == nb.len(),
+        "one value per pair"
+    );
     let mut acc = [Vec3A::ZERO; ACC];
     let mut swp: Real = 0.0;
     let full = nb.len() / ACC * ACC;
-    for ((j, gv), wv) in nb[..full]
+    for (b, (j, wv)) in nb[..full]
         .chunks_exact(ACC)
-        .zip(g[..full].chunks_exact(ACC))
         .zip(w[..full].chunks_exact(ACC))
+        .enumerate()
     {
         for l in 0..ACC {
             let p = pi[j[l] as usize];
-            acc[l] += gv[l] * (pii + p);
+            acc[l] += g.at(b * ACC + l) * (pii + p);
             swp += wv[l] * p;
         }
     }
-    let rest = nb[full..].iter().zip(&g[full..]).zip(&w[full..]);
-    for (l, ((&j, &gv), &wv)) in rest.enumerate() {
+    let rest = nb[full..].iter().zip(&w[full..]);
+    for (l, (&j, &wv)) in rest.enumerate() {
         let p = pi[j as usize];
-        acc[l] += gv * (pii + p);
+        acc[l] += g.at(full + l) * (pii + p);
         swp += wv * p;
     }
     ((acc[0] + acc[1]) + (acc[2] + acc[3]), swp)
@@ -404,15 +409,16 @@ fn pair_sum_weighted(nb: &[u32], g: &[Vec3A], w: &[Real], pi: &[Real], pii: Real
 /// ([`weighted_average`]). They depend on the substep's gradients only: computed once by the
 /// density pass ([`density_and_factors`]), read by every iteration.
 #[inline(always)]
-fn wall_weights(g: &[Vec3A], gw: Vector, out: &mut [Real]) -> Real {
+fn wall_weights(g: GradientSlice<'_>, gw: Vector, out: &mut [Real]) -> Real {
     if gw == Vector::ZERO {
         out.fill(0.0);
         return 0.0;
     }
     let away = Vec3A::from(-gw.normalize());
     let mut sw = 0.0;
-    for (o, &g) in out.iter_mut().zip(g) {
-        let w = g.dot(away).max(0.0);
+    assert_eq!(out.len(), g.len(), "one weight per pair");
+    for (t, o) in out.iter_mut().enumerate() {
+        let w = g.at(t).dot(away).max(0.0);
         *o = w;
         sw += w;
     }
@@ -483,7 +489,7 @@ fn apply_pressure(
                         true => (&gc.wall_weight[s..e], gc.wall_weight_sum[k]),
                         false => (&[][..], 0.0),
                     };
-                    let pairs = (&indices[s..e], &gc.grad[s..e]);
+                    let pairs = (&indices[s..e], gc.grad.range(s, e));
                     *v -= pusher.push(pairs, weights, pi, c * CHUNK + k);
                 }
             },
