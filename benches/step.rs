@@ -147,6 +147,7 @@ fn salva_scene(quick: bool, dfsph: rapier_sph::Dfsph) {
         .build()
         .unwrap();
     let mut stages = Vec::new();
+    let mut iteration_costs = Vec::new();
     for &n in counts {
         let run = || {
             let params = FluidParamsBuilder::water(0.05)
@@ -162,11 +163,16 @@ fn salva_scene(quick: bool, dfsph: rapier_sph::Dfsph) {
             let steps = 200;
             let (mut it, mut div, mut err, mut predicted) = (0u64, 0u64, 0.0f64, 0.0f64);
             let mut timings = StageTimings::default();
+            let mut per_iteration = Vec::with_capacity(steps);
             let t0 = Instant::now();
             let c0 = cpu_seconds();
             for _ in 0..steps {
                 let r = scene.world.step_fluids().unwrap();
                 timings.accumulate(&r.timings);
+                if r.solver_iterations > 0 {
+                    let t = r.timings.get(Stage::DensitySolve).as_secs_f64();
+                    per_iteration.push(t / r.solver_iterations as f64);
+                }
                 it += r.solver_iterations as u64;
                 div += r.divergence_iterations as u64;
                 err += r.mean_density_error as f64;
@@ -182,13 +188,23 @@ fn salva_scene(quick: bool, dfsph: rapier_sph::Dfsph) {
                 (err / steps as f64, predicted / steps as f64),
                 scene.escaped(),
                 (steps, timings),
+                per_iteration,
             )
         };
         let best = (0..2)
             .map(|_| pool.install(run))
             .min_by(|a, b| a.0.0.total_cmp(&b.0.0))
             .unwrap();
-        let ((wall, cpu), particles, (it, div), (err, predicted), escaped, (steps, timings)) = best;
+        let (
+            (wall, cpu),
+            particles,
+            (it, div),
+            (err, predicted),
+            escaped,
+            (steps, timings),
+            per_it,
+        ) = best;
+        iteration_costs.push((particles, per_it));
         stages.push((particles, timings, steps as f64 * 0.005));
         let sps = steps as f64 / wall;
         println!(
@@ -206,6 +222,27 @@ fn salva_scene(quick: bool, dfsph: rapier_sph::Dfsph) {
         );
     }
     print_salva_stages(&stages);
+    print_iteration_costs(&mut iteration_costs);
+}
+
+/// The density solve's time per iteration (two passes over the pairs, and the solve's
+/// last rate pass and warm start spread over them), step by step: its 10th percentile and
+/// median over the steps of the fastest run. On a loaded machine a step's stages are often
+/// preempted; the lower percentile is the figure that compares builds.
+fn print_iteration_costs(costs: &mut [(usize, Vec<f64>)]) {
+    println!();
+    println!(
+        "| particles | density solve µs per iteration, 10th percentile of the steps | median |"
+    );
+    println!("|---|---|---|");
+    for (n, v) in costs.iter_mut() {
+        if v.is_empty() {
+            continue;
+        }
+        v.sort_by(f64::total_cmp);
+        let at = |q: f64| 1e6 * v[((v.len() - 1) as f64 * q) as usize];
+        println!("| {n} | {:.0} | {:.0} |", at(0.1), at(0.5));
+    }
 }
 
 /// The salva rows' stage times (the fastest run's), in wall seconds per simulated second;
