@@ -66,9 +66,10 @@ const TGV_TOLERANCE: f64 = 0.10;
 /// density (the lattice itself is at `ρ0` to 3·10⁻⁵ with the cubic spline at h = 2s, but
 /// the rows next to a wall are not at the wall's rest distance): measured at most +0.25 %
 /// (DFSPH, hydrostatic tank, N = 6, fixed dt/2: the column rising by 1.5 % of a spacing),
-/// +1.7 % at N = 3. Clavet creates energy (+4.6 % to +95 % in its stable runs: the report's
-/// `energy_excess` column); PBF did before its artificial pressure was scaled with the step
-/// (up to +2.1 %, Koshizuka & Oka, N = 16, fixed dt/2), and gains nothing now.
+/// +1.7 % at N = 3. Clavet releases its cohesion's own energy (with walls in its densities
+/// up to +45 % of `E_0`, the square column's free edge: docs/validation.md; the report's
+/// `energy_excess` column); PBF gained energy before its artificial pressure was scaled with
+/// the step (up to +2.1 %, Koshizuka & Oka, N = 16, fixed dt/2), and gains nothing now.
 const ENERGY_TOLERANCE: f64 = 0.01;
 
 /// The largest `energy_excess` of `m` over every scene under gravity at its default
