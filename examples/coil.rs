@@ -84,6 +84,10 @@ struct Args {
     /// Iteration cap of the implicit viscosity solve.
     #[arg(long, default_value_t = 400)]
     iterations: u32,
+    /// The stress-based implicit viscosity (`ViscositySolve::Stress`, Takahashi et al. 2015)
+    /// instead of Weiler et al.'s Laplacian (`ViscositySolve::Implicit`).
+    #[arg(long)]
+    stress: bool,
     /// Feed the stream from an emitter at the nozzle instead of the tube (for comparison:
     /// it neither pushes nor, at 1/60 s frames, supplies continuously).
     #[arg(long)]
@@ -169,14 +173,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let h = a.height * d;
     let u = a.speed;
     let mu = a.nu * a.density;
+    let solve = ImplicitViscosity {
+        max_iterations: a.iterations,
+        ..Default::default()
+    };
     let params = FluidParamsBuilder::water(s)
         .rest_density(a.density)
         .viscosity(mu)
         .wall_viscosity(mu)
-        .viscosity_solve(ViscositySolve::Implicit(ImplicitViscosity {
-            max_iterations: a.iterations,
-            ..Default::default()
-        }))
+        .viscosity_solve(if a.stress {
+            ViscositySolve::Stress(solve)
+        } else {
+            ViscositySolve::Implicit(solve)
+        })
         .build()?;
     let mut world = FluidWorld::new();
     world.physics.integration_parameters.dt = 1.0 / (60.0 * a.steps as Real);
@@ -220,6 +229,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let dt = world.physics.integration_parameters.dt;
     let mut track = Track::default();
     let mut cost = (0usize, 0usize);
+    let mut residual: Real = 0.0;
     let mut blocked = 0usize;
     let start = Instant::now();
     for frame in 1..=frames {
@@ -232,6 +242,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             blocked += rep.emitter_blocked;
             cost.0 += rep.substeps as usize;
             cost.1 += rep.viscosity_iterations;
+            residual = residual.max(rep.viscosity_residual);
         }
         let t = frame as f64 / 60.0;
         track.sample(t, &world.fluids[fh], u, h, d);
@@ -263,7 +274,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     report(&a, &track, &world, fh, h, q, tube.released)?;
     println!(
-        "{frames} frames, {} substeps, {} CG iterations ({:.0} a substep), wall {wall:.1} s",
+        "{frames} frames, {} substeps, {} CG iterations ({:.0} a substep, worst residual \
+         {residual:.1e}), wall {wall:.1} s",
         cost.0,
         cost.1,
         cost.1 as f64 / cost.0.max(1) as f64

@@ -251,6 +251,10 @@ pub struct StepReport {
     /// Conjugate-gradient iterations of the implicit viscosity solve, summed over substeps
     /// and fluids (0 when no fluid uses it; see [`crate::ViscositySolve`]).
     pub viscosity_iterations: usize,
+    /// The largest relative residual (`|b − A v|/|b|`) an implicit viscosity solve stopped
+    /// at over the step's substeps and fluids: below the settings' tolerance unless the
+    /// iteration cap bound (0 when no fluid uses a solve).
+    pub viscosity_residual: Real,
     /// Particles whose scalar diffusion was limited, summed over substeps and scalars: the
     /// diffusivity asked for more than the explicit update holds in the substep (`D·dt >
     /// h²/30` on a resting lattice; see [`crate::scalars`]), and the scalar diffused at the

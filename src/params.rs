@@ -36,6 +36,13 @@ pub const MAX_SOLVER_ITERATIONS: u32 = 2048;
 ///   Graphics Forum 37(2)), after the solver's substep (`src/forces/viscosity_implicit.rs`):
 ///   `ε` is the dynamic viscosity `μ` (Pa·s) of a consistent SPH Laplacian, any substep holds
 ///   it, and the time step no longer depends on it. Honey: about 10 Pa·s at 1400 kg/m³.
+/// - [`ViscositySolve::Stress`]: an implicit solve on the viscous stress `2μD` (Takahashi,
+///   Dobashi, Fujishiro, Nishita & Lin 2015, "Implicit Formulation for SPH-based Viscous
+///   Fluids", Computer Graphics Forum 34(2)), after the solver's substep
+///   (`src/forces/viscosity_stress.rs`): the acceleration is the SPH divergence of each
+///   particle's own stress, so the stress drops to zero across a free surface, which feels its
+///   traction. Same settings and stability as `Implicit`; each iteration costs about twice
+///   as much.
 ///
 /// # Examples
 ///
@@ -58,6 +65,9 @@ pub enum ViscositySolve {
     Explicit,
     /// Weiler et al. (2018)'s implicit solve after the solver's substep.
     Implicit(ImplicitViscosity),
+    /// The implicit solve on the viscous stress (Takahashi et al. 2015) after the solver's
+    /// substep.
+    Stress(ImplicitViscosity),
 }
 
 /// Settings of the implicit viscosity solve ([`ViscositySolve::Implicit`]): a preconditioned
@@ -345,7 +355,7 @@ impl FluidParams {
     pub(crate) fn explicit_viscosity(&self) -> Real {
         match self.viscosity_solve {
             ViscositySolve::Explicit => self.viscosity,
-            ViscositySolve::Implicit(_) => 0.0,
+            ViscositySolve::Implicit(_) | ViscositySolve::Stress(_) => 0.0,
         }
     }
 
@@ -425,7 +435,9 @@ impl FluidParams {
     fn validate_walls_and_contact(&self) -> SphResult<()> {
         non_negative("viscosity", self.viscosity)?;
         non_negative("wall_viscosity", self.wall_viscosity)?;
-        if let ViscositySolve::Implicit(settings) = &self.viscosity_solve {
+        if let ViscositySolve::Implicit(settings) | ViscositySolve::Stress(settings) =
+            &self.viscosity_solve
+        {
             settings.validate()?;
         }
         if self.wall_viscosity > 0.0 && !self.wall_density {

@@ -6,4 +6,5 @@ pub mod external;
 pub(crate) mod surface_tension;
 pub mod viscosity;
 pub(crate) mod viscosity_implicit;
+pub(crate) mod viscosity_stress;
 pub(crate) mod wall_viscosity;

@@ -77,6 +77,9 @@ pub(crate) struct Scratch {
     ap: Vec<Vector>,
     /// Per-chunk partial dot products.
     partials: Vec<f64>,
+    /// The stress-based solve's buffers (`forces::viscosity_stress`), empty unless a fluid
+    /// asks for it.
+    pub stress: crate::forces::viscosity_stress::Scratch,
 }
 
 impl Scratch {
@@ -92,6 +95,7 @@ impl Scratch {
                 + self.ap.capacity())
                 * v
             + self.partials.capacity() * 8
+            + self.stress.heap_bytes()
     }
 }
 
@@ -271,7 +275,7 @@ fn build_preconditioner(lists: &crate::neighbors::NeighborLists, s: &mut Scratch
 
 /// The inverse of a symmetric 3×3 matrix `(xx, yy, zz, xy, xz, yz)` (cofactors over the
 /// determinant; the blocks are at least the identity, so it is positive).
-fn inverse_symmetric([a, d, f, b, c, e]: [Real; 6]) -> [Real; 6] {
+pub(crate) fn inverse_symmetric([a, d, f, b, c, e]: [Real; 6]) -> [Real; 6] {
     // [[a b c] [b d e] [c e f]]
     let (ca, cb, cc) = (d * f - e * e, c * e - b * f, b * e - c * d);
     let det = a * ca + b * cb + c * cc;
@@ -287,7 +291,7 @@ fn inverse_symmetric([a, d, f, b, c, e]: [Real; 6]) -> [Real; 6] {
 }
 
 /// `z = D⁻¹ r`, block by block.
-fn precondition(inv_diag: &[[Real; 6]], r: &[Vector], z: &mut [Vector]) {
+pub(crate) fn precondition(inv_diag: &[[Real; 6]], r: &[Vector], z: &mut [Vector]) {
     crate::par_chunks_mut!(z, CHUNK)
         .enumerate()
         .for_each(|(c, out)| {
@@ -329,7 +333,7 @@ fn apply(
 }
 
 /// `y += a x`.
-fn axpy(a: Real, x: &[Vector], y: &mut [Vector]) {
+pub(crate) fn axpy(a: Real, x: &[Vector], y: &mut [Vector]) {
     crate::par_chunks_mut!(y, CHUNK)
         .enumerate()
         .for_each(|(c, out)| {
@@ -341,7 +345,7 @@ fn axpy(a: Real, x: &[Vector], y: &mut [Vector]) {
 
 /// `a · b` summed per chunk of [`CHUNK`] particles in `f64`, then over the chunks in order:
 /// the same bits on any number of threads.
-fn dot(a: &[Vector], b: &[Vector], partials: &mut Vec<f64>) -> f64 {
+pub(crate) fn dot(a: &[Vector], b: &[Vector], partials: &mut Vec<f64>) -> f64 {
     partials.resize(a.len().div_ceil(CHUNK), 0.0);
     crate::par_chunks_mut!(partials, 1)
         .enumerate()

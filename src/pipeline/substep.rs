@@ -511,8 +511,10 @@ fn implicit_viscosity(
     scratch: &mut forces::viscosity_implicit::Scratch,
 ) {
     let p = ctx.params;
-    let crate::ViscositySolve::Implicit(settings) = p.viscosity_solve else {
-        return;
+    let (settings, stress) = match p.viscosity_solve {
+        crate::ViscositySolve::Implicit(s) => (s, false),
+        crate::ViscositySolve::Stress(s) => (s, true),
+        crate::ViscositySolve::Explicit => return,
     };
     if p.viscosity <= 0.0 || non_finite > 0 {
         return;
@@ -533,10 +535,16 @@ fn implicit_viscosity(
                 h: p.smoothing_length,
                 sep,
             };
-            forces::viscosity_implicit::solve(c, &pairs, inv, attributes, velocities, scratch)
+            if stress {
+                let s = &mut scratch.stress;
+                forces::viscosity_stress::solve(c, &pairs, inv, attributes, velocities, s)
+            } else {
+                forces::viscosity_implicit::solve(c, &pairs, inv, attributes, velocities, scratch)
+            }
         })
     });
     ctx.report.viscosity_iterations += stats.iterations;
+    ctx.report.viscosity_residual = ctx.report.viscosity_residual.max(stats.residual);
 }
 
 /// The walls' viscosity (`wall_viscosity` > 0), after the solver, on the velocities it left.

@@ -79,6 +79,15 @@ pub enum ViscositySolveDesc {
         #[serde(default)]
         max_iterations: Option<u32>,
     },
+    /// The implicit solve on the viscous stress (Takahashi et al. 2015).
+    Stress {
+        /// Relative residual the solve stops at.
+        #[serde(default)]
+        tolerance: Option<Positive>,
+        /// Most iterations per substep.
+        #[serde(default)]
+        max_iterations: Option<u32>,
+    },
 }
 
 impl ViscositySolveDesc {
@@ -89,14 +98,21 @@ impl ViscositySolveDesc {
             ViscositySolveDesc::Implicit {
                 tolerance,
                 max_iterations,
-            } => {
-                let d = crate::ImplicitViscosity::default();
-                crate::ViscositySolve::Implicit(crate::ImplicitViscosity {
-                    tolerance: tolerance.map_or(d.tolerance, |t| t.0),
-                    max_iterations: max_iterations.unwrap_or(d.max_iterations),
-                })
-            }
+            } => crate::ViscositySolve::Implicit(settings(*tolerance, *max_iterations)),
+            ViscositySolveDesc::Stress {
+                tolerance,
+                max_iterations,
+            } => crate::ViscositySolve::Stress(settings(*tolerance, *max_iterations)),
         }
+    }
+}
+
+/// The implicit solves' settings, omitted ones at their defaults.
+fn settings(tolerance: Option<Positive>, max_iterations: Option<u32>) -> crate::ImplicitViscosity {
+    let d = crate::ImplicitViscosity::default();
+    crate::ImplicitViscosity {
+        tolerance: tolerance.map_or(d.tolerance, |t| t.0),
+        max_iterations: max_iterations.unwrap_or(d.max_iterations),
     }
 }
 
