@@ -94,7 +94,10 @@ fn stretch(solve: ViscositySolve, mu: Real, rate0: Real, frames: usize, skip: us
             .filter(|(p, _)| (p.z as f64).abs() < band)
             .map(|(p, v)| (p.z as f64, v.z as f64))
             .collect();
-        let area = mid.len() as f64 * (s as f64).powi(3) / (2.0 * band);
+        // Particles per unit length at z = 0, weighted by the hat `1 − |z|/band` (smooth
+        // as the lattice's layers cross the band's ends), times a particle's rest volume.
+        let line: f64 = mid.iter().map(|(z, _)| 1.0 - z.abs() / band).sum::<f64>() / band;
+        let area = line * (s as f64).powi(3);
         (p_top, slope(&mid), area)
     };
     let (mut p0, _, a_init) = measure(&fluids[h]);
@@ -127,7 +130,13 @@ fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len() as f64
 }
 
+/// Trouton's ratio of the column (see [`stretch`]) with both solves, stretched and squeezed
+/// at 1/s, `μ` = 10 Pa·s: a measurement, printed (docs/solvers.md, "Rope coiling", has the
+/// figures; a Newtonian liquid gives 3 with either sign). Neither solve gives 3 on this
+/// column, so nothing is asserted about it beyond each run's solve converging:
+/// `cargo test --release --test viscosity_stress -- --ignored --nocapture`.
 #[test]
+#[ignore = "a measurement (prints Trouton's ratio of both solves), 10 s"]
 fn stretching_column_trouton_ratio() {
     let mu = 10.0;
     for rate0 in [1.0, -1.0] {
@@ -145,6 +154,104 @@ fn stretching_column_trouton_ratio() {
                 m.residual,
                 m.iterations
             );
+            assert!(m.residual <= 1e-5, "{name}: residual {}", m.residual);
         }
+    }
+}
+
+/// Zero gravity, no walls: only internal forces act, and the stress form's pair terms
+/// `m (σ_i/ρ_i² + σ_j/ρ_j²)·∇W_ij` are antisymmetric, so the column's momentum stays what
+/// it was to the `f32` round-off of the sums (relative 1e-4 of `Σ m|v|` over 30 frames), and
+/// the kinetic energy never rises (the solve's operator is `I` plus a positive semidefinite
+/// part; the pressure solver does no work on a fluid that starts at its rest density and is
+/// stretched apart).
+#[test]
+fn momentum_is_kept_and_energy_never_rises() {
+    let s: Real = 0.01;
+    let params = FluidParamsBuilder::water(s)
+        .solver(Solver::dfsph())
+        .viscosity(10.0)
+        .viscosity_solve(ViscositySolve::Stress(settings()))
+        .build()
+        .unwrap();
+    let mut fluid = Fluid::new(params).unwrap();
+    let pos = rapier_sph::fluid::lattice(Vector::ZERO, 6, 6, 12, s);
+    // A drift, a shear and a stretch.
+    let vel: Vec<Vector> = pos
+        .iter()
+        .map(|p| Vector::new(0.1 + 2.0 * p.z, 0.05 - 0.5 * p.y, p.z))
+        .collect();
+    fluid
+        .add_particles_with_velocities(&pos, Some(&vel))
+        .unwrap();
+    let mut fluids = FluidSet::new();
+    let h = fluids.insert(fluid);
+    let (mut bodies, colliders, bp) = <(
+        rapier_sph::rapier3d::prelude::RigidBodySet,
+        rapier_sph::rapier3d::prelude::ColliderSet,
+        rapier_sph::rapier3d::prelude::DefaultBroadPhase,
+    )>::default();
+    let mut pipeline = FluidPipeline::with_time_stepping(TimeStepping::Fixed);
+    let momentum = |f: &Fluid| {
+        f.velocities().iter().fold([0.0f64; 4], |a, v| {
+            [a[0] + v.x as f64, a[1] + v.y as f64, a[2] + v.z as f64, a[3] + v.length() as f64]
+        })
+    };
+    let p0 = momentum(&fluids[h]);
+    let mut ke = fluids[h].kinetic_energy();
+    for frame in 0..30 {
+        let rep = pipeline
+            .step(Vector::ZERO, 1.0 / 60.0, &mut fluids, &mut bodies, &colliders, &bp)
+            .unwrap();
+        assert!(rep.viscosity_residual <= 1e-5, "frame {frame}: residual");
+        let k = fluids[h].kinetic_energy();
+        assert!(k <= ke * (1.0 + 1e-5), "frame {frame}: KE {ke} -> {k}");
+        ke = k;
+        let p = momentum(&fluids[h]);
+        for a in 0..3 {
+            assert!((p[a] - p0[a]).abs() <= 1e-4 * p0[3], "frame {frame}: {p:?} vs {p0:?}");
+        }
+    }
+}
+
+/// The solve's sums run in a fixed order: 1 and 2 threads give the same bits.
+#[test]
+fn one_and_two_threads_give_the_same_bits() {
+    let run = || {
+        let m = stretch(ViscositySolve::Stress(settings()), 10.0, 1.0, 6, 0);
+        m.ratio.iter().map(|r| r.to_bits()).collect::<Vec<_>>()
+    };
+    let results: Vec<_> = [1, 2]
+        .into_iter()
+        .map(|threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(run)
+        })
+        .collect();
+    assert!(results[0] == results[1], "1 and 2 threads differ");
+}
+
+/// Bad settings of the solve are typed errors naming the field.
+#[test]
+fn bad_settings_are_typed_errors() {
+    let field = |v: ViscositySolve| match FluidParamsBuilder::water(0.05).viscosity_solve(v).build()
+    {
+        Err(SphError::InvalidParameter { field, .. }) => field,
+        other => panic!("{other:?}"),
+    };
+    let with = |tolerance, max_iterations| {
+        ViscositySolve::Stress(ImplicitViscosity {
+            tolerance,
+            max_iterations,
+        })
+    };
+    for t in [0.0, 1.0, Real::NAN] {
+        assert_eq!(field(with(t, 10)), "viscosity_solve.tolerance");
+    }
+    for n in [0, 1_000_000] {
+        assert_eq!(field(with(1e-3, n)), "viscosity_solve.max_iterations");
     }
 }

@@ -31,7 +31,8 @@
 //! 14 a block thrown apart at 20 to 50 m/s at 0.2 m spacing, 15 and 16 a dam break with
 //! surface tension and adhesion at 100 and 10^4 times water's, 17 case 13 with the implicit
 //! viscosity solve (held, not limited), 18 water under a liquid ten times lighter,
-//! interacting (`crate::fluid::interaction`; every solver).
+//! interacting (`crate::fluid::interaction`; every solver), 19 case 17 with the stress-based
+//! implicit viscosity (Takahashi et al. 2015).
 //! docs/stability.md has the results.
 
 #![cfg_attr(docsrs, doc(cfg(feature = "validation")))]
@@ -152,6 +153,7 @@ pub fn cases() -> Vec<Case> {
         surface_tension_cases(),
         implicit_viscosity_cases(),
         interaction_cases(),
+        stress_viscosity_cases(),
     ]
     .concat()
 }
@@ -339,7 +341,24 @@ fn implicit_viscosity_cases() -> Vec<Case> {
         name: "17 implicit viscosity x10^4",
         description: "case 13's dam break (5,000 Pa·s) with the implicit viscosity solve",
         quick: true,
-        build: |s, z| implicit_viscosity(s, z, 5_000.0),
+        build: |s, z| {
+            let solve = crate::ViscositySolve::Implicit(Default::default());
+            implicit_viscosity(s, z, 5_000.0, solve)
+        },
+    }]
+}
+
+/// Case 19: case 17 with the stress-based implicit viscosity (Takahashi et al. 2015,
+/// [`crate::ViscositySolve::Stress`]).
+fn stress_viscosity_cases() -> Vec<Case> {
+    vec![Case {
+        name: "19 stress viscosity x10^4",
+        description: "case 13's dam break (5,000 Pa·s) with the stress-based implicit viscosity",
+        quick: true,
+        build: |s, z| {
+            let solve = crate::ViscositySolve::Stress(Default::default());
+            implicit_viscosity(s, z, 5_000.0, solve)
+        },
     }]
 }
 

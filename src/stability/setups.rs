@@ -587,17 +587,18 @@ pub(super) fn very_high_viscosity(
     })())
 }
 
-/// Case 17: case 13's dam break at viscosity `mu` (Pa·s) with the implicit solve at its
-/// default settings.
+/// Cases 17 and 19: case 13's dam break at viscosity `mu` (Pa·s) with an implicit solve
+/// (`solve`) at its default settings.
 pub(super) fn implicit_viscosity(
     solver: &Solver,
     size: SuiteSize,
     mu: Real,
+    solve: crate::ViscositySolve,
 ) -> Option<SphResult<Setup>> {
     Some((|| {
         let params = water(solver, 0.05)
             .viscosity(mu)
-            .viscosity_solve(crate::ViscositySolve::Implicit(Default::default()))
+            .viscosity_solve(solve)
             .build()?;
         let n = if size == SuiteSize::Quick {
             1_000
