@@ -194,14 +194,26 @@ fn momentum_is_kept_and_energy_never_rises() {
     let mut pipeline = FluidPipeline::with_time_stepping(TimeStepping::Fixed);
     let momentum = |f: &Fluid| {
         f.velocities().iter().fold([0.0f64; 4], |a, v| {
-            [a[0] + v.x as f64, a[1] + v.y as f64, a[2] + v.z as f64, a[3] + v.length() as f64]
+            [
+                a[0] + v.x as f64,
+                a[1] + v.y as f64,
+                a[2] + v.z as f64,
+                a[3] + v.length() as f64,
+            ]
         })
     };
     let p0 = momentum(&fluids[h]);
     let mut ke = fluids[h].kinetic_energy();
     for frame in 0..30 {
         let rep = pipeline
-            .step(Vector::ZERO, 1.0 / 60.0, &mut fluids, &mut bodies, &colliders, &bp)
+            .step(
+                Vector::ZERO,
+                1.0 / 60.0,
+                &mut fluids,
+                &mut bodies,
+                &colliders,
+                &bp,
+            )
             .unwrap();
         assert!(rep.viscosity_residual <= 1e-5, "frame {frame}: residual");
         let k = fluids[h].kinetic_energy();
@@ -209,7 +221,10 @@ fn momentum_is_kept_and_energy_never_rises() {
         ke = k;
         let p = momentum(&fluids[h]);
         for a in 0..3 {
-            assert!((p[a] - p0[a]).abs() <= 1e-4 * p0[3], "frame {frame}: {p:?} vs {p0:?}");
+            assert!(
+                (p[a] - p0[a]).abs() <= 1e-4 * p0[3],
+                "frame {frame}: {p:?} vs {p0:?}"
+            );
         }
     }
 }
