@@ -5,6 +5,7 @@
 //! cargo run --release --example coil                        # ν = 3 m²/s, 20 diameters, 3 s
 //! cargo run --release --example coil -- --render out/coil   # also PNG frames and coil.gif
 //! cargo run --release --example coil -- --nu 100 --height 8 # the viscous regime
+//! cargo run --release --example coil -- --stress            # the stress-based viscosity
 //! ```
 //!
 //! At the defaults it ends with about 7,560 particles (the nozzle releases 2,520 a second, the
@@ -12,7 +13,9 @@
 //!
 //! It does not coil steadily (docs/solvers.md, "Rope coiling", has the figures): at the
 //! defaults (gravitational by the numbers below) the rope lays loops and breaks; in the
-//! viscous regime it swells instead of buckling.
+//! viscous regime it swells instead of buckling. With `--stress` (the stress-based implicit
+//! viscosity, `ViscositySolve::Stress`) it does not either (2 s: loops of 15 mm mean radius,
+//! the laying point turning back in 19 of 48 frames).
 //!
 //! **The nozzle.** A stream in the viscous regime is pushed by the pressure behind the nozzle:
 //! neither gravity nor its own momentum can drive it into the floor (that is what makes the
