@@ -126,7 +126,7 @@
 
 use crate::domain::Separation;
 use crate::error::{SphError, SphResult};
-use crate::kernel::Kernel;
+use crate::kernel::{Kernel, ViscosityLaplacian};
 use crate::math::{Real, Vector};
 use crate::neighbors::Pairs;
 #[cfg(feature = "parallel")]
@@ -203,6 +203,38 @@ fn invalid(field: &'static str, value: Real, reason: &'static str) -> SphError {
 }
 
 impl Mixture {
+    /// Oil (800 kg/m³) in water (1000 kg/m³), phases 1 and 0, both at the water preset's
+    /// viscosity ε = 0.5 Pa·s ([`crate::FluidParamsBuilder::water`]), with the mobility
+    /// `drift` (m³·s/kg; `d²/(18μ)` = 5.56·10⁻⁵ for droplets of 1 mm in water) and the
+    /// `diffusivity` (m²/s).
+    ///
+    /// # Examples
+    /// ```
+    /// use rapier_sph::mixture::Mixture;
+    /// use rapier_sph::prelude::*;
+    /// let params = FluidParamsBuilder::water(0.0125)
+    ///     .mixture(Mixture::oil_in_water(1e-6 / 18e-3, 1e-5))
+    ///     .build()?;
+    /// assert_eq!(params.mixture.unwrap().phases[1].rest_density, 800.0);
+    /// # Ok::<(), rapier_sph::SphError>(())
+    /// ```
+    pub fn oil_in_water(drift: Real, diffusivity: Real) -> Self {
+        Self {
+            phases: vec![
+                Phase {
+                    rest_density: 1000.0,
+                    viscosity: 0.5,
+                },
+                Phase {
+                    rest_density: 800.0,
+                    viscosity: 0.5,
+                },
+            ],
+            drift,
+            diffusivity,
+        }
+    }
+
     /// The number of phases.
     pub fn len(&self) -> usize {
         self.phases.len()
@@ -358,11 +390,61 @@ impl Scratch {
     }
 }
 
-/// Each particle's bound `R_i` (see the module's docs) into `rows`.
-fn row_bounds<K: Kernel, S: Separation>(t: &Transport<'_, S>, speed: Real, rows: &mut Vec<Real>) {
+/// What one pair's weights are made of: the pressure kernel (the drift) and the viscosity
+/// kernel's Laplacian (the diffusion), with the substep's constant factors.
+struct Weights<K> {
+    kernel: K,
+    laplacian: ViscosityLaplacian,
+    /// `2V·dt·τ·(ρ_max − ρ_min)`: times `|∇W_ij|·|ḡ_ij|`, the drift's bound.
+    bound: Real,
+    /// `2V·dt`: times `|∇W_ij|`, the drift's swap weight `β` before the limit.
+    drift: Real,
+    /// `D·V·dt`: times `∇²W_ij`, the diffusion's weight.
+    diffusion: Real,
+}
+
+impl<K: Kernel> Weights<K> {
+    fn new<S>(mixture: &Mixture, t: &Transport<'_, S>, spread: Real) -> Self {
+        let h = t.pairs.h;
+        let drift = if mixture.drift > 0.0 && spread > 0.0 {
+            2.0 * t.volume * t.dt
+        } else {
+            0.0
+        };
+        Self {
+            kernel: K::new(h),
+            laplacian: ViscosityLaplacian::new(h),
+            bound: drift * mixture.drift * spread,
+            drift,
+            diffusion: mixture.diffusivity * t.volume * t.dt,
+        }
+    }
+
+    /// `|∇W|` (0 at `r = 0`: the drift has no direction there) and the diffusion's weight.
+    #[inline(always)]
+    fn at(&self, r: Real) -> (Real, Real) {
+        let grad = if r > 0.0 {
+            (-self.kernel.dw(r)).max(0.0)
+        } else {
+            0.0
+        };
+        let lap = if self.diffusion > 0.0 {
+            self.diffusion * self.laplacian.laplacian(r)
+        } else {
+            0.0
+        };
+        (grad, lap)
+    }
+}
+
+/// Each particle's bound `T_i = R_i + Σ_j D·V·dt·∇²W_ij` (the drift's and the diffusion's
+/// shares of what it may give per substep, see the module's docs) into `rows`.
+fn row_bounds<K: Kernel, S: Separation>(
+    t: &Transport<'_, S>,
+    w: &Weights<K>,
+    rows: &mut Vec<Real>,
+) {
     let n = t.pairs.positions.len();
-    let kernel = K::new(t.pairs.h);
-    let c = 2.0 * t.volume * t.dt * speed;
     rows.clear();
     rows.resize(n, 0.0);
     crate::par_chunks_mut!(rows, crate::par::CHUNK)
@@ -372,122 +454,173 @@ fn row_bounds<K: Kernel, S: Separation>(t: &Transport<'_, S>, speed: Real, rows:
                 let i = chunk * crate::par::CHUNK + k;
                 let xi = t.pairs.positions[i];
                 let gi = t.effective_gravity[i];
-                *row = t
-                    .pairs
-                    .neighbors
-                    .of(i)
-                    .iter()
-                    .map(|&j| {
-                        let j = j as usize;
-                        let r = t.pairs.sep.sep(xi, t.pairs.positions[j]).length();
-                        let g = (gi + t.effective_gravity[j]) * 0.5;
-                        c * (-kernel.dw(r)).max(0.0) * g.length()
-                    })
-                    .sum();
-            }
-        });
-}
-
-/// The drift's swaps of one substep: the change of every particle's fractions into
-/// `changes` (`phases` per particle), from `fractions` (one slice per phase).
-fn drift_changes<K: Kernel, S: Separation>(
-    mixture: &Mixture,
-    t: &Transport<'_, S>,
-    fractions: &[&[Real]],
-    rows: &[Real],
-    changes: &mut Vec<Real>,
-) {
-    let np = mixture.phases.len();
-    let n = t.pairs.positions.len();
-    let kernel = K::new(t.pairs.h);
-    let rho: Vec<Real> = mixture.phases.iter().map(|p| p.rest_density).collect();
-    let base = 2.0 * t.volume * t.dt;
-    changes.clear();
-    changes.resize(n * np, 0.0);
-    crate::par_chunks_mut!(changes, crate::par::CHUNK * np)
-        .enumerate()
-        .for_each(|(chunk, out)| {
-            for (k, row) in out.chunks_mut(np).enumerate() {
-                let i = chunk * crate::par::CHUNK + k;
-                let xi = t.pairs.positions[i];
+                let mut sum = 0.0;
                 for &j in t.pairs.neighbors.of(i) {
                     let j = j as usize;
-                    let d = t.pairs.sep.sep(xi, t.pairs.positions[j]);
-                    let r = d.length();
-                    let grad = (-kernel.dw(r)).max(0.0);
-                    if !(r > 0.0) || grad == 0.0 {
-                        continue;
-                    }
-                    // `e_ij = −d/r`, from i to j; `ḡ·e_ij`, exactly negated in j's loop.
-                    let g = (t.effective_gravity[i] + t.effective_gravity[j]) * 0.5;
-                    let ge = -g.dot(d) / r;
-                    let limit = (2.0 * rows[i].max(rows[j])).max(1.0);
-                    let beta = base * grad / limit;
-                    swap_pair(mixture, &rho, (i, j), beta * ge, fractions, row);
+                    let r = t.pairs.sep.sep(xi, t.pairs.positions[j]).length();
+                    let (grad, lap) = w.at(r);
+                    let g = (gi + t.effective_gravity[j]) * 0.5;
+                    sum += w.bound * grad * g.length() + lap;
                 }
+                *row = sum;
             }
         });
 }
 
-/// The swaps between particles `i` (whose changes are `row`) and `j` of every phase pair,
-/// `weighted` = `β·ḡ·e_ij` (see the module's docs).
-fn swap_pair(
-    mixture: &Mixture,
-    rho: &[Real],
-    (i, j): (usize, usize),
-    weighted: Real,
+/// The phases' net volume fractions `φ_k` that flow from particle `j` into particle `i`
+/// (drift swaps, then diffusion), `scale` = `1/max(1, 2T_i, 2T_j)` (see the module's docs).
+/// Computed from the same operands in the same order in `j`'s loop, where every term is
+/// exactly negated: `φ_k` of `j` from `i` is `−φ_k` bit for bit.
+#[inline(always)]
+fn pair_flux<K: Kernel, S: Separation>(
+    (mixture, rho): (&Mixture, &[Real]),
+    t: &Transport<'_, S>,
+    w: &Weights<K>,
+    (i, j, scale): (usize, usize, Real),
     fractions: &[&[Real]],
-    row: &mut [Real],
+    phi: &mut [Real; MAX_PHASES],
 ) {
     let np = rho.len();
-    for k in 0..np {
-        for l in k + 1..np {
-            let c = mixture.drift * (rho[k] - rho[l]) * weighted;
-            // c > 0: k moves from i to j, l from j to i; c < 0 the other way.
-            let (donor, receiver, sign) = if c > 0.0 { (i, j, -1.0) } else { (j, i, 1.0) };
-            let s = c.abs() * (fractions[k][donor] * fractions[l][receiver]);
-            row[k] += sign * s;
-            row[l] -= sign * s;
+    let d = t.pairs.sep.sep(t.pairs.positions[i], t.pairs.positions[j]);
+    let r = d.length();
+    let (grad, lap) = w.at(r);
+    phi[..np].fill(0.0);
+    if w.drift > 0.0 && grad > 0.0 {
+        // `ḡ·e_ij` with `e_ij = −d/r` from i to j, exactly negated in j's loop.
+        let g = (t.effective_gravity[i] + t.effective_gravity[j]) * 0.5;
+        let weighted = w.drift * grad * scale * (-g.dot(d) / r);
+        for k in 0..np {
+            for l in k + 1..np {
+                let c = mixture.drift * (rho[k] - rho[l]) * weighted;
+                // c > 0: k moves from i to j, l from j to i; c < 0 the other way.
+                let (donor, receiver, sign) = if c > 0.0 { (i, j, -1.0) } else { (j, i, 1.0) };
+                let s = c.abs() * (fractions[k][donor] * fractions[l][receiver]);
+                phi[k] += sign * s;
+                phi[l] -= sign * s;
+            }
+        }
+    }
+    if lap != 0.0 {
+        let weight = lap * scale;
+        for k in 0..np {
+            phi[k] += weight * (fractions[k][j] - fractions[k][i]);
         }
     }
 }
 
+/// The transport's changes of one substep into `changes`, `phases + 3` per particle: each
+/// phase's fraction change, then the momentum per unit volume that the phases carry in
+/// (kg/m³ · m/s): each pair's flux `φ_k` brings `ρ_k·φ_k` at its donor's velocity (upwind).
+fn changes<K: Kernel, S: Separation>(
+    mixture: &Mixture,
+    t: &Transport<'_, S>,
+    w: &Weights<K>,
+    (fractions, velocities): (&[&[Real]], &[Vector]),
+    rows: &[Real],
+    changes: &mut Vec<Real>,
+) {
+    let np = mixture.phases.len();
+    let stride = np + 3;
+    let n = t.pairs.positions.len();
+    let mut rho = [0.0; MAX_PHASES];
+    for (r, p) in rho.iter_mut().zip(&mixture.phases) {
+        *r = p.rest_density;
+    }
+    let rho = &rho[..np];
+    changes.clear();
+    changes.resize(n * stride, 0.0);
+    crate::par_chunks_mut!(changes, crate::par::CHUNK * stride)
+        .enumerate()
+        .for_each(|(chunk, out)| {
+            for (k, row) in out.chunks_mut(stride).enumerate() {
+                let i = chunk * crate::par::CHUNK + k;
+                let mut momentum = Vector::ZERO;
+                let mut phi = [0.0; MAX_PHASES];
+                for &j in t.pairs.neighbors.of(i) {
+                    let j = j as usize;
+                    let scale = 1.0 / (2.0 * rows[i].max(rows[j])).max(1.0);
+                    pair_flux((mixture, rho), t, w, (i, j, scale), fractions, &mut phi);
+                    for p in 0..np {
+                        row[p] += phi[p];
+                        let up = if phi[p] > 0.0 {
+                            velocities[j]
+                        } else {
+                            velocities[i]
+                        };
+                        momentum += up * (rho[p] * phi[p]);
+                    }
+                }
+                row[np..].copy_from_slice(&momentum.to_array());
+            }
+        });
+}
+
 /// One substep of the phases' drift and diffusion: `fractions` (one vector per phase,
-/// sorted like the particles) change in place. `scratch` holds the buffers.
+/// sorted like the particles) change in place, and `velocities` so that each particle's
+/// momentum `m_i·v_i` changes by what the phases carry in and out (see the module's docs).
+/// `scratch` holds the buffers.
 pub(crate) fn transport<K: Kernel, S: Separation>(
     mixture: &Mixture,
     t: &Transport<'_, S>,
     fractions: &mut [&mut Vec<Real>],
+    velocities: &mut [Vector],
     scratch: &mut Scratch,
 ) {
     let n = t.pairs.positions.len();
-    let np = fractions.len();
     let (lo, hi) = mixture
         .phases
         .iter()
         .fold((Real::INFINITY, 0.0 as Real), |(lo, hi), p| {
             (lo.min(p.rest_density), hi.max(p.rest_density))
         });
-    if mixture.drift > 0.0 && hi > lo {
-        row_bounds::<K, S>(t, mixture.drift * (hi - lo), &mut scratch.rows);
-        {
-            let view: Vec<&[Real]> = fractions.iter().map(|f| &f[..]).collect();
-            drift_changes::<K, S>(mixture, t, &view, &scratch.rows, &mut scratch.changes);
-        }
-        for (k, f) in fractions.iter_mut().enumerate() {
-            for (i, a) in f.iter_mut().enumerate().take(n) {
-                *a += scratch.changes[i * np + k];
-            }
+    let w = Weights::<K>::new(mixture, t, hi - lo);
+    if w.drift > 0.0 || w.diffusion > 0.0 {
+        row_bounds(t, &w, &mut scratch.rows);
+        let view: Vec<&[Real]> = fractions.iter().map(|f| &f[..]).collect();
+        let operands = (&view[..], &*velocities);
+        changes(
+            mixture,
+            t,
+            &w,
+            operands,
+            &scratch.rows,
+            &mut scratch.changes,
+        );
+        apply(mixture, &scratch.changes, fractions, velocities);
+    } else {
+        for i in 0..n {
+            renormalize(fractions, i);
         }
     }
-    if mixture.diffusivity > 0.0 {
-        let rest = t.pairs.mass / t.volume;
-        let (a, b) = (&mut scratch.diffusion.0, &mut scratch.diffusion.1);
-        for f in fractions.iter_mut() {
-            crate::scalars::diffuse(&t.pairs, rest, (mixture.diffusivity, t.dt), f, (a, b));
+}
+
+/// Adds the changes to the fractions, renormalises them ([`renormalize`]), and sets each
+/// velocity to the particle's new momentum over its new mass:
+/// `v' = (ρ0_i·v + Σ_j Σ_k ρ_k φ_k v_up)/ρ0'_i` (the volume `V` cancels).
+fn apply(
+    mixture: &Mixture,
+    changes: &[Real],
+    fractions: &mut [&mut Vec<Real>],
+    velocities: &mut [Vector],
+) {
+    let np = fractions.len();
+    let rho = |fractions: &[&mut Vec<Real>], i: usize| -> Real {
+        mixture
+            .phases
+            .iter()
+            .zip(fractions)
+            .map(|(p, f)| p.rest_density * f[i])
+            .sum()
+    };
+    for (i, row) in changes.chunks_exact(np + 3).enumerate() {
+        let old = rho(fractions, i);
+        for (f, c) in fractions.iter_mut().zip(row) {
+            f[i] += c;
         }
+        renormalize(fractions, i);
+        let carried = Vector::new(row[np], row[np + 1], row[np + 2]);
+        velocities[i] = (velocities[i] * old + carried) / rho(fractions, i);
     }
-    renormalize(fractions, n);
 }
 
 /// Fractions below this are set to 0 after each substep: the drift multiplies fractions,
@@ -497,23 +630,21 @@ pub(crate) fn transport<K: Kernel, S: Separation>(
 /// dropped is below the sum's own rounding (`2⁻²⁴` of 1) by eight orders of magnitude.
 const NEGLIGIBLE: Real = 1e-15;
 
-/// Each particle's fractions below [`NEGLIGIBLE`] set to 0, then divided by their sum (when
+/// Particle `i`'s fractions below [`NEGLIGIBLE`] set to 0, then divided by their sum (when
 /// it is not 1): the transport keeps the sum exactly in exact arithmetic, and this takes
 /// off its round-off, which would otherwise wander as a random walk (1.7·10⁻⁵ after 6 s of
 /// the test's tank, about 2500 substeps). It changes each fraction by a rounding or so, as
 /// the transport's own do.
-fn renormalize(fractions: &mut [&mut Vec<Real>], n: usize) {
-    for i in 0..n {
-        for f in fractions.iter_mut() {
-            if f[i] < NEGLIGIBLE {
-                f[i] = 0.0;
-            }
+fn renormalize(fractions: &mut [&mut Vec<Real>], i: usize) {
+    for f in fractions.iter_mut() {
+        if f[i] < NEGLIGIBLE {
+            f[i] = 0.0;
         }
-        let sum: Real = fractions.iter().map(|f| f[i]).sum();
-        if sum != 1.0 && sum > 0.0 {
-            for f in fractions.iter_mut() {
-                f[i] /= sum;
-            }
+    }
+    let sum: Real = fractions.iter().map(|f| f[i]).sum();
+    if sum != 1.0 && sum > 0.0 {
+        for f in fractions.iter_mut() {
+            f[i] /= sum;
         }
     }
 }
