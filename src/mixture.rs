@@ -62,19 +62,27 @@
 //! and every particle keeps `Σ_k α_k = 1`. No swap crosses a wall or the free surface (there
 //! is no particle there): closed tanks hold their phases.
 //!
-//! **Bounded.** A particle gives at most `α_k,i·R_i` of phase `k` per substep, `R_i = Σ_j
-//! 2V|∇W_ij|·dt·τ·(ρ_max − ρ_min)·|ḡ_ij|`; every pair's swaps are scaled by
-//! `1/max(1, 2R_i, 2R_j)` (symmetric, so still conservative), so a particle keeps at least
-//! half of each phase it holds: fractions stay in `[0, 1]` without clipping, at any setting.
-//! The diffusion `D·∇²α_k` runs after it with the scalars' bounded, conservative exchange
-//! (`crate::scalars`), the same weights for every phase (so `Σ_k α_k` stays 1). Last, each
-//! particle's fractions are divided by their sum: exact arithmetic keeps it at 1, and this
-//! takes off the round-off, which otherwise wanders (to 1.7·10⁻⁵ after 6 s of the tank
+//! **Bounded.** A particle gives at most `α_k,i·T_i` of phase `k` per substep, `T_i = R_i +
+//! Σ_j D·V·dt·∇²W_ij` with `R_i = Σ_j 2V|∇W_ij|·dt·τ·(ρ_max − ρ_min)·|ḡ_ij|` (the drift's
+//! share) and the diffusion's share (`D·∇²α_k`, SPH's Laplacian with the viscosity kernel's,
+//! the same weights for every phase, so `Σ_k α_k` stays 1); every pair's drift swaps and
+//! diffusion exchange are scaled by `1/max(1, 2T_i, 2T_j)` (symmetric, so still
+//! conservative), so a particle keeps at least half of each phase it holds: fractions stay
+//! in `[0, 1]` without clipping, at any setting. The drift and the diffusion of a pair are
+//! one net flux per phase, `φ_k`, computed in one pass from the substep's fractions. Last,
+//! each particle's fractions are divided by their sum: exact arithmetic keeps it at 1, and
+//! this takes off the round-off, which otherwise wanders (to 1.7·10⁻⁵ after 6 s of the tank
 //! below); it moves each fraction by about one rounding, as the transport's own do.
 //!
-//! A particle's mass follows its fractions; its velocity is kept (the swapped volumes'
-//! momentum, `O(drift)`, is not carried). The densities the fluid reports are each
-//! particle's own (`ρ0_i·V·δ_i`).
+//! **Momentum.** A particle's mass `V·ρ0_i` follows its fractions, and what moves carries its
+//! momentum: a pair's flux `φ_k` of phase `k` brings `V·ρ_k·φ_k` of mass at its donor's
+//! velocity (upwind: `j`'s when `φ_k > 0` flows into `i`, `i`'s otherwise), the same bits
+//! taken from the donor in its own loop; each particle's velocity becomes its new momentum
+//! over its new mass, `v' = (ρ0_i·v_i + Σ_j Σ_k ρ_k φ_k v_up)/ρ0'_i`. So the transport
+//! conserves the fluid's momentum to round-off, and it can only lose kinetic energy: a
+//! particle's new velocity is a mass-weighted mean of its own (for what it keeps) and its
+//! donors' (for what it receives), and by convexity `½m'|v'|²` is at most the sum of their
+//! energies. The densities the fluid reports are each particle's own (`ρ0_i·V·δ_i`).
 //!
 //! # Measured
 //!
@@ -85,29 +93,33 @@
 //! mixture_probe`). A 50/50 mix separates in `H/w` (the mixed layer closes from both ends
 //! at `w`): 1.83 s for the 0.2 m column.
 //! - Every particle at 0.5: the oil fraction's slab profile rises through 0.5 at 0.0989 m
-//!   after 2.75 s (1.5 `H/w`) and 0.0986 m at 5 s, for 0.1000 m from the volumes; from a
-//!   checkerboard of pure particles (which interacting fluids leave at 0.19 m): 0.1013 and
-//!   0.1011 m. With the drift off the uniform mix stays at 0.5 everywhere, and the
-//!   checkerboard only diffuses (its profile crosses 0.5 at 0.036 m: noise).
-//! - Each phase's volume changed by at most 4·10⁻⁸ of itself (over the first 2.75 s,
-//!   1155 substeps, and over the next 945);
-//!   `|Σ_k α_k − 1|` ≤ 6·10⁻⁸, the smallest fraction 4·10⁻¹⁵ (none below 0).
+//!   after 2.75 s (1.5 `H/w`) and 0.0997 m at 5 s, for 0.1000 m from the volumes; from a
+//!   checkerboard of pure particles (which interacting fluids leave at 0.19 m): 0.0981 and
+//!   0.0982 m. With the drift off the uniform mix stays at 0.5 everywhere, and the
+//!   checkerboard only diffuses (its profile crosses 0.5 at 0.008 m: noise).
+//! - Each phase's volume changed by at most 2.2·10⁻⁸ of itself (over the first 2.75 s,
+//!   1155 substeps, and over the next 945); `|Σ_k α_k − 1|` ≤ 6·10⁻⁸, the smallest fraction
+//!   3·10⁻¹⁵ at 5 s (none below 0).
 //! - The bottom pressure averaged from 1 s to 5 s against `ρ_oil·g·h_oil +
-//!   ρ_water·g·h_water`: +1.31 ± 0.62 % over five runs from the uniform start perturbed at
-//!   round-off (the test's: +2.33 % uniform, −1.25 % checkerboard); the same tank without
-//!   drift (one liquid of 900 kg/m³ in effect): +1.76 ± 0.95 %. The mixture adds no error
-//!   of its own to DFSPH's.
+//!   ρ_water·g·h_water`: +0.44 % from the uniform start, −1.13 % from the checkerboard; the
+//!   same tank without drift (one liquid of 900 kg/m³ in effect): +1.76 ± 0.95 % over five
+//!   runs perturbed at round-off. The mixture adds no error of its own to DFSPH's.
 //! - The interface's thickness (between the heights where the oil fraction's slab profile
-//!   crosses 0.1 and 0.9): 0.129 m at 1 s, 0.034 m at 2 s, then settled at 0.018 m (1.46
-//!   spacings) from 3 s on; with `D` = 0: 0.0175 m; with `D` = 10⁻⁴: 0.024–0.026 m. One slab
-//!   of particles across the interface holds both phases (0.21 oil at D = 10⁻⁵): the
-//!   interface is as sharp as the particles resolve, and no sharper.
+//!   crosses 0.1 and 0.9): 0.019–0.021 m at 2.75 s, 0.018–0.019 m (1.5 spacings) at 5 s.
+//!   Before the transport carried momentum (not re-measured since): 0.0175 m with `D` = 0,
+//!   0.024–0.026 m with `D` = 10⁻⁴; one slab of particles across the interface holds both
+//!   phases (0.21 oil at `D` = 10⁻⁵): the interface is as sharp as the particles resolve.
+//! - Momentum, recorded over every substep's transport (`cargo test --release --lib
+//!   the_transport_conserves_momentum -- --nocapture`): in a closed box without gravity (the
+//!   checkerboard, 8 × 8 × 8, thrown at a wall at 1 m/s, 151 substeps) and in this tank
+//!   (1 s, 420 substeps), `Σ m v` changes by at most 1.4·10⁻⁴ and 2.0·10⁻⁴ of the f32
+//!   round-off bound the test derives; the kinetic energy does not grow beyond it. Keeping
+//!   the velocities while the mass moves exceeds that bound 18× and 5.3×.
 //! - 1 and 2 threads give the same bits.
-//! - Cost: the drift and diffusion took 3.1 s of 6.1 s of stepping over 2 s of this tank
-//!   (51 %; the drift alone 48 %, the diffusion alone 18 %), measured on two cores shared
-//!   at a load of 15–18, so noisy (`mixture_probe` prints it). Its pair passes are plain
-//!   scalar loops that recompute each pair's distance (two for the drift's bound and swaps,
-//!   two per phase for the diffusion); the solver's are vectorised.
+//! - Cost: two pair passes per substep (the bounds, then the fluxes and their momentum),
+//!   plain scalar loops that recompute each pair's distance; the solver's are vectorised.
+//!   About half the step's time in this tank (`mixture_probe` prints it; docs/solvers.md
+//!   has the figures).
 //!
 //! # What it does not do
 //!
@@ -116,8 +128,7 @@
 //!   diffusion (and the particles' spacing) makes it; a mixture is the model for emulsions
 //!   and suspensions that separate, not for two liquids that keep a sharp interface (use
 //!   interacting fluids, `crate::fluid::interaction`, for those).
-//! - The drift is Stokes' dilute one at every fraction (no hindered settling), and the
-//!   swapped volumes carry no momentum (a particle's mass changes, its velocity does not).
+//! - The drift is Stokes' dilute one at every fraction (no hindered settling).
 //! - A fluid asleep ([`crate::Sleep`], off by default) does not drift: the sleep test
 //!   watches the particles, not their fractions.
 //! - DFSPH only (WCSPH, PBF and Clavet read the same per-particle factors but were not

@@ -2,7 +2,7 @@
 //! in a closed tank (`rapier_sph::scenes::MixedTank`, 8 × 16 × 8 particles at 1.25 cm,
 //! DFSPH) separates into two layers by the phases' drift; the typed errors of bad settings.
 
-use rapier_sph::mixture::{Mixture, Phase};
+use rapier_sph::mixture::Mixture;
 use rapier_sph::prelude::*;
 use rapier_sph::scenes::{MixedStart, MixedTank};
 use rapier_sph::{FluidParams, Solver};
@@ -20,20 +20,7 @@ const DIFFUSIVITY: Real = 1e-5;
 const PRESSURE_TOLERANCE: Real = 0.0176 + 3.0 * 0.0095;
 
 fn emulsion(drift: Real) -> Mixture {
-    Mixture {
-        phases: vec![
-            Phase {
-                rest_density: 1000.0,
-                viscosity: 0.5,
-            },
-            Phase {
-                rest_density: 800.0,
-                viscosity: 0.5,
-            },
-        ],
-        drift,
-        diffusivity: DIFFUSIVITY,
-    }
+    Mixture::oil_in_water(drift, DIFFUSIVITY)
 }
 
 fn params(drift: Real) -> FluidParams {

@@ -272,21 +272,7 @@ fn loads_are_bounded_and_checked() {
 /// fractions set the particles' masses, which the positions then follow).
 #[test]
 fn restore_and_continue_with_a_mixture() {
-    use rapier_sph::mixture::{Mixture, Phase};
-    let mixture = Mixture {
-        phases: vec![
-            Phase {
-                rest_density: 1000.0,
-                viscosity: 0.5,
-            },
-            Phase {
-                rest_density: 800.0,
-                viscosity: 0.5,
-            },
-        ],
-        drift: 5.6e-5,
-        diffusivity: 1e-5,
-    };
+    let mixture = rapier_sph::mixture::Mixture::oil_in_water(5.6e-5, 1e-5);
     let mut w = scene_with(FluidParamsBuilder::water(0.05).mixture(mixture));
     for (_, f) in w.fluids.iter_mut() {
         f.set_fractions(&[0.5, 0.5]).unwrap();
