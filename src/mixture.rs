@@ -470,8 +470,12 @@ fn row_bounds<K: Kernel, S: Separation>(
                     let j = j as usize;
                     let r = t.pairs.sep.sep(xi, t.pairs.positions[j]).length();
                     let (grad, lap) = w.at(r);
-                    let g = (gi + t.effective_gravity[j]) * 0.5;
-                    sum += w.bound * grad * g.length() + lap;
+                    if w.bound > 0.0 {
+                        let g = (gi + t.effective_gravity[j]) * 0.5;
+                        sum += w.bound * grad * g.length() + lap;
+                    } else {
+                        sum += lap;
+                    }
                 }
                 *row = sum;
             }
@@ -495,7 +499,8 @@ fn pair_flux<K: Kernel, S: Separation>(
     let d = t.pairs.sep.sep(t.pairs.positions[i], t.pairs.positions[j]);
     let r = d.length();
     let (grad, lap) = w.at(r);
-    phi[..np].fill(0.0);
+    // The whole array (a fixed size: stores, not a call to `memset` per pair).
+    *phi = [0.0; MAX_PHASES];
     if w.drift > 0.0 && grad > 0.0 {
         // `ḡ·e_ij` with `e_ij = −d/r` from i to j, exactly negated in j's loop.
         let g = (t.effective_gravity[i] + t.effective_gravity[j]) * 0.5;
