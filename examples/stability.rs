@@ -107,7 +107,8 @@ fn main() -> ExitCode {
     println!(
         "max err: largest compression of any particle; solve err: largest average compression a step ended with;\n\
          KE/E0: largest kinetic energy over the initial kinetic + potential energy (verdict: at most 1.05);\n\
-         case 1 (E/E0): largest total energy, the equation of state's internal energy counted, over its initial value"
+         case 1 (E/E0): largest total energy, the equation of state's internal energy counted, over its initial value;\n\
+         cases 15, 16: 1 + the largest gain of the total energy (cohesion and adhesion potentials counted) over the initial stores"
     );
     if failed + errors > 0 {
         ExitCode::FAILURE

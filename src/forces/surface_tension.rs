@@ -82,7 +82,9 @@
 //! courant 0.4) keeps DFSPH's and PBF's kinetic energy under their initial energy
 //! (0.65× and 0.59×; 4.5× and 148× without it). WCSPH still reaches 3.4×, at any substep:
 //! the cohesion's mean-field internal pressure `(2π/3)·ρ0²·γ·∫₀^h r³C(r)dr` (132 kPa there)
-//! compresses its weakly compressible fluid by up to 61 %.
+//! compresses its weakly compressible fluid by up to 61 %. That kinetic energy is released,
+//! not created: counted with the cohesion's and the adhesion's potential energy and the
+//! equation of state's, the total only falls (the suite's verdict, docs/stability.md).
 //!
 //! **Cost.** 6.6–6.7 ms a step at 10,240 particles, against 9.8–10.9 ms for the rest of the
 //! step (2 shared cores at load 10; `cargo run --release --example dam_break -- --preset water

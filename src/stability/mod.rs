@@ -11,7 +11,11 @@
 //!   `KE(t) ≤ 1.05·(PE0 + KE0)`, with the gravitational potential energy measured from the
 //!   container's floor. Case 1 (the stiffness sweep, whose tower starts compressed) counts the
 //!   equation of state's internal energy `U = Σ m·u(ρ)` too, and bounds the whole: at every
-//!   frame `KE + PE + U ≤ 1.05·(KE0 + PE0 + U0)` (see [`eos_internal_energy`]). The containers are closed and nothing is driven in them, so nothing
+//!   frame `KE + PE + U ≤ 1.05·(KE0 + PE0 + U0)` (see [`eos_internal_energy`]). Cases 15
+//!   and 16 (surface tension and adhesion) count the cohesion's and the adhesion's potential
+//!   energy too (negative: the particles are bound to each other and to the walls), and
+//!   WCSPH's internal energy there: at every frame the total may gain at most 5 % of the
+//!   initial stores' magnitudes, `E − E0 ≤ 0.05·(KE0 + PE0 + U0 + |C0| + |A0|)`. The containers are closed and nothing is driven in them, so nothing
 //!   works on the fluid: motion can only come from falling (a dynamic body falls too: its
 //!   kinetic and potential energy are counted with the fluid's, case 11). (A case that starts compressed —
 //!   overlapping spawn, particles inside a solid — holds energy this does not count; a method
@@ -43,6 +47,7 @@ use crate::world::FluidWorld;
 use crate::{Fluid, FluidHandle, SphResult};
 use std::time::Instant;
 
+mod cohesion;
 mod setups;
 use setups::*;
 
@@ -101,8 +106,14 @@ pub struct CaseResult {
     /// `max_t (KE + PE + U)(t)/(KE0 + PE0 + U0)`: the largest total energy against the initial
     /// total.
     pub energy_ratio: f64,
-    /// Whether the energy counts the equation of state's internal energy `U` (case 1).
+    /// Whether the energy counts the equation of state's internal energy `U` (case 1, and
+    /// WCSPH in cases 15 and 16).
     pub internal_energy: bool,
+    /// Whether the energy counts the potential energy of the cohesion and the adhesion
+    /// (cases 15 and 16): then [`CaseResult::energy_ratio`] is
+    /// `1 + max_t (E(t) − E0)/S0`, `E` the total and `S0` the sum of the initial stores'
+    /// magnitudes (the potentials are negative).
+    pub capillary_energy: bool,
     /// Particles that escaped (the case's own definition), at the worst frame.
     pub escaped: usize,
     /// Particles that became NaN/inf (quarantined or reported non-finite).
@@ -139,8 +150,25 @@ struct Setup {
     escaped: Box<dyn Fn(&Fluid) -> usize>,
     /// Something to do before a given frame (the rest-density change).
     event: Option<(usize, Box<dyn Fn(&mut Fluid) -> SphResult<()>>)>,
-    /// Count the equation of state's internal energy in the verdict (case 1).
-    internal_energy: bool,
+    /// Count the equation of state's internal energy in the verdict (case 1; WCSPH in the
+    /// surface-tension cases).
+    internal_energy: InternalEnergy,
+    /// Count the cohesion's and the adhesion's potential energy in the verdict (cases 15, 16).
+    capillary_energy: bool,
+}
+
+/// Whether and how a case counts the equation of state's internal energy.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+enum InternalEnergy {
+    /// Not counted.
+    Off,
+    /// [`eos_internal_energy`]: densities interpolated at the particles (case 1, contact-only
+    /// walls, a tower that starts compressed).
+    Sampled,
+    /// `Σ m·u(ρ_i)` with the densities of the frame's last substep, the walls' share
+    /// included (cases 15 and 16 with WCSPH; at t = 0, before any step, zero: the lattice
+    /// starts at rest density).
+    StepDensities,
 }
 
 /// Every case, in the suite's order (new cases are appended at the end).
@@ -413,10 +441,21 @@ fn bodies_energy(world: &FluidWorld, floor: Real, g: Real) -> (f64, f64) {
 /// force the energy's gradient (the paper's pair, tuned poly6 and spiky, has no such energy),
 /// which is why case 1 runs with one kernel.
 pub fn eos_internal_energy(fluid: &Fluid) -> f64 {
-    let p = fluid.params();
-    let (rho0, m) = (p.rest_density as f64, p.particle_mass as f64);
+    let u = eos_energy_per_mass(fluid.params());
+    let m = fluid.params().particle_mass as f64;
+    let sampler = crate::FluidSampler::new(fluid);
+    fluid
+        .positions()
+        .iter()
+        .map(|&x| m * sampler.sample(x).map_or(0.0, |s| u(s.density as f64)))
+        .sum()
+}
+
+/// `u(ρ)` (J/kg) of [`eos_internal_energy`] for the fluid's equation of state.
+fn eos_energy_per_mass(p: &crate::FluidParams) -> impl Fn(f64) -> f64 + '_ {
+    let rho0 = p.rest_density as f64;
     let clamp = p.clamp_negative_pressure;
-    let u = |rho: f64| -> f64 {
+    move |rho: f64| -> f64 {
         if !(rho > 0.0) || (clamp && rho < rho0) {
             return 0.0;
         }
@@ -436,13 +475,7 @@ pub fn eos_internal_energy(fluid: &Fluid) -> f64 {
                         - 1.0 / rho0)
             }
         }
-    };
-    let sampler = crate::FluidSampler::new(fluid);
-    fluid
-        .positions()
-        .iter()
-        .map(|&x| m * sampler.sample(x).map_or(0.0, |s| u(s.density as f64)))
-        .sum()
+    }
 }
 
 fn potential_energy(fluid: &Fluid, floor: Real, g: Real) -> f64 {
@@ -459,6 +492,7 @@ fn execute(case: &'static str, solver: &Solver, mut s: Setup) -> SphResult<CaseR
     let g = s.world.physics.gravity.length();
     let n0 = fluids(&s).map(Fluid::len).sum();
     let e0 = energy(&s, g, true);
+    let scale = energy_scale(&s, g);
     let mut r = CaseResult {
         case,
         solver: solver.name(),
@@ -469,7 +503,8 @@ fn execute(case: &'static str, solver: &Solver, mut s: Setup) -> SphResult<CaseR
         max_density_error: 0.0,
         mean_density_error: 0.0,
         energy_ratio: 0.0,
-        internal_energy: s.internal_energy,
+        internal_energy: s.internal_energy != InternalEnergy::Off,
+        capillary_energy: s.capillary_energy,
         escaped: 0,
         non_finite: 0,
         lost: 0,
@@ -488,12 +523,14 @@ fn execute(case: &'static str, solver: &Solver, mut s: Setup) -> SphResult<CaseR
         record_frame(&mut r, &rep);
         let escaped = fluids(&s).map(|f| (s.escaped)(f)).sum();
         r.escaped = r.escaped.max(escaped);
-        // Kinetic energy, or with the internal energy counted, the total.
-        let e = energy(&s, g, s.internal_energy);
-        let ratio = if e.is_finite() && e0 > 0.0 {
-            e / e0
-        } else {
-            f64::INFINITY
+        // Kinetic energy, or with the internal or capillary energy counted, the total (its
+        // gain over the initial total, against the initial stores' magnitudes).
+        let total = s.internal_energy != InternalEnergy::Off || s.capillary_energy;
+        let e = energy(&s, g, total);
+        let ratio = match (total, e.is_finite() && scale > 0.0) {
+            (false, true) => e / e0,
+            (true, true) => 1.0 + (e - e0) / scale,
+            (_, false) => f64::INFINITY,
         };
         r.energy_ratio = r.energy_ratio.max(ratio);
     }
@@ -505,21 +542,53 @@ fn execute(case: &'static str, solver: &Solver, mut s: Setup) -> SphResult<CaseR
 }
 
 /// The fluid's and the bodies' kinetic energy; with `total`, also their potential energy
-/// over the floor and (when the case counts it) the equation of state's internal energy.
+/// over the floor and (when the case counts them) the equation of state's internal energy
+/// and the cohesion's and the adhesion's potential energy.
 fn energy(s: &Setup, g: Real, total: bool) -> f64 {
+    let stores = energy_stores(s, g);
+    if total {
+        stores.iter().sum()
+    } else {
+        stores[0]
+    }
+}
+
+/// The energy the run holds at its start, each store counted by its magnitude: the
+/// reference of the total's gain (the initial total itself when every store is positive).
+fn energy_scale(s: &Setup, g: Real) -> f64 {
+    energy_stores(s, g).iter().map(|e| e.abs()).sum()
+}
+
+/// Kinetic, gravitational, internal, cohesion and adhesion energy (J), the last three zero
+/// unless the case counts them.
+fn energy_stores(s: &Setup, g: Real) -> [f64; 5] {
     let f = &s.world.fluids[s.fluid];
     let (body_ke, body_pe) = bodies_energy(&s.world, s.floor, g);
     let kinetic = fluids(s).map(Fluid::kinetic_energy).sum::<f64>() + body_ke;
-    if !total {
-        return kinetic;
-    }
-    let internal = if s.internal_energy {
-        eos_internal_energy(f)
-    } else {
-        0.0
+    let potential: f64 = fluids(s)
+        .map(|f| potential_energy(f, s.floor, g))
+        .sum::<f64>()
+        + body_pe;
+    let internal = match s.internal_energy {
+        InternalEnergy::Off => 0.0,
+        InternalEnergy::Sampled => eos_internal_energy(f),
+        InternalEnergy::StepDensities => {
+            let (u, m) = (
+                eos_energy_per_mass(f.params()),
+                f.params().particle_mass as f64,
+            );
+            f.densities().iter().map(|&rho| m * u(rho as f64)).sum()
+        }
     };
-    let potential: f64 = fluids(s).map(|f| potential_energy(f, s.floor, g)).sum();
-    kinetic + potential + body_pe + internal
+    let (cohesion, adhesion) = if s.capillary_energy {
+        (
+            cohesion::cohesion_energy(f),
+            cohesion::adhesion_energy(&s.world, s.fluid),
+        )
+    } else {
+        (0.0, 0.0)
+    };
+    [kinetic, potential, internal, cohesion, adhesion]
 }
 
 /// The case's fluids: the first, then the others.
@@ -563,7 +632,12 @@ fn verdict(r: &CaseResult) -> Option<String> {
         why.push(format!("{} lost", r.lost));
     }
     if r.energy_ratio > 1.05 {
-        why.push(if r.internal_energy {
+        why.push(if r.capillary_energy {
+            format!(
+                "total energy gained {:.3e} x the initial stores",
+                r.energy_ratio - 1.0
+            )
+        } else if r.internal_energy {
             format!(
                 "KE + PE + U {:.3e} x the initial total energy",
                 r.energy_ratio

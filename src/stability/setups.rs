@@ -1,7 +1,7 @@
 //! The cases' scenes: each builds a closed container with its fluid (and bodies) for one
 //! solver at one size, and says what "escaped" means for it. [`super::cases`] names them.
 
-use super::{Setup, SuiteSize};
+use super::{InternalEnergy, Setup, SuiteSize};
 use crate::math::{Real, Vector};
 use crate::params::{FluidParams, FluidParamsBuilder};
 use crate::pipeline::TimeStepping;
@@ -22,7 +22,11 @@ use rapier3d::prelude::{ColliderBuilder, RigidBodyBuilder};
 /// these γ are about five times stiffer than `times` says (γ = 0.54 is about 500 times
 /// water's σ): the cases are kept as they are, harder than their names, so that their
 /// verdicts stay comparable. The walls count in the density for every solver here (adhesion needs them);
-/// Clavet refuses surface tension (its cohesion is its own): not run.
+/// Clavet refuses surface tension (its cohesion is its own): not run. The verdict counts the
+/// cohesion's and the adhesion's potential energy (`cohesion.rs`), and WCSPH's internal
+/// energy: at 10^4 times the tension they hold about 30 times the gravitational energy, and
+/// WCSPH's soft equation of state lets the cohesion compress the column by up to 61 %,
+/// turning part of it into kinetic energy (3.4 times the gravitational).
 pub(super) fn surface_tension(
     solver: &Solver,
     size: SuiteSize,
@@ -44,7 +48,15 @@ pub(super) fn surface_tension(
         } else {
             4_000
         };
-        water_dam_break(params, n, seconds(size, 1.0, 2.0), 4.0)
+        let mut s = water_dam_break(params, n, seconds(size, 1.0, 2.0), 4.0)?;
+        s.capillary_energy = true;
+        // WCSPH's pressure is the gradient of its equation of state's energy: count it, with
+        // the step's densities (the walls count in them, and the adhesion presses particles
+        // into the walls; the fluid-only sampler would miss that compression).
+        if *solver == Solver::Wcsph {
+            s.internal_energy = InternalEnergy::StepDensities;
+        }
+        Ok(s)
     })())
 }
 
@@ -73,7 +85,8 @@ pub(super) fn layers_1_to_10(solver: &Solver, size: SuiteSize) -> Option<SphResu
             floor: 0.0,
             escaped: box_escape(Vector::ZERO, Vector::new(0.1, top, 0.1)),
             event: None,
-            internal_energy: false,
+            internal_energy: InternalEnergy::Off,
+            capillary_energy: false,
         })
     })())
 }
@@ -109,7 +122,8 @@ pub(super) fn from_dam_break(d: DamBreak, frames: usize, frame_dt: Real) -> Setu
         frames,
         escaped,
         event: None,
-        internal_energy: false,
+        internal_energy: InternalEnergy::Off,
+        capillary_energy: false,
     }
 }
 
@@ -181,7 +195,8 @@ pub(super) fn heavy_body(
             floor: 0.0,
             escaped,
             event: None,
-            internal_energy: false,
+            internal_energy: InternalEnergy::Off,
+            capillary_energy: false,
         })
     })())
 }
@@ -216,7 +231,8 @@ pub(super) fn wide_support(solver: &Solver, size: SuiteSize) -> Option<SphResult
             floor: 0.0,
             escaped: box_escape(min, max),
             event: None,
-            internal_energy: false,
+            internal_energy: InternalEnergy::Off,
+            capillary_energy: false,
         })
     })())
 }
@@ -241,7 +257,7 @@ pub(super) fn stiffness(solver: &Solver, size: SuiteSize, k: Real) -> Option<Sph
             .build()?;
         let d = dam_break(&DamBreakConfig::tower(params, 1.0))?;
         let mut s = from_dam_break(d, (seconds(size, 1.0, 4.0) * 60.0) as usize, 1.0 / 60.0);
-        s.internal_energy = true;
+        s.internal_energy = InternalEnergy::Sampled;
         Ok(s)
     })())
 }
@@ -358,7 +374,8 @@ pub(super) fn boxed(
                 .count()
         }),
         event: None,
-        internal_energy: false,
+        internal_energy: InternalEnergy::Off,
+        capillary_energy: false,
     })
 }
 
