@@ -171,45 +171,22 @@ mod avx {
         i: usize,
     ) -> Real {
         let xi = positions[i];
-        let px = positions.as_ptr() as *const f32;
-        let mut blocks = neighbors.of(i).chunks_exact(LANES);
-        // SAFETY: AVX2 (the caller's); every index is checked below the length.
+        let (blocks, rest) = neighbors.of(i).as_chunks::<LANES>();
+        // SAFETY: AVX2 (the caller's).
         let acc = unsafe {
-            let last = _mm256_set1_epi32((positions.len() - 1) as i32);
-            let (x, y, z) = (
+            let x = (
                 _mm256_set1_ps(xi.x),
                 _mm256_set1_ps(xi.y),
                 _mm256_set1_ps(xi.z),
             );
             let mut acc = _mm256_setzero_ps();
-            for block in &mut blocks {
-                let idx = _mm256_loadu_si256(block.as_ptr() as *const __m256i);
-                let inside = _mm256_cmpeq_epi32(_mm256_max_epu32(idx, last), last);
-                assert!(
-                    _mm256_movemask_epi8(inside) == -1,
-                    "neighbour index out of range"
-                );
-                // The last particle's 4-float load would pass the end: gathers for its block.
-                let (qx, qy, qz) = if _mm256_movemask_epi8(_mm256_cmpeq_epi32(idx, last)) != 0 {
-                    gather_xyz(px, _mm256_add_epi32(_mm256_add_epi32(idx, idx), idx))
-                } else {
-                    load_xyz(px, block)
-                };
-                let (rx, ry, rz) = (
-                    _mm256_sub_ps(x, qx),
-                    _mm256_sub_ps(y, qy),
-                    _mm256_sub_ps(z, qz),
-                );
-                let d2 = _mm256_add_ps(
-                    _mm256_add_ps(_mm256_mul_ps(rx, rx), _mm256_mul_ps(ry, ry)),
-                    _mm256_mul_ps(rz, rz),
-                );
-                acc = _mm256_add_ps(acc, kernel.w_avx(_mm256_sqrt_ps(d2)));
+            for block in blocks {
+                acc = _mm256_add_ps(acc, block_w(kernel, positions, x, block));
             }
             lanes(acc)
         };
         // SAFETY: as above.
-        unsafe { rest(kernel, positions, i, blocks.remainder(), lane_sum(acc)) }
+        unsafe { self::rest(kernel, positions, i, rest, lane_sum(acc)) }
     }
 
     /// [`super::remainder`] with the kernel values formed in lanes: the neighbours `rest`
@@ -233,37 +210,66 @@ mod avx {
             return sum;
         }
         let xi = positions[i];
-        let px = positions.as_ptr() as *const f32;
-        // SAFETY: AVX2 (the caller's); every index is checked below the length.
+        // SAFETY: AVX2 (the caller's).
         let w = unsafe {
             let block = padded_block(rest, i as u32);
-            let last = _mm256_set1_epi32((positions.len() - 1) as i32);
-            let idx = _mm256_loadu_si256(block.as_ptr() as *const __m256i);
-            let inside = _mm256_cmpeq_epi32(_mm256_max_epu32(idx, last), last);
-            assert!(
-                _mm256_movemask_epi8(inside) == -1,
-                "neighbour index out of range"
+            let x = (
+                _mm256_set1_ps(xi.x),
+                _mm256_set1_ps(xi.y),
+                _mm256_set1_ps(xi.z),
             );
-            let (qx, qy, qz) = if _mm256_movemask_epi8(_mm256_cmpeq_epi32(idx, last)) != 0 {
-                gather_xyz(px, _mm256_add_epi32(_mm256_add_epi32(idx, idx), idx))
-            } else {
-                load_xyz(px, &block)
-            };
-            let (rx, ry, rz) = (
-                _mm256_sub_ps(_mm256_set1_ps(xi.x), qx),
-                _mm256_sub_ps(_mm256_set1_ps(xi.y), qy),
-                _mm256_sub_ps(_mm256_set1_ps(xi.z), qz),
-            );
-            let d2 = _mm256_add_ps(
-                _mm256_add_ps(_mm256_mul_ps(rx, rx), _mm256_mul_ps(ry, ry)),
-                _mm256_mul_ps(rz, rz),
-            );
-            lanes(kernel.w_avx(_mm256_sqrt_ps(d2)))
+            lanes(block_w(kernel, positions, x, &block))
         };
         for wl in &w[..rest.len()] {
             sum += wl;
         }
         sum
+    }
+
+    /// `W(|x_i − x_j|)` in lanes for the 8 neighbours `block` of a particle at `x` (its
+    /// coordinates in every lane): each index checked below the length (a panic
+    /// otherwise), the positions by 4-float loads, or by gathers when the block holds the
+    /// last particle (whose 4-float load would pass the end).
+    ///
+    /// # Safety
+    /// The CPU must run AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn block_w<K: Kernel>(
+        kernel: &K,
+        positions: &[Vector],
+        (x, y, z): (__m256, __m256, __m256),
+        block: &[u32; LANES],
+    ) -> __m256 {
+        let px = positions.as_ptr() as *const f32;
+        let last = _mm256_set1_epi32((positions.len() - 1) as i32);
+        // SAFETY: `block` holds 8 indices.
+        let idx = unsafe { _mm256_loadu_si256(block.as_ptr() as *const __m256i) };
+        let inside = _mm256_cmpeq_epi32(_mm256_max_epu32(idx, last), last);
+        assert!(
+            _mm256_movemask_epi8(inside) == -1,
+            "neighbour index out of range"
+        );
+        // SAFETY: AVX2 (this function's); every index is below the length (checked above).
+        let (qx, qy, qz) = unsafe {
+            if _mm256_movemask_epi8(_mm256_cmpeq_epi32(idx, last)) != 0 {
+                gather_xyz(px, _mm256_add_epi32(_mm256_add_epi32(idx, idx), idx))
+            } else {
+                load_xyz(px, block)
+            }
+        };
+        let (rx, ry, rz) = (
+            _mm256_sub_ps(x, qx),
+            _mm256_sub_ps(y, qy),
+            _mm256_sub_ps(z, qz),
+        );
+        let d2 = _mm256_add_ps(
+            _mm256_add_ps(_mm256_mul_ps(rx, rx), _mm256_mul_ps(ry, ry)),
+            _mm256_mul_ps(rz, rz),
+        );
+        // SAFETY: AVX2 (this function's).
+        unsafe { kernel.w_avx(_mm256_sqrt_ps(d2)) }
     }
 }
 
