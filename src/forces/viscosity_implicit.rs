@@ -66,17 +66,8 @@ pub(crate) struct SolveStats {
 pub(crate) struct Scratch {
     /// `g_ij` of every listed pair, per chunk, in the order of the chunk's neighbour lists.
     pairs: Vec<Vec<Vector>>,
-    /// Inverse preconditioner blocks (symmetric: xx, yy, zz, xy, xz, yz).
-    inv_diag: Vec<[Real; 6]>,
-    /// Right-hand side `v*`.
-    b: Vec<Vector>,
-    /// Residual, preconditioned residual, search direction, `A p`.
-    r: Vec<Vector>,
-    z: Vec<Vector>,
-    p: Vec<Vector>,
-    ap: Vec<Vector>,
-    /// Per-chunk partial dot products.
-    partials: Vec<f64>,
+    /// The conjugate gradient's vectors.
+    cg: Cg,
     /// The stress-based solve's buffers (`forces::viscosity_stress`), empty unless a fluid
     /// asks for it.
     pub stress: crate::forces::viscosity_stress::Scratch,
@@ -87,7 +78,33 @@ impl Scratch {
     pub fn heap_bytes(&self) -> usize {
         let v = std::mem::size_of::<Vector>();
         self.pairs.iter().map(|c| c.capacity() * v).sum::<usize>()
-            + self.inv_diag.capacity() * 6 * std::mem::size_of::<Real>()
+            + self.cg.heap_bytes()
+            + self.stress.heap_bytes()
+    }
+}
+
+/// The preconditioned conjugate gradient's vectors, shared by both implicit viscosity solves
+/// (this module's and `forces::viscosity_stress`).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Cg {
+    /// Inverse preconditioner blocks (symmetric: xx, yy, zz, xy, xz, yz).
+    pub inv_diag: Vec<[Real; 6]>,
+    /// Right-hand side `v*`.
+    b: Vec<Vector>,
+    /// Residual, preconditioned residual, search direction, `A p`.
+    r: Vec<Vector>,
+    z: Vec<Vector>,
+    p: Vec<Vector>,
+    ap: Vec<Vector>,
+    /// Per-chunk partial dot products.
+    partials: Vec<f64>,
+}
+
+impl Cg {
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        let v = std::mem::size_of::<Vector>();
+        self.inv_diag.capacity() * 6 * std::mem::size_of::<Real>()
             + (self.b.capacity()
                 + self.r.capacity()
                 + self.z.capacity()
@@ -95,7 +112,6 @@ impl Scratch {
                 + self.ap.capacity())
                 * v
             + self.partials.capacity() * 8
-            + self.stress.heap_bytes()
     }
 }
 
@@ -127,20 +143,38 @@ pub(crate) fn solve<S: Separation>(
     let coef = 10.0 * c.dt * c.viscosity * pairs.mass;
     build_pairs(pairs, inv_densities, coef, scratch);
     build_preconditioner(pairs.neighbors, scratch);
-    let k = [0, 1, 2].map(|a| attributes.ensure(WARM[a], n));
+    let lists = pairs.neighbors;
+    let Scratch { pairs: g, cg, .. } = scratch;
+    warm_started(attributes, &WARM, velocities, cg, |x, cg| {
+        conjugate_gradient(c.settings, x, cg, |v, av| apply(lists, g, v, av))
+    })
+}
+
+/// Runs `solve` (`A x = v*` from the `x` given, `v*` in `cg.b`) on `velocities`, started
+/// from `v*` plus the velocity change of the last solve (the attributes `names`, per axis)
+/// and storing this solve's change there. A solve whose residual is not finite (a viscosity
+/// so large that the pair weights overflow `f32`, 10^30 Pa·s) is dropped for this substep
+/// rather than spreading the overflow.
+pub(crate) fn warm_started(
+    attributes: &mut Attributes,
+    names: &[&str; 3],
+    velocities: &mut [Vector],
+    cg: &mut Cg,
+    solve: impl FnOnce(&mut [Vector], &mut Cg) -> SolveStats,
+) -> SolveStats {
+    let n = velocities.len();
+    let k = [0, 1, 2].map(|a| attributes.ensure(names[a], n));
     let mut warm = k.map(|k| std::mem::take(attributes.vec_mut(k)));
-    scratch.b.clear();
-    scratch.b.extend_from_slice(velocities);
+    cg.b.clear();
+    cg.b.extend_from_slice(velocities);
     for (i, v) in velocities.iter_mut().enumerate() {
         *v += Vector::new(warm[0][i], warm[1][i], warm[2][i]);
     }
-    let stats = conjugate_gradient(pairs.neighbors, c.settings, velocities, scratch);
+    let stats = solve(velocities, cg);
     if !stats.residual.is_finite() {
-        // A viscosity so large that the pair weights overflow `f32` (10^30 Pa·s): the solve
-        // is dropped for this substep rather than spreading the overflow.
-        velocities.copy_from_slice(&scratch.b);
+        velocities.copy_from_slice(&cg.b);
     }
-    for (i, (v, b)) in velocities.iter().zip(&scratch.b).enumerate() {
+    for (i, (v, b)) in velocities.iter().zip(&cg.b).enumerate() {
         let d = *v - *b;
         (warm[0][i], warm[1][i], warm[2][i]) = (d.x, d.y, d.z);
     }
@@ -150,12 +184,13 @@ pub(crate) fn solve<S: Separation>(
     stats
 }
 
-/// Preconditioned conjugate gradient on `A x = b` from the `x` given (Saad 2003, Alg. 9.1).
-fn conjugate_gradient(
-    lists: &crate::neighbors::NeighborLists,
+/// Preconditioned conjugate gradient on `A x = b` from the `x` given (Saad 2003, Alg. 9.1),
+/// `b` and the preconditioner in `s`, `apply(v, out)` the product `out = A v`.
+pub(crate) fn conjugate_gradient(
     settings: ImplicitViscosity,
     x: &mut [Vector],
-    s: &mut Scratch,
+    s: &mut Cg,
+    mut apply: impl FnMut(&[Vector], &mut [Vector]),
 ) -> SolveStats {
     let n = x.len();
     for v in [&mut s.r, &mut s.z, &mut s.p, &mut s.ap] {
@@ -163,7 +198,7 @@ fn conjugate_gradient(
     }
     let bb = dot(&s.b, &s.b, &mut s.partials);
     let target = (settings.tolerance as f64).powi(2) * bb;
-    apply(lists, &s.pairs, x, &mut s.ap);
+    apply(x, &mut s.ap);
     for ((r, b), ap) in s.r.iter_mut().zip(&s.b).zip(&s.ap) {
         *r = *b - *ap;
     }
@@ -174,7 +209,7 @@ fn conjugate_gradient(
         s.p.copy_from_slice(&s.z);
         let mut rz = dot(&s.r, &s.z, &mut s.partials);
         while stats.iterations < settings.max_iterations as usize {
-            apply(lists, &s.pairs, &s.p, &mut s.ap);
+            apply(&s.p, &mut s.ap);
             let pap = dot(&s.p, &s.ap, &mut s.partials);
             // A is positive definite: a non-positive or non-finite curvature is round-off
             // on a converged solve (or a non-finite input): stop where we are.
@@ -251,9 +286,9 @@ fn build_pairs<S: Separation>(
 /// The inverses of the preconditioner's blocks `D_i = I + Σ_j g_ij g_ijᵀ`.
 fn build_preconditioner(lists: &crate::neighbors::NeighborLists, s: &mut Scratch) {
     let n = lists.len();
-    s.inv_diag.resize(n, [0.0; 6]);
+    s.cg.inv_diag.resize(n, [0.0; 6]);
     let pairs = &s.pairs;
-    crate::par_chunks_mut!(s.inv_diag, CHUNK)
+    crate::par_chunks_mut!(s.cg.inv_diag, CHUNK)
         .enumerate()
         .for_each(|(c, out)| {
             let (offsets, _) = lists.chunk(c);

@@ -39,7 +39,7 @@
 use crate::domain::Separation;
 use crate::fluid::Attributes;
 use crate::forces::viscosity_implicit::{
-    Implicit, SolveStats, axpy, dot, inverse_symmetric, precondition,
+    Cg, Implicit, SolveStats, conjugate_gradient, inverse_symmetric, warm_started,
 };
 use crate::kernel::{CubicSpline, Kernel};
 use crate::math::{Real, Vector};
@@ -62,15 +62,8 @@ pub(crate) struct Scratch {
     grads: Vec<Vec<Vector>>,
     /// Per particle `dt·σ_i/ρ_i²` of the vector the product is taken of (xx, yy, zz, xy, xz, yz).
     stress: Vec<[Real; 6]>,
-    /// Inverse preconditioner blocks.
-    inv_diag: Vec<[Real; 6]>,
-    /// Right-hand side, residual, preconditioned residual, search direction, `A p`.
-    b: Vec<Vector>,
-    r: Vec<Vector>,
-    z: Vec<Vector>,
-    p: Vec<Vector>,
-    ap: Vec<Vector>,
-    partials: Vec<f64>,
+    /// The conjugate gradient's vectors and preconditioner.
+    cg: Cg,
 }
 
 impl Scratch {
@@ -79,14 +72,8 @@ impl Scratch {
         let v = std::mem::size_of::<Vector>();
         let six = 6 * std::mem::size_of::<Real>();
         self.grads.iter().map(|c| c.capacity() * v).sum::<usize>()
-            + (self.stress.capacity() + self.inv_diag.capacity()) * six
-            + (self.b.capacity()
-                + self.r.capacity()
-                + self.z.capacity()
-                + self.p.capacity()
-                + self.ap.capacity())
-                * v
-            + self.partials.capacity() * 8
+            + self.stress.capacity() * six
+            + self.cg.heap_bytes()
     }
 }
 
@@ -116,92 +103,17 @@ pub(crate) fn solve<S: Separation>(
     build_gradients(pairs, scratch);
     let diag = c.dt * c.viscosity * pairs.mass * pairs.mass;
     build_preconditioner(pairs.neighbors, inv_densities, diag, scratch);
-    let k = [0, 1, 2].map(|a| attributes.ensure(WARM[a], n));
-    let mut warm = k.map(|k| std::mem::take(attributes.vec_mut(k)));
-    scratch.b.clear();
-    scratch.b.extend_from_slice(velocities);
-    for (i, v) in velocities.iter_mut().enumerate() {
-        *v += Vector::new(warm[0][i], warm[1][i], warm[2][i]);
-    }
     let op = Operator {
         lists: pairs.neighbors,
         inv_densities,
         stress_coef: 2.0 * c.dt * c.viscosity * pairs.mass,
         mass: pairs.mass,
     };
-    let stats = conjugate_gradient(op, c.settings, velocities, scratch);
-    if !stats.residual.is_finite() {
-        velocities.copy_from_slice(&scratch.b);
-    }
-    for (i, (v, b)) in velocities.iter().zip(&scratch.b).enumerate() {
-        let d = *v - *b;
-        (warm[0][i], warm[1][i], warm[2][i]) = (d.x, d.y, d.z);
-    }
-    for (a, k) in k.into_iter().enumerate() {
-        *attributes.vec_mut(k) = std::mem::take(&mut warm[a]);
-    }
-    stats
-}
-
-/// Preconditioned conjugate gradient on `A x = b` from the `x` given (Saad 2003, Alg. 9.1);
-/// the same loop as the Laplacian solve's, with this module's product.
-fn conjugate_gradient(
-    op: Operator<'_>,
-    settings: crate::params::ImplicitViscosity,
-    x: &mut [Vector],
-    s: &mut Scratch,
-) -> SolveStats {
-    let n = x.len();
-    for v in [&mut s.r, &mut s.z, &mut s.p, &mut s.ap] {
-        v.resize(n, Vector::ZERO);
-    }
-    s.stress.resize(n, [0.0; 6]);
-    let bb = dot(&s.b, &s.b, &mut s.partials);
-    let target = (settings.tolerance as f64).powi(2) * bb;
-    let mut ap = std::mem::take(&mut s.ap);
-    let mut stress = std::mem::take(&mut s.stress);
-    apply(op, &s.grads, x, &mut stress, &mut ap);
-    for ((r, b), ap) in s.r.iter_mut().zip(&s.b).zip(&ap) {
-        *r = *b - *ap;
-    }
-    let mut rr = dot(&s.r, &s.r, &mut s.partials);
-    let mut stats = SolveStats::default();
-    if rr > target {
-        precondition(&s.inv_diag, &s.r, &mut s.z);
-        s.p.copy_from_slice(&s.z);
-        let mut rz = dot(&s.r, &s.z, &mut s.partials);
-        while stats.iterations < settings.max_iterations as usize {
-            apply(op, &s.grads, &s.p, &mut stress, &mut ap);
-            let pap = dot(&s.p, &ap, &mut s.partials);
-            if !(pap > 0.0 && pap.is_finite()) {
-                break;
-            }
-            let alpha = (rz / pap) as Real;
-            axpy(alpha, &s.p, x);
-            axpy(-alpha, &ap, &mut s.r);
-            stats.iterations += 1;
-            rr = dot(&s.r, &s.r, &mut s.partials);
-            if rr <= target {
-                break;
-            }
-            precondition(&s.inv_diag, &s.r, &mut s.z);
-            let rz_next = dot(&s.r, &s.z, &mut s.partials);
-            let beta = (rz_next / rz) as Real;
-            rz = rz_next;
-            for (p, z) in s.p.iter_mut().zip(&s.z) {
-                *p = *z + *p * beta;
-            }
-        }
-    }
-    (s.ap, s.stress) = (ap, stress);
-    stats.residual = if bb > 0.0 {
-        (rr / bb).sqrt() as Real
-    } else if rr.is_finite() {
-        0.0
-    } else {
-        Real::NAN
-    };
-    stats
+    let Scratch { grads, stress, cg } = scratch;
+    stress.resize(n, [0.0; 6]);
+    warm_started(attributes, &WARM, velocities, cg, |x, cg| {
+        conjugate_gradient(c.settings, x, cg, |v, av| apply(op, grads, v, stress, av))
+    })
 }
 
 /// `∇W_ij` of every listed pair (zero for the particle itself), per chunk.
@@ -236,9 +148,9 @@ fn build_gradients<S: Separation>(pairs: &Pairs<'_, S>, s: &mut Scratch) {
 
 /// The inverses of `A`'s diagonal blocks (module docs), `coef = dt μ m²`.
 fn build_preconditioner(lists: &NeighborLists, inv_rho: &[Real], coef: Real, s: &mut Scratch) {
-    s.inv_diag.resize(lists.len(), [0.0; 6]);
+    s.cg.inv_diag.resize(lists.len(), [0.0; 6]);
     let grads = &s.grads;
-    crate::par_chunks_mut!(s.inv_diag, CHUNK)
+    crate::par_chunks_mut!(s.cg.inv_diag, CHUNK)
         .enumerate()
         .for_each(|(c, out)| {
             let (offsets, indices) = lists.chunk(c);
