@@ -3,7 +3,14 @@
 //! (default 0.5 ms, four times the report's sampling) over 2.2 ≤ T ≤ 3.2, with the particles
 //! in the sensor's support (count, their highest and lowest pressure, the nearest one's
 //! distance in spacings), the mean pressure of the wall layer below 5 cm, the substeps and the
-//! highest particle. A frame caps the step (DFSPH takes about 1.7 ms in the report at N = 15,
+//! highest particle. Beside the report's sensor (`wall`: the fluid's pressure extrapolated to the
+//! wall, `validation::lobovsky::WallSensor`), the Shepard average of the particles' pressures
+//! at the same point (`point`, the report's sensor before), the wall reading averaged over a face one spacing across
+//! (`disc`), and what the wall receives: the
+//! downstream wall's horizontal force per unit width (`F/w`, the crate's collider force,
+//! `FluidPipeline::collider_force`) against the wall reading integrated over the wall's
+//! height (`∫p dy`, the sensor read every quarter spacing up the wall's centre line), both in
+//! `ρ0·g·H²`. A frame caps the step (DFSPH takes about 1.7 ms in the report at N = 15,
 //! one step per 2 ms sample; here at most 0.5 ms). Pressures as `p/(ρ0·g·H)`; the last line is
 //! the highest particle over the whole run (to T = 4.5).
 //!
@@ -20,8 +27,11 @@
 //! `N` the particles across H (`WCSPH-D=δ` sets the diffusion coefficient, 0.1 without it);
 //! the last argument overrides the method's wall density.
 use rapier_sph::math::{Real, Vector};
+use rapier_sph::rapier3d::prelude::ActiveEvents;
 use rapier_sph::scenes::add_closed_box;
-use rapier_sph::validation::lobovsky::{COLUMN_LENGTH, H, TANK_HEIGHT, TANK_LENGTH, probe};
+use rapier_sph::validation::lobovsky::{
+    COLUMN_LENGTH, H, TANK_HEIGHT, TANK_LENGTH, downstream_sensor, probe,
+};
 use rapier_sph::validation::{dam_break::LAYERS, methods};
 use rapier_sph::{Fluid, FluidParamsBuilder, FluidWorld, fluid::try_lattice};
 
@@ -61,6 +71,17 @@ fn main() {
     let mut world = FluidWorld::new();
     add_closed_box(&mut world, Vector::ZERO, max, (4.0 * s).max(0.05));
     world.physics.step();
+    // Watch the downstream wall (the collider beyond x = TANK_LENGTH) for its force.
+    let wall = world
+        .physics
+        .colliders
+        .iter_mut()
+        .find(|(_, c)| c.translation().x > TANK_LENGTH)
+        .map(|(h, c)| {
+            c.set_active_events(ActiveEvents::CONTACT_FORCE_EVENTS);
+            h
+        })
+        .unwrap();
     let mut fluid = Fluid::new(params.clone()).unwrap();
     let nx = (COLUMN_LENGTH / s).round() as usize;
     fluid
@@ -84,7 +105,27 @@ fn main() {
         if tt < 2.2 || tt > 3.2 {
             continue;
         }
+        let gravity = world.physics.gravity;
+        let p_wall = downstream_sensor(0.015, max.z).read(f, gravity, Vector::ZERO) as f64 / p_ref;
         let p = probe(f, sensor) as f64 / p_ref;
+        // The same reading averaged over a face one spacing across.
+        let face = rapier_sph::validation::lobovsky::WallSensor {
+            radius: 0.5 * s,
+            ..downstream_sensor(0.015, max.z)
+        };
+        let p_disc = face.read(f, gravity, Vector::ZERO) as f64 / p_ref;
+        // What the wall receives, per unit width, against the wall reading integrated up it.
+        let force = world.pipeline.collider_force(wall).unwrap().force.x as f64;
+        let dy = 0.25 * s;
+        let integral: f64 = (0..(TANK_HEIGHT / dy).round() as usize)
+            .map(|k| {
+                downstream_sensor((k as Real + 0.5) * dy, max.z).read(f, gravity, Vector::ZERO)
+                    as f64
+                    * dy as f64
+            })
+            .sum();
+        let unit = p_ref * H as f64;
+        let (f_w, int_p) = (force / max.z as f64 / unit, integral / unit);
         // Particles in the sensor's support: count, their max and min pressure, nearest.
         let (mut cnt, mut pmax, mut pmin, mut dmin) = (0, f64::MIN, f64::MAX, Real::MAX);
         for (x, &pp) in f.positions().iter().zip(f.pressures()) {
@@ -105,7 +146,7 @@ fn main() {
             }
         }
         println!(
-            "{tt:.4} p={p:.3} n={cnt} pmax={pmax:.3} pmin={pmin:.3} dmin/s={:.2} wall_mean={:.3} nw={nw} substeps={} ymax={ymax:.3}",
+            "{tt:.4} wall={p_wall:.3} disc={p_disc:.3} point={p:.3} F/w={f_w:.4} int_p={int_p:.4} n={cnt} pmax={pmax:.3} pmin={pmin:.3} dmin/s={:.2} wall_mean={:.3} nw={nw} substeps={} ymax={ymax:.3}",
             dmin / s,
             if nw > 0 { sw / nw as f64 } else { 0.0 },
             r.substeps

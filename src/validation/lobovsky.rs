@@ -13,10 +13,18 @@
 //!
 //! ## Measurement
 //!
-//! The pressure at a sensor is read from the fluid next to the wall, as SPH codes do: the
-//! Shepard (kernel-weighted) average `Σ p_j W_j / Σ W_j` of the pressures of the particles
-//! within the kernel support of the sensor's point on the wall (zero when no particle is
-//! there: the sensor is dry).
+//! The pressure at a sensor is what the wall is told: the fluid's pressure extrapolated to the
+//! sensor's point on the wall as Adami et al. (2012) give their walls' pressure
+//! ([`WallSensor`]: the Shepard average of the pressures of the particles within the kernel
+//! support, plus `ρ_f·g·(x_w − x_f)` for each, the weight of the fluid between a particle and
+//! the wall; zero when no particle is there: the sensor is dry). The array read is each
+//! solver's own: WCSPH's equation of state, DFSPH's sum of both solves' pressures over the
+//! step (all the pressure the step applied), PBF's `λ` as a pressure, Clavet's linear
+//! equation of state (an estimate, not its relaxation's force). The data's README gives no
+//! diameter for the sensors' faces; [`WallSensor::radius`] averages over one, the report
+//! reads the point (a face smaller than the kernel's support, `h` = 40 mm at N = 15, changes
+//! a kernel-smoothed field little; `examples/impact_probe.rs` measures the reading against the
+//! force the wall receives).
 //!
 //! Errors over the first impact, `2.0 ≤ T ≤ 4.5`:
 //! - `band_rms`: RMS of `(p_sim − p_median)` at the data's times, over the median's peak;
@@ -188,6 +196,124 @@ pub fn probe(fluid: &Fluid, point: Vector) -> Real {
     if w > 0.0 { (pw / w) as Real } else { 0.0 }
 }
 
+/// The sensor at height `y` (m) on the downstream wall, on the slab's centre plane (`depth`
+/// the slab's depth along z): the wall pressure at that point ([`WallSensor`], radius 0; the
+/// data's README gives no diameter for the sensors' faces, see the module's doc).
+pub fn downstream_sensor(y: Real, depth: Real) -> WallSensor {
+    WallSensor {
+        center: Vector::new(TANK_LENGTH, y, 0.5 * depth),
+        normal: -Vector::X,
+        radius: 0.0,
+    }
+}
+
+/// A pressure sensor on a wall: what the wall is told, read from the fluid next to it.
+///
+/// The reading is the fluid's pressure *extrapolated to the wall* as Adami, Hu & Adams (2012,
+/// J. Comput. Phys. 231, 7057–7075, eq. 27) give their wall particles' pressure,
+///
+/// `p_w(x_w) = (Σ_f p_f W(x_w − x_f) + (g − a_w)·Σ_f ρ_f (x_w − x_f) W(x_w − x_f)) / Σ_f W(x_w − x_f)`,
+///
+/// a Shepard (kernel-weighted) average of the pressures of the particles `f` within the kernel
+/// support `h` of the wall point, plus the pressure the fluid's weight and the wall's
+/// acceleration `a_w` put between a particle and the wall (the wall is that much deeper than
+/// the particle: a settled column's side wall reads `ρ0·g·depth` at its own depth, not at the
+/// particles' mean depth). The kernel is the cubic spline of support `h`. A physical sensor
+/// has a face of finite area and reads the mean pressure over it: the reading is averaged
+/// over the disc of [`WallSensor::radius`] around [`WallSensor::center`] in the wall's plane
+/// (equal-area quadrature, 24 points; one point when the radius is 0). Zero when no particle
+/// is within `h` of any point of the face: the sensor is dry.
+///
+/// # Examples
+/// ```
+/// use rapier_sph::math::Vector;
+/// use rapier_sph::validation::lobovsky::WallSensor;
+/// use rapier_sph::{Fluid, FluidParamsBuilder};
+/// // One particle at rest density with a pressure of 100 Pa, 1 cm in front of a wall at x = 0.
+/// let params = FluidParamsBuilder::water(0.02).build().unwrap();
+/// let mut fluid = Fluid::new(params).unwrap();
+/// fluid.add_particles(&[Vector::new(0.01, 0.5, 0.0)]).unwrap();
+/// let sensor = WallSensor { center: Vector::new(0.0, 0.5, 0.0), normal: Vector::X, radius: 0.0 };
+/// // A dry sensor reads 0, whatever the gravity.
+/// let far = WallSensor { center: Vector::new(0.0, 5.0, 0.0), ..sensor };
+/// assert_eq!(far.read(&fluid, Vector::new(0.0, -9.81, 0.0), Vector::ZERO), 0.0);
+/// // A particle level with the sensor adds nothing under gravity along y: the sensor reads
+/// // the particle's own pressure (0 before the fluid stepped).
+/// assert_eq!(sensor.read(&fluid, Vector::new(0.0, -9.81, 0.0), Vector::ZERO), 0.0);
+/// ```
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct WallSensor {
+    /// The centre of the sensor's face, on the wall's surface (m).
+    pub center: Vector,
+    /// The wall's unit normal, pointing into the fluid.
+    pub normal: Vector,
+    /// The radius of the sensor's face (m); 0 reads the wall at [`WallSensor::center`] only.
+    pub radius: Real,
+}
+
+impl WallSensor {
+    /// The mean wall pressure over the sensor's face (Pa), `gravity` the world's (m/s²) and
+    /// `wall_acceleration` the wall's (zero for a fixed wall); see the type's doc.
+    pub fn read(&self, fluid: &Fluid, gravity: Vector, wall_acceleration: Vector) -> Real {
+        const RINGS: usize = 3;
+        const ANGLES: usize = 8;
+        let n = self.normal.normalize_or_zero();
+        let e = if n.x.abs() < 0.9 {
+            Vector::X
+        } else {
+            Vector::Y
+        };
+        let t1 = n.cross(e).normalize_or_zero();
+        let t2 = n.cross(t1);
+        let mut points = Vec::with_capacity(RINGS * ANGLES);
+        if self.radius > 0.0 {
+            for k in 0..RINGS {
+                // Equal-area rings: the k-th holds the area between radii sqrt(k/RINGS)·R and
+                // sqrt((k + 1)/RINGS)·R, sampled at its area's midpoint.
+                let r = self.radius * ((k as Real + 0.5) / RINGS as Real).sqrt();
+                for j in 0..ANGLES {
+                    let a = std::f32::consts::TAU as Real * (j as Real + 0.5 * (k % 2) as Real)
+                        / ANGLES as Real;
+                    points.push(self.center + r * (a.cos() * t1 + a.sin() * t2));
+                }
+            }
+        } else {
+            points.push(self.center);
+        }
+        let h = fluid.params().smoothing_length;
+        let accel = gravity - wall_acceleration;
+        let (mut sum, mut wet) = (0.0f64, 0usize);
+        for &xw in &points {
+            let (mut pw, mut w) = (0.0f64, 0.0f64);
+            for ((x, p), rho) in fluid
+                .positions()
+                .iter()
+                .zip(fluid.pressures())
+                .zip(fluid.densities())
+            {
+                let r = xw - *x;
+                let d = r.length();
+                if d < h {
+                    let k = KernelKind::CubicSpline.w(d, h) as f64;
+                    pw += k * (*p as f64 + *rho as f64 * accel.dot(r) as f64);
+                    w += k;
+                }
+            }
+            if w > 0.0 {
+                sum += pw / w;
+                wet += 1;
+            }
+        }
+        // A dry point of a partly wet face reads 0, as a dry patch of a real face presses
+        // nothing.
+        if wet > 0 {
+            (sum / points.len() as f64) as Real
+        } else {
+            0.0
+        }
+    }
+}
+
 /// Runs the scene once (see [`super::Scene::run`]). `resolution` is the number of particles
 /// across H.
 pub fn run(
@@ -213,6 +339,7 @@ pub fn run(
     let tank_max = tank.max;
     let inside = inside_box(tank_max, 1e-4 * tank_max.max_element());
     let mut sensors: Vec<Vec<(f64, f64)>> = vec![Vec::new(); SENSOR_HEIGHTS.len()];
+    let sensor = |y: Real| downstream_sensor(y, tank_max.z);
     let fluid = tank.fluid;
     let driven = drive(
         &mut tank.world,
@@ -228,8 +355,9 @@ pub fn run(
         },
         &mut |t, world| {
             let f = &world.fluids[fluid];
+            let gravity = world.physics.gravity;
             for (k, &y) in SENSOR_HEIGHTS.iter().enumerate() {
-                let p = probe(f, Vector::new(TANK_LENGTH, y, 0.5 * tank_max.z));
+                let p = sensor(y).read(f, gravity, Vector::ZERO);
                 sensors[k].push((t as f64 * scale, p as f64 / p_ref));
             }
         },
