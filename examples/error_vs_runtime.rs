@@ -985,6 +985,31 @@ fn main() {
             .unwrap();
         }
         writeln!(md).unwrap();
+        // The spray, as a figure: no bound holds particle by particle (pressure moves energy
+        // between particles), but a particle carrying Ritter's front's 2gH per unit mass
+        // rises 2H at most.
+        let mut highest: Vec<(&str, f64)> = Vec::new();
+        for &i in &idx {
+            let r = &records[i];
+            let Some(top) = r.error("max_height").filter(|h| h.is_finite() && r.stable) else {
+                continue;
+            };
+            match highest.iter_mut().find(|(m, _)| *m == r.method) {
+                Some((_, h)) => *h = h.max(top),
+                None => highest.push((r.method, top)),
+            }
+        }
+        if !highest.is_empty() {
+            let list: Vec<String> = highest.iter().map(|(m, h)| format!("{m} {h:.3}")).collect();
+            writeln!(
+                md,
+                "Highest particle over the stable runs (`max_height`, over the highest at the \
+                 start; 2 is where Ritter's front's `2gH` per unit mass would lift a particle): \
+                 {}.\n",
+                list.join(", ")
+            )
+            .unwrap();
+        }
     }
     if !scaling.is_empty() {
         writeln!(
