@@ -9,7 +9,8 @@
 //! cargo bench --bench step -- --preset paper
 //! cargo bench --bench step -- --salva      # only the peer-comparison scene below
 //! cargo bench --bench step -- --salva --carry-density-error   # DFSPH's options: also
-//!                                          # --full-warm-start, --warm-start F
+//!                                          # --full-warm-start, --warm-start F,
+//!                                          # --chebyshev RHO
 //! ```
 //!
 //! The peer-comparison scene (salva3d's own benchmark): DFSPH with walls
@@ -107,7 +108,8 @@ fn main() {
 }
 
 /// The salva scene's DFSPH settings: the defaults, or with `--full-warm-start`,
-/// `--carry-density-error` (with the full warm start it needs) and `--warm-start F`.
+/// `--carry-density-error` (with the full warm start it needs), `--warm-start F` and
+/// `--chebyshev RHO` (with the full warm start it needs).
 fn salva_solver(args: &[String]) -> rapier_sph::Dfsph {
     let has = |flag: &str| args.iter().any(|a| a == flag);
     let mut d = rapier_sph::Dfsph::default();
@@ -117,6 +119,10 @@ fn salva_solver(args: &[String]) -> rapier_sph::Dfsph {
     d.carry_density_error = has("--carry-density-error");
     if let Some(w) = args.windows(2).find(|w| w[0] == "--warm-start") {
         d.warm_start = w[1].parse().expect("--warm-start takes a fraction");
+    }
+    if let Some(w) = args.windows(2).find(|w| w[0] == "--chebyshev") {
+        d.full_warm_start = true;
+        d.chebyshev = Some(w[1].parse().expect("--chebyshev takes a spectral radius"));
     }
     d
 }
@@ -134,8 +140,8 @@ fn salva_scene(quick: bool, dfsph: rapier_sph::Dfsph) {
         "salva3d's scene: DFSPH + wall density, spacing 0.05 m, h = 0.1 m, dt = 0.005 s fixed, first simulated second, 2 threads"
     );
     println!(
-        "DFSPH: warm start {}, full warm start {}, carry density error {}",
-        dfsph.warm_start, dfsph.full_warm_start, dfsph.carry_density_error
+        "DFSPH: warm start {}, full warm start {}, carry density error {}, Chebyshev {:?}",
+        dfsph.warm_start, dfsph.full_warm_start, dfsph.carry_density_error, dfsph.chebyshev
     );
     println!();
     println!(

@@ -79,6 +79,18 @@ struct Args {
     /// `--hydrostatic-walls false` turns them off (default: DFSPH's, on).
     #[arg(long, num_args = 0..=1, default_missing_value = "true")]
     hydrostatic_walls: Option<bool>,
+    /// DFSPH only: carry the whole previous pressure, projected solve
+    /// (`Dfsph::full_warm_start`).
+    #[arg(long)]
+    full_warm_start: bool,
+    /// DFSPH only: carry the last prediction error (`Dfsph::carry_density_error`; implies
+    /// --full-warm-start).
+    #[arg(long)]
+    carry_density_error: bool,
+    /// DFSPH only: Chebyshev acceleration of the density solve with this spectral radius
+    /// estimate (`Dfsph::chebyshev`; implies --full-warm-start).
+    #[arg(long, value_name = "RHO")]
+    chebyshev: Option<f32>,
     /// Akinci's surface tension `γ` (`FluidParamsBuilder::surface_tension`; default 0, off).
     #[arg(long)]
     surface_tension: Option<f32>,
@@ -188,8 +200,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(s) => matches!(s, SolverArg::Dfsph),
         None => matches!(args.preset, Preset::Water),
     };
-    if args.hydrostatic_walls.is_some() && !dfsph {
-        return Err("--hydrostatic-walls is a DFSPH setting: add --solver dfsph".into());
+    if (args.hydrostatic_walls.is_some()
+        || args.full_warm_start
+        || args.carry_density_error
+        || args.chebyshev.is_some())
+        && !dfsph
+    {
+        return Err(
+            "--hydrostatic-walls, --full-warm-start, --carry-density-error and \
+                    --chebyshev are DFSPH settings: add --solver dfsph"
+                .into(),
+        );
     }
     match args.solver {
         Some(SolverArg::Wcsph) => builder = builder.solver(Solver::Wcsph),
@@ -208,6 +229,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let defaults = rapier_sph::solver::Dfsph::default();
         builder = builder.solver(Solver::Dfsph(rapier_sph::solver::Dfsph {
             hydrostatic_walls: args.hydrostatic_walls.unwrap_or(defaults.hydrostatic_walls),
+            full_warm_start: args.full_warm_start
+                || args.carry_density_error
+                || args.chebyshev.is_some(),
+            carry_density_error: args.carry_density_error,
+            chebyshev: args.chebyshev,
             ..defaults
         }));
     }
@@ -391,7 +417,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     println!("max density error    {:.2} %", 100.0 * max_err);
     println!(
-        "mean density error   {:.2} % (average over steps)",
+        "mean density error   {:.3} % (average over steps)",
         100.0 * mean_err_sum / args.steps as f64
     );
     println!(

@@ -129,6 +129,9 @@ pub(crate) struct DfsphBuffers {
     pub applied_neighbour: Vec<Real>,
     /// The velocities as contact will leave them (see `SolveContext::contact_radius`).
     pub clipped: Vec<Vec3A>,
+    /// With [`Dfsph::chebyshev`]: the increment each particle's value received in the
+    /// density solve's last iteration (the semi-iterative update's previous step).
+    pub previous: Vec<Real>,
 }
 
 /// Most halvings of the Jacobi relaxation `ω` (down to 1/8). Jacobi with DFSPH's diagonal
@@ -172,7 +175,7 @@ impl DfsphBuffers {
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
         (self.alpha.capacity() + self.pi.capacity() + self.rates.capacity()) * 4
-            + self.applied_neighbour.capacity() * 4
+            + (self.applied_neighbour.capacity() + self.previous.capacity()) * 4
             + self.partials.capacity() * 16
             + (self.velocities.capacity() + self.clipped.capacity()) * std::mem::size_of::<Vec3A>()
     }

@@ -131,6 +131,14 @@ pub struct Dfsph {
     /// iteration count: about 16 % more CPU in that pool.
     #[cfg_attr(feature = "snapshot", serde(default))]
     pub predict_walls: bool,
+    /// Chebyshev semi-iterative acceleration of the constant-density solve (Wang 2015,
+    /// "A Chebyshev semi-iterative approach for accelerating projective and position-based
+    /// dynamics"), with this estimate `ρ` of the Jacobi iteration's spectral radius, in
+    /// `(0, 1)`; `None` (default): plain Jacobi. Needs `full_warm_start` (the projected
+    /// solve, which can take back what an extrapolated step over-corrects). See
+    /// docs/solvers.md for the method, its safeguards and the measurements.
+    #[cfg_attr(feature = "snapshot", serde(default))]
+    pub chebyshev: Option<Real>,
 }
 
 #[cfg(feature = "snapshot")]
@@ -158,6 +166,7 @@ impl Default for Dfsph {
             gravity_substep: 5.0,
             carry_density_error: false,
             predict_walls: false,
+            chebyshev: None,
         }
     }
 }
@@ -218,6 +227,23 @@ impl Dfsph {
                 reason: "needs full_warm_start (the one-sided solve cannot take back what the \
                          carried error over-corrects)",
             });
+        }
+        if let Some(rho) = self.chebyshev {
+            if !(rho > 0.0 && rho < 1.0) {
+                return Err(SphError::InvalidParameter {
+                    field: "chebyshev",
+                    value: rho as f64,
+                    reason: "the spectral radius estimate must be in (0, 1)",
+                });
+            }
+            if !self.full_warm_start {
+                return Err(SphError::InvalidParameter {
+                    field: "chebyshev",
+                    value: rho as f64,
+                    reason: "needs full_warm_start (the one-sided solve cannot take back what \
+                             an extrapolated step over-corrects)",
+                });
+            }
         }
         if self.max_iterations > crate::params::MAX_SOLVER_ITERATIONS {
             return Err(SphError::InvalidParameter {

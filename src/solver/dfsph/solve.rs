@@ -121,6 +121,9 @@ struct Solve {
     /// Signed increments, each clamped so that the particle's summed value stays `≥ 0`
     /// (projected Jacobi, [`Dfsph::full_warm_start`]); `false`: `finish` decides.
     projected: bool,
+    /// Chebyshev semi-iterative acceleration with this spectral radius estimate
+    /// ([`Dfsph::chebyshev`]; see [`Chebyshev`]).
+    chebyshev: Option<Real>,
 }
 
 /// The Jacobi loop both solves share: warm start from the previous pressure values (section
@@ -154,7 +157,11 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
         relaxation_halvings,
         applied_neighbour,
         clipped,
+        previous,
     } = buffers;
+    if solve.chebyshev.is_some() {
+        previous.resize(n, 0.0);
+    }
     // The passes work on a 16-byte copy of the velocities (see [`PairGradients`]).
     if !matches!(solve.warm_start, WarmStart::Pushed(true)) {
         for (w, &v) in wide.iter_mut().zip(velocities.iter()) {
@@ -170,6 +177,7 @@ fn jacobi<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync>(
         wide,
         applied: track.then_some(&mut applied_neighbour[..]),
         clipped: Some(clipped),
+        previous: solve.chebyshev.is_some().then_some(&mut previous[..]),
         finish,
     };
     it.warm_start(solve.warm_start, warm);
@@ -192,6 +200,8 @@ struct Jacobi<'a, F> {
     wide: &'a mut [Vec3A],
     applied: Option<&'a mut [Real]>,
     clipped: Option<&'a mut Vec<Vec3A>>,
+    /// With Chebyshev acceleration: the last iteration's applied increments.
+    previous: Option<&'a mut [Real]>,
     finish: F,
 }
 
@@ -286,6 +296,7 @@ impl<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync> Jacobi<'_, F> {
         let mut stats = SolveStats::default();
         let mut previous = Real::INFINITY;
         let mut neighbour = true;
+        let mut chebyshev = solve.chebyshev.map(Chebyshev::new);
         loop {
             self.rate();
             let sum = if ctx.closed {
@@ -296,8 +307,17 @@ impl<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync> Jacobi<'_, F> {
             stats.error = (sum / n as f64) as Real * solve.error_scale;
             // A closed box's update is relaxed already (`CLOSED_RELAXATION`).
             if !ctx.closed {
-                let diverging = stats.error > previous;
+                let mut diverging = stats.error > previous;
                 previous = stats.error;
+                // After an extrapolated step the error may grow without the iteration
+                // diverging: the sequence restarts from a plain step, and only a plain step's
+                // growth counts (see `Chebyshev`).
+                if let Some(c) = chebyshev.as_mut()
+                    && diverging
+                    && c.restart()
+                {
+                    diverging = false;
+                }
                 // Diverging with hydrostatic walls: the rest of the solve without the walls'
                 // neighbour part (see `DfsphBuffers::applied_neighbour`).
                 if diverging && self.applied.is_some() && neighbour {
@@ -312,10 +332,16 @@ impl<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync> Jacobi<'_, F> {
                 stats.capped = !done;
                 break;
             }
+            if let (Some(c), Some(last)) = (chebyshev.as_mut(), self.previous.as_deref()) {
+                c.extrapolate(self.pi, last);
+            }
             if solve.projected {
                 for (p, &w) in self.pi.iter_mut().zip(warm.iter()) {
                     *p = p.max(-w);
                 }
+            }
+            if let Some(last) = self.previous.as_deref_mut() {
+                last.copy_from_slice(self.pi);
             }
             let applied = self.applied.as_deref_mut().filter(|_| neighbour);
             apply_pressure(ctx, neighbour, self.pi, self.wide, (Some(warm), applied));
@@ -334,6 +360,61 @@ impl<F: Fn(&[Real], usize, Real) -> (Real, Real) + Sync> Jacobi<'_, F> {
             let omega = super::super::relaxation(*halvings);
             for p in self.pi.iter_mut() {
                 *p *= omega;
+            }
+        }
+    }
+}
+
+/// Chebyshev semi-iterative acceleration of the Jacobi solve (Wang 2015, "A Chebyshev
+/// semi-iterative approach for accelerating projective and position-based dynamics", ACM
+/// TOG 34(6)): with `x_k` the summed values after iteration `k` and `x̂_{k+1} = x_k + δ_k`
+/// the Jacobi update, `x_{k+1} = ω_{k+1}·(x̂_{k+1} − x_{k−1}) + x_{k−1}`, i.e. the applied
+/// increment is `ω_{k+1}·δ_k + (ω_{k+1} − 1)·Δ_{k−1}` (`Δ_{k−1}` the previous applied
+/// increment), with `ω_1 = 1`, `ω_2 = 2/(2 − ρ²)`, `ω_{k+1} = 4/(4 − ρ²·ω_k)` for the
+/// spectral radius estimate `ρ`. The projected solve clamps the extrapolated value
+/// (`x ≥ 0`) as Wang projects his. Safeguard: if the error grows after an extrapolated step,
+/// the sequence restarts (`ω = 1`, a plain Jacobi step); only a plain step's growth is taken
+/// as the iteration diverging (the relaxation halving, the walls' neighbour part dropped).
+#[derive(Copy, Clone, Debug)]
+struct Chebyshev {
+    /// `ρ²`.
+    rho2: Real,
+    /// Steps taken in the current sequence (0: the next is a plain step).
+    k: u32,
+    /// The last step's `ω`.
+    omega: Real,
+}
+
+impl Chebyshev {
+    fn new(rho: Real) -> Self {
+        Self {
+            rho2: rho * rho,
+            k: 0,
+            omega: 1.0,
+        }
+    }
+
+    /// The error grew: restarts the sequence; `true` if the last step was extrapolated.
+    fn restart(&mut self) -> bool {
+        let extrapolated = self.omega > 1.0;
+        self.k = 0;
+        self.omega = 1.0;
+        extrapolated
+    }
+
+    /// Turns the Jacobi increments `pi` into this step's (see [`Chebyshev`]), `last` the
+    /// previous step's applied ones.
+    fn extrapolate(&mut self, pi: &mut [Real], last: &[Real]) {
+        self.omega = match self.k {
+            0 => 1.0,
+            1 => 2.0 / (2.0 - self.rho2),
+            _ => 4.0 / (4.0 - self.rho2 * self.omega),
+        };
+        self.k += 1;
+        if self.omega > 1.0 {
+            let (w, m) = (self.omega, self.omega - 1.0);
+            for (p, &d) in pi.iter_mut().zip(last) {
+                *p = w * *p + m * d;
             }
         }
     }
@@ -375,6 +456,7 @@ pub(crate) fn divergence_solve(
         error_scale: dt / ctx.rest_density,
         gain: 1.0 / dt,
         projected: false,
+        chebyshev: None,
     };
     jacobi(
         ctx,
@@ -437,6 +519,7 @@ pub(crate) fn density_solve(
         error_scale: 1.0 / rho0,
         gain: inv_dt2,
         projected,
+        chebyshev: settings.chebyshev.filter(|_| projected),
     };
     jacobi(
         ctx,
