@@ -200,6 +200,10 @@ pub enum SolverDesc {
         /// ([`crate::solver::Dfsph::predict_walls`]).
         #[serde(default)]
         predict_walls: Option<bool>,
+        /// Chebyshev acceleration of the constant-density solve with this spectral radius
+        /// estimate in `(0, 1)` ([`crate::solver::Dfsph::chebyshev`]; needs `full_warm_start`).
+        #[serde(default)]
+        chebyshev: Option<Positive>,
     },
     /// Position-based fluids ([`crate::solver::Pbf`]).
     Pbf {
@@ -276,6 +280,7 @@ impl SolverDesc {
                 gravity_substep,
                 carry_density_error,
                 predict_walls,
+                chebyshev,
             } => {
                 let d = Dfsph::default();
                 Solver::Dfsph(Dfsph {
@@ -293,6 +298,7 @@ impl SolverDesc {
                     gravity_substep: gravity_substep.map_or(d.gravity_substep, |v| v.0),
                     carry_density_error: carry_density_error.unwrap_or(d.carry_density_error),
                     predict_walls: predict_walls.unwrap_or(d.predict_walls),
+                    chebyshev: chebyshev.map_or(d.chebyshev, |v| Some(v.0)),
                 })
             }
             SolverDesc::Pbf {

@@ -108,8 +108,8 @@ const MAGIC: &[u8; 16] = b"rapier-sph snap\0";
 /// warm start rides with the per-particle attributes; 9: each fluid's `fluid_groups`; 10: the
 /// fluids' sleep state, see [`crate::sleep`]; 11: PBF's `artificial_pressure_dt_scaling`;
 /// 12: `FluidParams::wcsph_pressure`; 13: `FluidParams::mixture`; 14:
-/// `FluidParams::wcsph_density`).
-pub const FORMAT_VERSION: u32 = 14;
+/// `FluidParams::wcsph_density`; 15: DFSPH's `chebyshev`).
+pub const FORMAT_VERSION: u32 = 15;
 
 /// Bytes before the payload: tag, version, length, checksum.
 const HEADER: usize = 16 + 4 + 8 + 4;
