@@ -135,6 +135,7 @@ fn recorder(dir: &std::path::Path, tank: Real, top: Real) -> rapier_sph::render:
 /// The test's scene and measurement ([`FloatingBox`]): a 0.72 m tank, 0.3 m of water, a box
 /// 0.3 × 0.2 × 0.3 m (with `cubes`: a 0.5 m tank, 0.3 m of water, a 16 cm cube) at its expected depth;
 /// `seconds` of 60 Hz frames, the last one measured.
+#[allow(clippy::too_many_arguments)] // one argument per command-line option, passed straight on
 fn float(
     solver: Solver,
     s: Real,

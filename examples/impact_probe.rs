@@ -102,7 +102,7 @@ fn main() {
         let ymax = f.positions().iter().map(|p| p.y).fold(0.0, Real::max);
         ymax_all = ymax_all.max(ymax);
         let tt = t * scale;
-        if tt < 2.2 || tt > 3.2 {
+        if !(2.2..=3.2).contains(&tt) {
             continue;
         }
         let gravity = world.physics.gravity;

@@ -171,8 +171,9 @@ proptest! {
                 &world.physics.colliders,
                 &world.physics.broad_phase,
             );
-            let bad_input = !(dt.is_finite() && dt >= rapier_sph::pipeline::MIN_TIME_STEP)
-                || !(g.length() <= rapier_sph::pipeline::MAX_GRAVITY);
+            let bad_input = !(dt.is_finite()
+                && dt >= rapier_sph::pipeline::MIN_TIME_STEP
+                && g.length() <= rapier_sph::pipeline::MAX_GRAVITY);
             prop_assert_eq!(r.is_err(), bad_input, "dt {} gravity {:?}", dt, g);
             if bad_input {
                 // Refused: nothing changed (a NaN written by the caller waits for the next

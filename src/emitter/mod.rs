@@ -249,7 +249,7 @@ impl Emitter {
             );
         }
         let l = self.direction.length();
-        if !matches!(self.nozzle, Nozzle::Sphere { .. }) && !(l.is_finite() && l > 0.0) {
+        if !(matches!(self.nozzle, Nozzle::Sphere { .. }) || l.is_finite() && l > 0.0) {
             return bad("direction", l, "must be a finite non-zero vector");
         }
         if !self.speed.is_finite() || self.speed <= 0.0 {

@@ -400,6 +400,7 @@ mod tests {
     use super::*;
 
     #[test]
+    #[allow(clippy::needless_range_loop)] // a matrix product: the indices read as the formula
     fn symmetric_inverse_inverts() {
         let m = [2.0, 3.0, 4.0, 0.5, -0.25, 0.75];
         let inv = inverse_symmetric(m);

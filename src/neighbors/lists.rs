@@ -458,12 +458,12 @@ fn scan_block<S: Separation, const AVX2: bool>(
     if e - j0 < BLOCK {
         tail = (1 << (e - j0)) - 1;
     }
-    for q in 0..group.g {
+    for (q, &point) in points.iter().enumerate().take(group.g) {
         let me = group.i + q;
         let mut mask = if S::PERIODIC {
-            periodic_block_mask(scan.sep, scan.coords, j0, points[q], scan.h2)
+            periodic_block_mask(scan.sep, scan.coords, j0, point, scan.h2)
         } else {
-            block_mask::<AVX2>(scan.coords, j0, points[q], scan.h2)
+            block_mask::<AVX2>(scan.coords, j0, point, scan.h2)
         } & tail;
         // The particle itself passes the test (distance 0): drop its bit.
         if (j0..j0 + BLOCK).contains(&me) {

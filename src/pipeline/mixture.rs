@@ -190,8 +190,8 @@ pub(crate) mod record {
                 .sum::<f64>()
                 * volume as f64;
             let v = [v.x as f64, v.y as f64, v.z as f64];
-            for c in 0..3 {
-                out.p[c] += mass * v[c];
+            for (p, vc) in out.p.iter_mut().zip(v) {
+                *p += mass * vc;
             }
             let s2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
             out.abs += mass * s2.sqrt();

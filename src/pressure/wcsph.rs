@@ -76,8 +76,8 @@ pub fn pressure_accelerations<K: Kernel, S: Separation>(
                                 s[l] = (pi + pressures[j]) * inv_densities[j];
                             }
                             // Separate uniform loops (no data-dependent branch) vectorise.
-                            for l in 0..LANES {
-                                d[l] = d[l].sqrt();
+                            for d in &mut d {
+                                *d = d.sqrt();
                             }
                             let mut c = [0.0; LANES];
                             for l in 0..LANES {

@@ -38,8 +38,8 @@ pub(crate) fn gradient_block<K: Kernel, S: Separation>(
         (rx[l], ry[l], rz[l]) = (r.x, r.y, r.z);
         d[l] = r.length_squared();
     }
-    for l in 0..LANES {
-        d[l] = d[l].sqrt();
+    for d in &mut d {
+        *d = d.sqrt();
     }
     let mut c = [0.0; LANES];
     for l in 0..LANES {
@@ -140,8 +140,8 @@ pub(crate) fn kernel_sums<K: Kernel, S: Separation>(
         g: Vector::new(lane_sum(sx), lane_sum(sy), lane_sum(sz)),
         g2: lane_sum(s2),
     };
-    for t in full..nb.len() {
-        let (gr, d) = gradient_one(sep, kernel, i, xi, positions, nb[t]);
+    for (t, &j) in nb.iter().enumerate().skip(full) {
+        let (gr, d) = gradient_one(sep, kernel, i, xi, positions, j);
         sink.one(t, gr, d);
         sums.w += kernel.w(d);
         sums.g += gr;

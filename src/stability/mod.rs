@@ -137,6 +137,9 @@ impl CaseResult {
     }
 }
 
+/// Something a case does to its fluid before a given frame: the frame and the change.
+type FrameEvent = (usize, Box<dyn Fn(&mut Fluid) -> SphResult<()>>);
+
 /// A built case, ready to step.
 struct Setup {
     world: FluidWorld,
@@ -149,7 +152,7 @@ struct Setup {
     /// Particles that escaped, for the current state.
     escaped: Box<dyn Fn(&Fluid) -> usize>,
     /// Something to do before a given frame (the rest-density change).
-    event: Option<(usize, Box<dyn Fn(&mut Fluid) -> SphResult<()>>)>,
+    event: Option<FrameEvent>,
     /// Count the equation of state's internal energy in the verdict (case 1; WCSPH in the
     /// surface-tension cases).
     internal_energy: InternalEnergy,

@@ -60,8 +60,9 @@ fn solve<const N: usize>(mut a: [[f64; N]; N], mut b: [f64; N]) -> Option<[f64; 
         for r in 0..N {
             if r != c {
                 let f = a[r][c] / a[c][c];
-                for k in c..N {
-                    a[r][k] -= f * a[c][k];
+                let pivot = a[c];
+                for (ark, ack) in a[r][c..].iter_mut().zip(&pivot[c..]) {
+                    *ark -= f * ack;
                 }
                 b[r] -= f * b[c];
             }

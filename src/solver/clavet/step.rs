@@ -71,7 +71,7 @@ impl PressureSolver for ClavetState {
         };
         // Springs (if any) first, on the predicted positions (the paper's Alg. 1 order); timed
         // with the relaxation.
-        let (ids, neighbors) = (&*ctx.ids, ctx.neighbors);
+        let (ids, neighbors) = (ctx.ids, ctx.neighbors);
         let error = ctx.report.timed(Stage::DensitySolve, || {
             if let Some(s) = &settings.springs {
                 let sctx = SpringContext {
