@@ -17,6 +17,11 @@
 //! follows. The mirror is pinned by a test that round-trips a real world's broad phase and
 //! triangle mesh bit for bit, so a parry or rapier upgrade that changes the layout fails that
 //! test rather than a user's load.
+//!
+//! The mirror is serde's, so this module and its tests exist only with the `snapshot` feature:
+//! `cargo test --release --lib bvh` runs none of them, `cargo test --release --features
+//! snapshot --lib bvh` runs them (the CI script runs every lib test with `--features
+//! cli,surface`, which includes `snapshot`).
 
 use crate::error::SphError;
 use crate::math::Real;
