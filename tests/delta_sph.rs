@@ -3,6 +3,9 @@
 //! Hydrostatic pressure of a settled column, energy in every report scene under gravity,
 //! bitwise-identical results across thread counts, the typed errors of the setting.
 
+mod common;
+
+use common::on_each;
 use rapier_sph::math::{Real, Vector};
 use rapier_sph::validation::{Method, RunRecord, Scene, TimePolicy};
 use rapier_sph::{
@@ -122,16 +125,7 @@ fn delta_sph_is_bitwise_identical_across_thread_counts() {
         let densities: Vec<u32> = f.densities().iter().map(|d| d.to_bits()).collect();
         (bits(f.positions()), bits(f.velocities()), densities)
     };
-    let results: Vec<_> = [1, 3]
-        .into_iter()
-        .map(|threads| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-                .install(run)
-        })
-        .collect();
+    let results = on_each(&[1, 3], run);
     assert!(results[0] == results[1], "1 vs 3 threads differ");
 }
 

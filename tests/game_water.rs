@@ -4,6 +4,9 @@
 //!
 //! `cargo test --release --test game_water -- --nocapture` prints every figure.
 
+mod common;
+
+use common::on_threads;
 use rapier_sph::math::Real;
 use rapier_sph::scenes::{FloatingBox, FloatingBoxConfig, WavePool, WavePoolConfig};
 use rapier_sph::validation::{Method, Scene, TimePolicy};
@@ -155,40 +158,28 @@ fn game_water_moving_pool_does_not_leak() {
 /// The moving pool after 1 s is bitwise the same on 1 and 2 threads.
 #[test]
 fn game_water_is_bitwise_equal_on_1_and_2_threads() {
-    let on = |threads| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| moving_pool(60).0)
-    };
-    assert_eq!(on(1), on(2));
+    let run = || moving_pool(60).0;
+    assert_eq!(on_threads(1, run), on_threads(2, run));
 }
 
 /// With `Dfsph::predict_walls` and the gravity bound lifted (one substep per frame at 2,556
 /// particles) the moving pool after 1 s is bitwise the same on 1 and 2 threads.
 #[test]
 fn predict_walls_is_bitwise_equal_on_1_and_2_threads() {
-    let on = |threads| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| {
-                moving_pool_with(60, |s| {
-                    FluidParamsBuilder::game_water(s)
-                        .solver(Solver::Dfsph(rapier_sph::Dfsph {
-                            max_density_error: 0.005,
-                            gravity_substep: Real::INFINITY,
-                            predict_walls: true,
-                            ..rapier_sph::Dfsph::default()
-                        }))
-                        .build()
-                })
-                .0
-            })
+    let run = || {
+        moving_pool_with(60, |s| {
+            FluidParamsBuilder::game_water(s)
+                .solver(Solver::Dfsph(rapier_sph::Dfsph {
+                    max_density_error: 0.005,
+                    gravity_substep: Real::INFINITY,
+                    predict_walls: true,
+                    ..rapier_sph::Dfsph::default()
+                }))
+                .build()
+        })
+        .0
     };
-    assert_eq!(on(1), on(2));
+    assert_eq!(on_threads(1, run), on_threads(2, run));
 }
 
 /// DFSPH's gravity bound on the substep, `g·dt² ≤ gravity_substep·max_density_error·spacing`,

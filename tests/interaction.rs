@@ -2,6 +2,9 @@
 //! (`rapier_sph::scenes::LayeredTank`), 8 × 16 × 8 particles at 1.25 cm, as the one-fluid
 //! hydrostatic validation tank (tests/validation.rs), and two blobs colliding in open space.
 
+mod common;
+
+use common::on_each;
 use rapier_sph::prelude::*;
 use rapier_sph::rapier3d::prelude::{BroadPhaseBvh, ColliderSet, InteractionGroups, RigidBodySet};
 use rapier_sph::scenes::{LayeredStart, LayeredTank};
@@ -271,25 +274,16 @@ fn oil_and_water_side_by_side_stratify_and_stay_stratified() {
 /// gather and scatter are serial, their stages the ordinary ones).
 #[test]
 fn interacting_fluids_are_bitwise_identical_across_thread_counts() {
-    let hashes: Vec<[(u64, u64); 3]> = [1, 2, 3]
-        .into_iter()
-        .map(|threads| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            pool.install(|| {
-                [Solver::dfsph(), Solver::pbf(), Solver::clavet()].map(|solver| {
-                    let mut t = tank(solver, 100.0, LayeredStart::Checker(4), 0.5);
-                    for _ in 0..20 {
-                        t.world.step().unwrap();
-                    }
-                    let f = &t.world.fluids;
-                    (f[t.heavy].state_hash(), f[t.light].state_hash())
-                })
-            })
+    let hashes: Vec<[(u64, u64); 3]> = on_each(&[1, 2, 3], || {
+        [Solver::dfsph(), Solver::pbf(), Solver::clavet()].map(|solver| {
+            let mut t = tank(solver, 100.0, LayeredStart::Checker(4), 0.5);
+            for _ in 0..20 {
+                t.world.step().unwrap();
+            }
+            let f = &t.world.fluids;
+            (f[t.heavy].state_hash(), f[t.light].state_hash())
         })
-        .collect();
+    });
     assert!(hashes.iter().all(|h| *h == hashes[0]), "{hashes:?}");
 }
 

@@ -2,6 +2,9 @@
 //! in a closed tank (`rapier_sph::scenes::MixedTank`, 8 × 16 × 8 particles at 1.25 cm,
 //! DFSPH) separates into two layers by the phases' drift; the typed errors of bad settings.
 
+mod common;
+
+use common::on_each;
 use rapier_sph::mixture::Mixture;
 use rapier_sph::prelude::*;
 use rapier_sph::scenes::{MixedStart, MixedTank};
@@ -182,14 +185,7 @@ fn thread_counts_give_identical_mixtures() {
             f.ids().to_vec(),
         )
     };
-    let mut results = Vec::new();
-    for threads in [1, 2] {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        results.push(pool.install(state));
-    }
+    let results = on_each(&[1, 2], state);
     assert!(results[0] == results[1], "1 and 2 threads differ");
 }
 

@@ -2,6 +2,9 @@
 //! reused. (Buffers grow, geometrically, only when a fluid occupies more cells or has more
 //! neighbours than ever before; a fluid in a steady state allocates nothing.)
 
+mod common;
+
+use common::on_threads;
 use rapier_sph::FluidParamsBuilder;
 use rapier_sph::scenes::{DamBreakConfig, dam_break};
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -43,11 +46,7 @@ fn a_warm_step_allocates_nothing() {
     let dt = params.acoustic_time_step();
     scene.world.physics.integration_parameters.dt = dt;
     scene.world.physics.step();
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(2)
-        .build()
-        .unwrap();
-    pool.install(|| {
+    on_threads(2, || {
         let w = &mut scene.world;
         for _ in 0..300 {
             w.step_fluids().unwrap();

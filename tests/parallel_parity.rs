@@ -17,6 +17,9 @@
 //!
 //! The first run writes the hash of the final state, the second compares its own with it.
 
+mod common;
+
+use common::on_threads;
 use rapier_sph::math::{Real, Vector};
 use rapier_sph::scenes::{DamBreakConfig, dam_break};
 use rapier_sph::{FluidParamsBuilder, StepReport};
@@ -106,14 +109,7 @@ fn check_parity_file(suffix: &str, what: &str, hash: u64) {
 
 #[test]
 fn thread_counts_give_bitwise_identical_results() {
-    let mut results = Vec::new();
-    for threads in [1, 2, 3] {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        results.push((threads, pool.install(run)));
-    }
+    let results = [1, 2, 3].map(|threads| (threads, on_threads(threads, run)));
     let (_, (p1, v1, i1, r1)) = &results[0];
     // The run did something: particles moved and touched the tank.
     assert!(r1.max_speed > 0.1 && r1.contacts > 0, "{r1:?}");
@@ -193,14 +189,7 @@ fn run_coupled() -> (Vec<Vector>, Vec<Vector>, Vec<u32>, Vec<Vector>) {
 
 #[test]
 fn coupled_scene_is_bitwise_identical_across_thread_counts_and_builds() {
-    let mut results = Vec::new();
-    for threads in [1, 2, 3] {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        results.push((threads, pool.install(run_coupled)));
-    }
+    let results = [1, 2, 3].map(|threads| (threads, on_threads(threads, run_coupled)));
     let (_, (p1, v1, i1, b1)) = &results[0];
     for (threads, (p, v, i, b)) in &results[1..] {
         assert_eq!(i, i1, "{threads} threads: particle order differs");
@@ -258,14 +247,10 @@ fn dfsph_on_1_2_3_threads(
             iterations,
         )
     };
-    let mut results = Vec::new();
-    for threads in [1, 2, 3] {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        results.push((threads, pool.install(run)));
-    }
+    let mut results: Vec<_> = [1, 2, 3]
+        .into_iter()
+        .map(|threads| (threads, on_threads(threads, run)))
+        .collect();
     let (_, (p1, v1, i1, it1)) = results.remove(0);
     // The solver did work: the density solve iterated.
     assert!(it1 > 60, "{it1} density iterations over 60 frames");

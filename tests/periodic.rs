@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{U32, rng};
+use common::{U32, on_each, rng};
 use rand::Rng;
 use rapier_sph::domain::{Domain, MinimumImage, Separation};
 use rapier_sph::math::{Real, Vector};
@@ -476,14 +476,5 @@ fn bits(v: &[Vector]) -> Vec<[u32; 3]> {
 
 /// `run`'s result on a pool of 1 thread, then on one of 3.
 fn on_1_and_3_threads<T: Send>(run: impl Fn() -> T + Sync + Send) -> Vec<T> {
-    [1, 3]
-        .into_iter()
-        .map(|threads| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-                .install(&run)
-        })
-        .collect()
+    on_each(&[1, 3], run)
 }

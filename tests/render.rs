@@ -2,6 +2,9 @@
 //! occlude correctly, PNG and GIF files are written and read back.
 #![cfg(feature = "render")]
 
+mod common;
+
+use common::on_threads;
 use rapier_sph::math::Vector;
 use rapier_sph::render::{Camera, FluidStyle, GifWriter, Image, RenderOptions, Renderer};
 use rapier_sph::{Fluid, FluidParamsBuilder, FluidWorld};
@@ -240,18 +243,9 @@ fn screen_space_frames_do_not_depend_on_the_thread_count() {
     foam.step(&scene.world).unwrap();
     let camera = Camera::framing(scene.tank_min, scene.tank_max, 30.0, 25.0);
     let draw = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| {
-                Renderer::new(options()).render_world_with(
-                    &camera,
-                    &scene.world,
-                    None,
-                    &foam.layers(),
-                )
-            })
+        on_threads(threads, || {
+            Renderer::new(options()).render_world_with(&camera, &scene.world, None, &foam.layers())
+        })
     };
     assert_eq!(draw(1), draw(3));
 }

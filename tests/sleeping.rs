@@ -1,6 +1,9 @@
 //! Sleeping fluids (`rapier_sph::sleep`): still water falls asleep, stays bitwise still,
 //! and wakes on everything that can move it.
 
+mod common;
+
+use common::on_threads;
 use rapier_sph::prelude::*;
 use rapier_sph::rapier3d::prelude::{ActiveEvents, ColliderBuilder, RigidBodyBuilder};
 use rapier_sph::rapier3d::prelude::{ColliderHandle, RigidBodyHandle};
@@ -281,11 +284,7 @@ fn forces_on_watched_colliders_persist_while_asleep() {
 #[test]
 fn sleeping_is_the_same_on_one_and_two_threads() {
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        on_threads(threads, || {
             let (mut world, water, _) = tank(Vector::new(0.0, -9.81, 0.0), Some(loose()));
             let mut hashes = Vec::new();
             for frame in 0..60 {

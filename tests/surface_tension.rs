@@ -15,7 +15,7 @@ mod surface_tension_fit;
 
 use surface_tension_fit::centre;
 
-use common::{step_fluid, world_with};
+use common::{on_each, step_fluid, world_with};
 use rapier_sph::math::{Real, Vector};
 use rapier_sph::rapier3d::prelude::{BroadPhaseBvh, ColliderBuilder, ColliderSet, RigidBodySet};
 use rapier_sph::solver::Solver;
@@ -507,16 +507,7 @@ fn surface_tension_is_bitwise_identical_across_thread_counts() {
         };
         (bits(f.positions()), bits(f.velocities()), f.ids().to_vec())
     };
-    let results: Vec<_> = [1, 2, 3]
-        .into_iter()
-        .map(|t| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(t)
-                .build()
-                .unwrap();
-            pool.install(run)
-        })
-        .collect();
+    let results = on_each(&[1, 2, 3], run);
     assert_eq!(results[0].2.len(), 1280);
     for (k, r) in results.iter().enumerate().skip(1) {
         assert!(r == &results[0], "{} threads differ from 1", k + 1);

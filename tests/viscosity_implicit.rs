@@ -3,6 +3,9 @@
 //! far beyond what the explicit force holds, the same bits on 1 and 2 threads, its settings'
 //! typed errors, and the spreading of a viscous column against Huppert (1982).
 
+mod common;
+
+use common::on_each;
 use rapier_sph::math::{Real, Vector};
 use rapier_sph::prelude::*;
 use rapier_sph::validation::spreading::{
@@ -229,16 +232,7 @@ fn one_and_two_threads_give_the_same_bits() {
         };
         (bits(f.positions()), bits(f.velocities()))
     };
-    let results: Vec<_> = [1, 2]
-        .into_iter()
-        .map(|threads| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-                .install(run)
-        })
-        .collect();
+    let results = on_each(&[1, 2], run);
     assert!(results[0] == results[1], "1 and 2 threads differ");
 }
 

@@ -2,6 +2,9 @@
 //! `src/forces/viscosity_stress.rs`) against the Laplacian one (`ViscositySolve::Implicit`,
 //! Weiler et al. 2018) on a free viscous column stretched along its axis in zero gravity.
 
+mod common;
+
+use common::on_each;
 use rapier_sph::math::{Real, Vector};
 use rapier_sph::prelude::*;
 
@@ -236,16 +239,7 @@ fn one_and_two_threads_give_the_same_bits() {
         let m = stretch(ViscositySolve::Stress(settings()), 10.0, 1.0, 6, 0);
         m.ratio.iter().map(|r| r.to_bits()).collect::<Vec<_>>()
     };
-    let results: Vec<_> = [1, 2]
-        .into_iter()
-        .map(|threads| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-                .install(run)
-        })
-        .collect();
+    let results = on_each(&[1, 2], run);
     assert!(results[0] == results[1], "1 and 2 threads differ");
 }
 

@@ -562,3 +562,19 @@ pub fn box_mesh(h: Vector) -> (Vec<Vector>, Vec<[u32; 3]>) {
     ];
     (v, idx)
 }
+
+/// `run` on a rayon pool of `threads` worker threads, for the thread-parity tests: the crate
+/// promises bitwise identical results whatever the thread count, so they compare what this
+/// returns for several counts.
+pub fn on_threads<T: Send>(threads: usize, run: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a rayon thread pool")
+        .install(run)
+}
+
+/// `run` once on a pool of each of `threads` worker threads, in that order: its results.
+pub fn on_each<T: Send>(threads: &[usize], run: impl Fn() -> T + Sync) -> Vec<T> {
+    threads.iter().map(|&n| on_threads(n, &run)).collect()
+}
