@@ -219,6 +219,19 @@ impl FluidPipeline {
         colliders: &ColliderSet,
         broad_phase: &BroadPhaseBvh,
     ) -> SphResult<&StepReport> {
+        let rapier = (bodies, colliders, broad_phase);
+        self.step_probed(gravity, dt, fluids, rapier, None)
+    }
+
+    /// [`FluidPipeline::step`], calling `probe` (if any) after every substep.
+    fn step_probed(
+        &mut self,
+        gravity: Vector,
+        dt: Real,
+        fluids: &mut FluidSet,
+        (bodies, colliders, broad_phase): RapierSets<'_>,
+        probe: Option<SubstepProbe<'_>>,
+    ) -> SphResult<&StepReport> {
         self.validate(gravity, dt)?;
         self.runtimes.groups.sync(fluids)?;
         for (_, f) in fluids.iter() {
@@ -254,6 +267,8 @@ impl FluidPipeline {
             report: StepReport::default(),
             watch: &self.records.watch,
             fell_asleep: Vec::new(),
+            // Shortened to the frame's borrows (the probe's own lifetime is the caller's).
+            probe: probe.map(|p| p as SubstepProbe<'_>),
         };
         // Called from outside rayon's pool, every parallel stage would hand its work to the
         // pool and wait for a worker to wake up: tens of microseconds per stage, more than a
@@ -436,6 +451,21 @@ impl FluidPipeline {
         colliders: &ColliderSet,
         broad_phase: &BroadPhaseBvh,
     ) -> SphResult<&StepReport> {
+        let rapier = (bodies, colliders, broad_phase);
+        self.step_with_parameters_probed(gravity, integration, fluids, rapier, None)
+    }
+
+    /// [`FluidPipeline::step_with_parameters`], calling `probe` (if any) after every substep
+    /// with the time into the frame and the fluids: what the validation runner's energy check
+    /// samples between frames.
+    pub(crate) fn step_with_parameters_probed(
+        &mut self,
+        gravity: Vector,
+        integration: &IntegrationParameters,
+        fluids: &mut FluidSet,
+        rapier: RapierSets<'_>,
+        probe: Option<SubstepProbe<'_>>,
+    ) -> SphResult<&StepReport> {
         let substeps = integration.num_solver_iterations;
         if substeps == 0 {
             return Err(SphError::InvalidParameter {
@@ -450,7 +480,7 @@ impl FluidPipeline {
             self.rapier_substeps = before;
             return Err(e);
         }
-        self.step(gravity, dt, fluids, bodies, colliders, broad_phase)
+        self.step_probed(gravity, dt, fluids, rapier, probe)
     }
 
     /// The checks of [`FluidPipeline::step`]'s arguments and of the pipeline's settings.
@@ -477,6 +507,14 @@ impl FluidPipeline {
     }
 }
 
+/// Called after every substep with the time into the frame (s) and the fluids (the validation
+/// runner's energy check: `validation::drive`).
+pub(crate) type SubstepProbe<'a> = &'a mut (dyn FnMut(Real, &FluidSet) + Send);
+
+/// The rapier sets a step reads (and writes the fluid's impulses to): bodies, colliders and
+/// the broad-phase holding them.
+pub(crate) type RapierSets<'a> = (&'a mut RigidBodySet, &'a ColliderSet, &'a BroadPhaseBvh);
+
 /// One frame in progress: what every substep shares.
 struct Frame<'a> {
     gravity: Vector,
@@ -495,6 +533,8 @@ struct Frame<'a> {
     /// The boxes of the fluids that fell asleep at this frame's end: the dynamic bodies in
     /// them are put to sleep with them once the coupling's impulses are applied.
     fell_asleep: Vec<parry3d::bounding_volume::Aabb>,
+    /// Called after every substep ([`SubstepProbe`]).
+    probe: Option<SubstepProbe<'a>>,
 }
 
 impl Frame<'_> {
@@ -521,6 +561,9 @@ impl Frame<'_> {
             let back = (remaining, if last { 0.0 } else { remaining - h });
             self.substep(h, back, (&mut weighted_error, &mut counted));
             elapsed += h;
+            if let Some(probe) = self.probe.as_deref_mut() {
+                probe(elapsed, self.fluids);
+            }
             if last {
                 break;
             }
