@@ -71,8 +71,8 @@ struct Args {
     #[arg(long, value_enum)]
     solver: Option<SolverArg>,
     /// Walls count in the density (`FluidParams::wall_density`): `--walls` or `--walls true`
-    /// turns them on, `--walls false` off (default: the preset's: on for water except with
-    /// Clavet, off for paper).
+    /// turns them on, `--walls false` off (default: the preset's: on for water, with every
+    /// solver; off for paper).
     #[arg(long, num_args = 0..=1, default_missing_value = "true")]
     walls: Option<bool>,
     /// DFSPH only: walls with hydrostatic pressure (`Dfsph::hydrostatic_walls`):

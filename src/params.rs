@@ -284,10 +284,12 @@ pub struct FluidParams {
     pub solver: Solver,
     /// Colliders near a particle add their volume's density to it and push with the
     /// particle's pressure (see `src/boundary/wall/`), so particles do not cling to or
-    /// clump along walls. Water preset: on, except with the Clavet solver (which by default
-    /// meets walls through contact only: walls in its densities suit a fluid without
-    /// cohesion, see [`crate::solver::clavet`]) unless asked for explicitly; paper preset:
-    /// off (the paper's walls only reflect).
+    /// clump along walls. Water preset: on, whatever the solver; paper preset: off (the
+    /// paper's walls only reflect). With the Clavet solver `false` is the cheap opt-out
+    /// (walls by contact only), which leaves the walls non-wetting for its cohesion: a
+    /// particle in a tank's corner then has 0.384·ρ0 against the cohesion threshold
+    /// 0.751·ρ0, and a block spawned in a tank throws its corners (see
+    /// [`crate::solver::clavet`], "Walls").
     pub wall_density: bool,
     /// Where the particles live: open space (default) or a periodic box (see
     /// [`crate::domain`]). Both presets: open.
@@ -576,9 +578,6 @@ impl FluidParams {
 pub struct FluidParamsBuilder {
     params: FluidParams,
     mass_given: bool,
-    /// Whether [`Self::wall_density`] was called: otherwise the preset's choice holds, and a
-    /// Clavet solver turns it off.
-    walls_given: bool,
     /// [`Self::surface_tension_sigma`]'s `σ`, turned into `γ` by [`Self::build`].
     sigma: Option<Real>,
 }
@@ -622,7 +621,6 @@ impl FluidParamsBuilder {
                 mixture: None,
             },
             mass_given: false,
-            walls_given: false,
             sigma: None,
         }
     }
@@ -690,7 +688,6 @@ impl FluidParamsBuilder {
                 mixture: None,
             },
             mass_given: true,
-            walls_given: false,
             sigma: None,
         }
     }
@@ -722,12 +719,11 @@ impl FluidParamsBuilder {
         self
     }
     /// Whether walls add density (see [`FluidParams::wall_density`]). Unless this is
-    /// called, the preset's choice holds (water: on; paper: off), except that the Clavet
-    /// solver turns it off (it then meets walls through contact only; see
-    /// [`crate::solver::clavet`] for walls in its densities).
+    /// called, the preset's choice holds (water: on, with every solver; paper: off). With
+    /// the Clavet solver, `false` makes walls act through contact only (cheaper, but
+    /// non-wetting for its cohesion; see [`crate::solver::clavet`], "Walls").
     pub fn wall_density(mut self, on: bool) -> Self {
         self.params.wall_density = on;
-        self.walls_given = true;
         self
     }
     /// Rest density (kg/m³). Unless a mass was set explicitly, the mass follows.
@@ -904,9 +900,6 @@ impl FluidParamsBuilder {
             let s = self.params.particle_spacing;
             self.params.particle_mass = self.params.rest_density * s * s * s;
         }
-        if !self.walls_given && matches!(self.params.solver, Solver::Clavet(_)) {
-            self.params.wall_density = false;
-        }
         if let Some(sigma) = self.sigma {
             let p = &self.params;
             self.params.surface_tension = crate::forces::surface_tension::gamma_for_sigma(
@@ -931,16 +924,16 @@ mod tests {
         }
     }
 
-    /// The water preset is DFSPH with wall density; choosing Clavet without saying anything
-    /// about walls turns them off, and an explicit choice always holds (Clavet can count walls
-    /// in its densities). The paper preset stays WCSPH without wall density.
+    /// The water preset is DFSPH with wall density, and keeps it with any solver, Clavet
+    /// included; an explicit choice always holds (Clavet can meet walls by contact only).
+    /// The paper preset stays WCSPH without wall density.
     #[test]
-    fn wall_density_follows_the_preset_and_the_solver_unless_set() {
+    fn wall_density_follows_the_preset_unless_set() {
         let w = FluidParamsBuilder::water(0.05).build().unwrap();
         assert!(matches!(w.solver, Solver::Dfsph(_)) && w.wall_density);
         let c = FluidParamsBuilder::water(0.05).solver(Solver::clavet());
-        assert!(!c.clone().build().unwrap().wall_density);
-        assert!(c.wall_density(true).build().unwrap().wall_density);
+        assert!(c.clone().build().unwrap().wall_density);
+        assert!(!c.wall_density(false).build().unwrap().wall_density);
         let p = FluidParamsBuilder::water(0.05).solver(Solver::pbf());
         assert!(p.clone().build().unwrap().wall_density);
         assert!(!p.wall_density(false).build().unwrap().wall_density);

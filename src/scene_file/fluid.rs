@@ -456,7 +456,7 @@ pub struct FluidDesc {
     #[serde(default)]
     pub solver: Option<SolverDesc>,
     /// Walls count in the density ([`FluidParamsBuilder::wall_density`]). Default: the
-    /// preset's (water: on, except with the Clavet solver; paper: off).
+    /// preset's (water: on, with every solver; paper: off).
     #[serde(default)]
     pub wall_density: Option<bool>,
     /// How WCSPH turns pressures into forces ([`crate::WcsphPressure`]): `Paper` (the

@@ -80,9 +80,8 @@
 //! stage (the paper's pairwise viscosity impulses are not implemented); its viscoelastic
 //! springs are an option ([`Clavet::springs`], [`super::springs`]).
 //!
-//! **Walls.** By default walls take part through contact only. With
-//! [`crate::FluidParamsBuilder::wall_density`]`(true)` the static and kinematic colliders also
-//! count in both densities (`boundary::WallWorkspace::update_clavet`: the solid as
+//! **Walls.** By default (the water preset's [`crate::FluidParams::wall_density`], on with
+//! every solver) the static and kinematic colliders count in both densities (`boundary::WallWorkspace::update_clavet`: the solid as
 //! the fluid's lattice continued behind its surface, so a particle half a spacing from a flat
 //! wall in a resting lattice has `ρ0` again: 0.4 % short at `h = 2s`, 0.07 % at `3s`), and push
 //! with the energy-consistent weight. The relaxation is a gradient step on the potential
@@ -100,6 +99,11 @@
 //! energy there; contact-only walls are non-wetting, 180°). A column at rest in a closed tank
 //! with them stays at rest with or without cohesion (largest kinetic energy 0.0013, 0.0047
 //! and 0.0067 of its potential energy at cohesion 1, 0.1 and 0, `h = 2s`; docs/solvers.md).
+//! [`crate::FluidParamsBuilder::wall_density`]`(false)` is the cheap opt-out: walls then take
+//! part through contact only, and are non-wetting for the cohesion (a particle in a tank's
+//! corner has 0.384·ρ0 against the threshold 0.751·ρ0), so a block spawned in a tank throws
+//! its corners (up to 1.4–2.0 times the column's potential energy as kinetic energy in the
+//! validation report's tank; `examples/clavet_probe.rs`) and bodies are non-wetting.
 //! Wall viscosity
 //! is refused with Clavet: with it the momentum of fluid + bodies drifted by 1.6 % over 5 s
 //! in `tests/moving_bodies.rs`'s sloshing box (PBF with the same walls: 0.003 %), not

@@ -12,7 +12,7 @@ use crate::math::Real;
 /// let solver = Solver::Clavet(Clavet { stiffness: 1.5, ..Clavet::default() });
 /// let mut goo = Fluid::new(FluidParamsBuilder::water(0.05).solver(solver))?;
 /// goo.add_block(Vector::ZERO, Vector::splat(0.2))?;
-/// assert!(!goo.params().wall_density); // Clavet's default: walls by contact only
+/// assert!(goo.params().wall_density); // the water preset's walls count in its densities
 /// let bad = Solver::Clavet(Clavet { stiffness: -1.0, ..Clavet::default() });
 /// assert!(Fluid::new(FluidParamsBuilder::water(0.05).solver(bad)).is_err());
 /// # Ok::<(), rapier_sph::SphError>(())

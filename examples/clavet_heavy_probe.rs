@@ -1,0 +1,95 @@
+//! A 16 cm box slightly denser than water released with its top at the surface of water
+//! 0.44 m deep (4 cm spacing, 0.6 m tank; `tests/light_bodies.rs`'s
+//! `slightly_dense_boxes_sink_once_water_covers_their_top`), with Clavet's relaxation at a
+//! chosen cohesion, walls in its densities or not: what holds the box up.
+//!
+//! ```text
+//! cargo run --release --example clavet_heavy_probe -- [density] [cohesion] [seconds] [walls] [solver]
+//! ```
+//!
+//! Defaults: 1400 kg/m³, cohesion 1 (Clavet's default), 4 s, walls `true`, solver `clavet`
+//! (`dfsph`, `pbf`, `wcsph` run the same box for comparison; `cohesion` is then ignored).
+//! Every half second it prints the box's lowest corner, its vertical speed, the force the
+//! fluid must carry beyond Archimedes for the column from the box's bottom to the water's
+//! level (`(m_b − ρ_w·A·(level − bottom))·g`, N: what a meniscus pinned at the top edge
+//! holds when no water is over the top face) and the number of particles over its top face
+//! (within its footprint, less than a spacing and a half above it).
+
+use rapier_sph::math::{Real, Vector};
+use rapier_sph::scenes::{FloatingBox, FloatingBoxConfig};
+use rapier_sph::{Clavet, Pbf, Solver};
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let arg = |i: usize, d: &str| args.get(i).cloned().unwrap_or_else(|| d.to_string());
+    let density: Real = arg(1, "1400").parse().expect("density");
+    let cohesion: Real = arg(2, "1").parse().expect("cohesion");
+    let seconds: Real = arg(3, "4").parse().expect("seconds");
+    let walls = arg(4, "true") == "true";
+    let solver = match arg(5, "clavet").as_str() {
+        "clavet" => Solver::Clavet(Clavet {
+            cohesion,
+            ..Clavet::default()
+        }),
+        "dfsph" => Solver::dfsph(),
+        "pbf" => Solver::Pbf(Pbf::default()),
+        "wcsph" => Solver::Wcsph,
+        other => panic!("unknown solver {other}"),
+    };
+    let (spacing, half, level) = (0.04, 0.08, 0.44);
+    let config = FloatingBoxConfig {
+        spacing,
+        tank: 0.6,
+        depth: level,
+        half_width: half,
+        half_height: half,
+        density,
+        solver,
+    };
+    let mut scene = FloatingBox::new(config).expect("scene");
+    if !walls {
+        // `FloatingBox` asks for walls in the densities; rebuild the fluid without them.
+        let f = &mut scene.world.fluids[scene.fluid];
+        let mut p = f.params().clone();
+        p.wall_density = false;
+        f.set_params(p).expect("params");
+    }
+    let (body, fluid) = (scene.body, scene.fluid);
+    let mass = density * (2.0 * half).powi(3);
+    let area = (2.0 * half) * (2.0 * half);
+    let frames = (seconds * 60.0) as usize;
+    println!(
+        "{} {density} kg/m³, cohesion {cohesion}, walls in the densities {walls}; boat bottom {:.4} m",
+        solver.name(),
+        level - density / 1000.0 * 2.0 * half
+    );
+    for frame in 1..=frames {
+        scene.world.step().expect("step");
+        if frame % 30 != 0 {
+            continue;
+        }
+        let b = &scene.world.physics.bodies[body];
+        let pose = *b.position();
+        let lowest = (0..8)
+            .map(|k| {
+                let sign = |bit: usize| if k & bit == 0 { -half } else { half };
+                pose.transform_point(Vector::new(sign(1), sign(2), sign(4)))
+                    .y
+            })
+            .fold(Real::MAX, Real::min);
+        let over = scene.world.fluids[fluid]
+            .positions()
+            .iter()
+            .filter(|p| {
+                let l = pose.inverse_transform_point(**p);
+                l.x.abs() < half && l.z.abs() < half && l.y > half && l.y < half + 1.5 * spacing
+            })
+            .count();
+        let excess = (mass - 1000.0 * area * (level - lowest)) * 9.81;
+        println!(
+            "t {:.1} s: lowest corner {lowest:.4} m, v_y {:+.4} m/s, beyond Archimedes {excess:+.2} N, over the top {over}",
+            frame as Real / 60.0,
+            b.linvel().y
+        );
+    }
+}
