@@ -426,7 +426,7 @@ fn release_in_deep_water(solver: Solver, density: Real, seconds: Real) -> Releas
 /// the boat's depth before a particle stands over its top face. Clavet is left out: with
 /// walls in its densities (its default) it holds the 1,400 kg/m³ box, at its default cohesion
 /// above its boat depth until water covers the top after 1.5–2 s (lowest corner 0.237 → 0.217
-/// m in 4 s), without cohesion in the bulk once covered (0.138–0.140 m from 2 to 7 s, 3.5
+/// m in 4 s), without cohesion in the bulk once covered (0.138–0.140 m from 2 to 8 s, 3.5
 /// spacings above the floor); with contact-only walls it sinks once covered (without cohesion
 /// it lands within 1 s). The hold comes with its walls term on the body, not its cohesion;
 /// not traced further (docs/coupling.md, `examples/clavet_heavy_probe.rs`).
