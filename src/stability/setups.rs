@@ -130,7 +130,7 @@ pub(super) fn from_dam_break(d: DamBreak, frames: usize, frame_dt: Real) -> Setu
 pub(super) fn water(solver: &Solver, spacing: Real) -> FluidParamsBuilder {
     FluidParamsBuilder::water(spacing)
         .solver(*solver)
-        .wall_density(matches!(solver, Solver::Dfsph(_) | Solver::Pbf(_)))
+        .wall_density(!matches!(solver, Solver::Wcsph))
 }
 
 pub(super) fn water_dam_break(
@@ -207,7 +207,7 @@ pub(super) fn heavy_body(
 /// the density throw this column within a frame (their Jacobi iterations diverge; see
 /// docs/solvers.md, "Larger kernel supports"); with them they pass
 /// ([`crate::solver::dfsph::MAX_RELAXATION_HALVINGS`],
-/// [`crate::solver::pbf::MAX_RELAXATION_HALVINGS`]). Clavet (walls by contact only) passes the
+/// [`crate::solver::pbf::MAX_RELAXATION_HALVINGS`]). Clavet (measured with walls by contact only) passed the
 /// verdict (0.82 ×) thanks to its substep bound on the relaxation's stiffest mode, but its
 /// column is thrown up at the start (16 m/s peaks) before it settles: with its cohesion a
 /// lattice's faces are far from the relaxation's equilibrium (docs/solvers.md). WCSPH runs
