@@ -14,6 +14,13 @@
 //! level (`(m_b − ρ_w·A·(level − bottom))·g`, N: what a meniscus pinned at the top edge
 //! holds when no water is over the top face) and the number of particles over its top face
 //! (within its footprint, less than a spacing and a half above it).
+//!
+//! Environment knobs (docs/coupling.md, "Known limits", has what they measured):
+//! `PROBE_LEVEL` the water's depth (m, default 0.44), `PROBE_K` Clavet's stiffness `k`
+//! (default 1), `PROBE_KICK` zero-mean pseudo-random velocity kicks of that amplitude (m/s)
+//! to every particle before each frame (default 0: none), and `PROBE_DUMP` (set) prints, at
+//! the end, every particle of the slab one spacing thick through the box's center (`x`, `z`
+//! from the box's center, height `y`, density over `ρ0`, pressure, speed).
 
 use rapier_sph::math::{Real, Vector};
 use rapier_sph::scenes::{FloatingBox, FloatingBoxConfig};
@@ -29,6 +36,9 @@ fn main() {
     let solver = match arg(5, "clavet").as_str() {
         "clavet" => Solver::Clavet(Clavet {
             cohesion,
+            stiffness: std::env::var("PROBE_K")
+                .ok()
+                .map_or(1.0, |v| v.parse().expect("k")),
             ..Clavet::default()
         }),
         "dfsph" => Solver::dfsph(),
@@ -36,7 +46,10 @@ fn main() {
         "wcsph" => Solver::Wcsph,
         other => panic!("unknown solver {other}"),
     };
-    let (spacing, half, level) = (0.04, 0.08, 0.44);
+    let level: Real = std::env::var("PROBE_LEVEL")
+        .ok()
+        .map_or(0.44, |v| v.parse().expect("level"));
+    let (spacing, half) = (0.04, 0.08);
     let config = FloatingBoxConfig {
         spacing,
         tank: 0.6,
@@ -63,7 +76,31 @@ fn main() {
         solver.name(),
         level - density / 1000.0 * 2.0 * half
     );
+    let kick: Real = std::env::var("PROBE_KICK")
+        .ok()
+        .map_or(0.0, |v| v.parse().expect("kick"));
     for frame in 1..=frames {
+        if kick > 0.0 {
+            // Zero-mean pseudo-random velocity kicks of amplitude `kick` (m/s) to every particle.
+            let v = scene.world.fluids[fluid].velocities_mut();
+            let n = v.len();
+            let dv: Vec<Vector> = (0..n)
+                .map(|i| {
+                    let mut h = (i as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                        ^ (frame as u64).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+                    let mut r = || {
+                        h ^= h >> 31;
+                        h = h.wrapping_mul(0x94D0_49BB_1331_11EB);
+                        ((h >> 40) as Real / (1u64 << 24) as Real) * 2.0 - 1.0
+                    };
+                    Vector::new(r(), r(), r()) * kick
+                })
+                .collect();
+            let mean = dv.iter().copied().fold(Vector::ZERO, |a, b| a + b) / n as Real;
+            for (a, d) in v.iter_mut().zip(&dv) {
+                *a += *d - mean;
+            }
+        }
         scene.world.step().expect("step");
         if frame % 30 != 0 {
             continue;
@@ -91,5 +128,31 @@ fn main() {
             frame as Real / 60.0,
             b.linvel().y
         );
+    }
+    if std::env::var("PROBE_DUMP").is_ok() {
+        let pose = *scene.world.physics.bodies[body].position();
+        let c = pose.translation;
+        let f = &scene.world.fluids[fluid];
+        let (x, rho, pr, v) = (f.positions(), f.densities(), f.pressures(), f.velocities());
+        let mut rows: Vec<usize> = (0..x.len())
+            .filter(|&i| {
+                (x[i].z - c.z).abs() < 0.5 * spacing
+                    && (x[i].x - c.x).abs() < half + 3.0 * spacing
+                    && x[i].y < c.y + half + 1.5 * spacing
+            })
+            .collect();
+        rows.sort_by(|&a, &b| (x[a].y, x[a].x).partial_cmp(&(x[b].y, x[b].x)).unwrap());
+        println!("box center {c:?}");
+        for i in rows {
+            println!(
+                "x {:+.4} y {:.4} z {:+.4} rho/rho0 {:.4} p {:8.1} |v| {:.4}",
+                x[i].x - c.x,
+                x[i].y,
+                x[i].z - c.z,
+                rho[i] / 1000.0,
+                pr[i],
+                v[i].length()
+            );
+        }
     }
 }
