@@ -86,6 +86,10 @@ pub(crate) struct RelaxBudget {
     /// (`1 + RELAX_SETTLED +` the largest compression left; 1 when it finished): the solver
     /// holds the fluid at it until the relaxation removes it (see [`RelaxBudget::held`]).
     hold: Real,
+    /// The frame's depenetration comes from a rigid carry alone (set by the pipeline's
+    /// carry, see `boundary::teleport::Teleports::carry`): the particles are pushed
+    /// out of solids, and relaxed only if any was.
+    pub rigid_carry: bool,
 }
 
 /// Most halvings of the budget: 256 → 8 rounds.
@@ -114,6 +118,8 @@ impl RelaxBudget {
     /// The frame's end, with the relaxation still `pending` or not: what it left, if it ran
     /// and did not finish (and the next frame's budget).
     pub fn end_frame(&mut self, pending: bool) -> Option<RelaxLeft> {
+        // A carry's flag lasts its frame (a frame without rounds left never read it).
+        self.rigid_carry = false;
         let first = self.first?;
         if !pending {
             self.halvings = 0;
@@ -167,6 +173,7 @@ pub(super) fn relax_overlaps(
     ws.previous_positions.copy_from_slice(fluid.positions());
     ws.inv_densities.resize(n, 0.0);
     let lattice_density = lattice_density(fluid.params());
+    let rigid_carry = std::mem::take(&mut budget.rigid_carry);
     let mut round = 0;
     while budget.left > 0 {
         budget.left -= 1;
@@ -177,8 +184,14 @@ pub(super) fn relax_overlaps(
             if depenetrate {
                 // Out of the solids first: a particle inside one would be pushed by the
                 // wall's density from the inside.
-                collider_contact(fluid, ws, scene, true, None, report);
+                let pushed = collider_contact(fluid, ws, scene, true, None, report);
                 ws.previous_positions.copy_from_slice(fluid.positions());
+                if rigid_carry && pushed == 0 {
+                    // A rigid carry that landed in no solid made no overlap (the carried
+                    // water's compression is its solver's, not the carry's).
+                    budget.hold = 1.0;
+                    return true;
+                }
             }
         }
         let moved = project(fluid, ws, scene, lattice_density, report);
