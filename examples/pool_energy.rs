@@ -11,6 +11,7 @@
 //! cargo run --release --example pool_energy -- --hull fixed --every 60
 //! cargo run --release --example pool_energy -- --hull none --every 60
 //! cargo run --release --example pool_energy -- --wall-density false --every 60
+//! cargo run --release --example pool_energy -- --preset game --particles 10000 --hull none --where
 //! ```
 //!
 //! `--preset water|game` (default water), `--particles N` (2500), `--seconds S` (30),
@@ -19,7 +20,11 @@
 //! floats; fixed: it is held where it starts; none: no hull, the water fills its place),
 //! `--viscosity E`, `--wall-viscosity E`, `--wall-density true|false`, `--warm-start W`,
 //! `--min-iterations N`, `--hydrostatic-walls true|false`, `--max-density-error E` change
-//! the preset, `--sleep` lets the water fall asleep with `Sleep::default()`.
+//! the preset, `--sleep` lets the water fall asleep with `Sleep::default()`, `--where` adds
+//! a line after each saying where the particles that moved are (near the floor, the walls,
+//! the paddle, the hull, the surface, or inside) and how far the water moved, the drift
+//! averaged over cells of one and two kernel supports (what the sleep test's
+//! `Sleep::mean_drift` reads is the first).
 //!
 //! Energies are in J, the potential ones (`Σ m g y`) and the total relative to the first
 //! frame's. The paddle stands still, so nothing does work on the pool: once the start's
@@ -29,7 +34,7 @@
 //! with the floating hull the water's kinetic energy stopped falling at about 2 J (2,556
 //! particles) and the water never stopped moving, until the coupling's exchange stopped
 //! feeding it (`Coupling::exchange`); it now falls (0.49 J at 12 s) and the pool falls
-//! asleep after 8–9 s with `--sleep`.
+//! asleep with `--sleep` (docs/performance.md, "Sleeping water", has when).
 
 use rapier_sph::prelude::*;
 use rapier_sph::rapier3d::prelude::RigidBodyType;
@@ -43,6 +48,8 @@ struct Options {
     every: usize,
     hull: String,
     sleep: bool,
+    /// Print where the particles that moved are (`--where`).
+    breakdown: bool,
     /// Frame length (s).
     dt: Real,
 }
@@ -60,6 +67,7 @@ fn main() -> SphResult<()> {
         every: value("--every").and_then(|v| v.parse().ok()).unwrap_or(30),
         hull: value("--hull").unwrap_or_else(|| "dynamic".into()),
         sleep: argv.iter().any(|a| a == "--sleep"),
+        breakdown: argv.iter().any(|a| a == "--where"),
         dt: 1.0
             / value("--fps")
                 .and_then(|v| v.parse::<Real>().ok())
@@ -164,7 +172,9 @@ fn layers(pool: &WavePool) {
         );
         prev = Some(y);
     }
-    println!("water level {:.4} m", pool.water_level());
+    if pool.world.physics.bodies.get(pool.hull).is_some() {
+        println!("water level {:.4} m", pool.water_level());
+    }
 }
 
 /// The pool's energies (J): water kinetic, water potential, hull kinetic, hull potential.
@@ -210,6 +220,111 @@ fn gaps(pool: &WavePool) -> (Real, Real) {
         .filter(|d| *d > 0.0 && *d < s)
         .collect();
     (floor, mean(under))
+}
+
+/// Where the particles that moved since the last line are (`--where`): the pool split
+/// into the particles within two spacings of the floor, of a side wall (the far end, the
+/// two sides, the paddle), of the free surface (the top two spacings under the water's
+/// level: the highest particle's top), and the rest (the interior); for each, its count, its root-mean-square drift
+/// (spacings) and its share of the sum of squared drifts; then where the 1 % farthest
+/// movers are.
+fn breakdown(pool: &WavePool, anchor: &HashMap<u32, Vector>) {
+    let s = pool.spacing;
+    let f = &pool.world.fluids[pool.water];
+    // The highest particle's top (the pool's surface at rest is flat to a spacing).
+    let level = f.positions().iter().map(|x| x.y).fold(0.0, Real::max) + 0.5 * s;
+    let x0 = WavePool::PADDLE_X + 0.02;
+    let size = WavePool::SIZE;
+    let near_hull = |x: &Vector| match pool.world.physics.bodies.get(pool.hull) {
+        Some(b) => {
+            let l = b.position().inverse_transform_point(*x);
+            let h = WavePool::HULL_HALF;
+            l.x.abs() < h.x + 2.0 * s && l.z.abs() < h.z + 2.0 * s && l.y > -h.y - 2.0 * s
+        }
+        None => false,
+    };
+    let class = |x: &Vector| {
+        if near_hull(x) {
+            0
+        } else if x.y > level - 2.0 * s {
+            1
+        } else if x.y < 2.0 * s {
+            2
+        } else if x.x < x0 + 2.0 * s {
+            3
+        } else if x.x > size.x - 2.0 * s || x.z < 2.0 * s || x.z > size.z - 2.0 * s {
+            4
+        } else {
+            5
+        }
+    };
+    const NAMES: [&str; 6] = ["hull", "surface", "floor", "paddle", "walls", "interior"];
+    let mut sums = [(0usize, 0.0f64); 6];
+    let mut all: Vec<(Real, usize)> = Vec::new();
+    for (id, x) in f.ids().iter().zip(f.positions()) {
+        let Some(a) = anchor.get(id) else { continue };
+        let d = (*x - *a).length() / s;
+        let c = class(x);
+        sums[c].0 += 1;
+        sums[c].1 += (d * d) as f64;
+        all.push((d, c));
+    }
+    let total: f64 = sums.iter().map(|s| s.1).sum();
+    let mut line = String::from("  where:");
+    for (k, (n, ss)) in sums.iter().enumerate() {
+        if *n == 0 {
+            continue;
+        }
+        line += &format!(
+            " {} {} rms {:.3} ({:.0} %);",
+            NAMES[k],
+            n,
+            (ss / *n as f64).sqrt(),
+            100.0 * ss / total.max(1e-30)
+        );
+    }
+    // The displacement averaged over cubic cells (by the particles' window-start
+    // positions) of one and two smoothing lengths: what of the drift is coherent (a current,
+    // a slosh) and not each particle's own jitter, which averages out.
+    for cells in [1.0, 2.0] {
+        let edge = cells * f.params().smoothing_length;
+        let mut bins: HashMap<(i32, i32, i32), (Vector, usize)> = HashMap::new();
+        for (id, x) in f.ids().iter().zip(f.positions()) {
+            let Some(a) = anchor.get(id) else { continue };
+            let key = (*a / edge).floor();
+            let e = bins
+                .entry((key.x as i32, key.y as i32, key.z as i32))
+                .or_insert((Vector::ZERO, 0));
+            e.0 += *x - *a;
+            e.1 += 1;
+        }
+        let (mut ss, mut n) = (0.0f64, 0usize);
+        for (d, k) in bins.values() {
+            let mean = *d / *k as Real / s;
+            ss += (mean.length_squared() * *k as Real) as f64;
+            n += k;
+        }
+        line += &format!(
+            " cells of {cells} h: rms {:.3};",
+            (ss / n.max(1) as f64).sqrt()
+        );
+    }
+    all.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let top = (all.len() / 100).max(1);
+    let mut counts = [0usize; 6];
+    for (_, c) in &all[..top.min(all.len())] {
+        counts[*c] += 1;
+    }
+    line += &format!(
+        " top 1 % ({top}, from {:.3}):",
+        all.get(top - 1).map_or(0.0, |a| a.0)
+    );
+    for (k, n) in counts.iter().enumerate() {
+        if *n > 0 {
+            line += &format!(" {} {n}", NAMES[k]);
+        }
+    }
+    println!("{line}");
 }
 
 fn run(pool: &mut WavePool, o: &Options) -> SphResult<()> {
@@ -290,6 +405,9 @@ fn run(pool: &mut WavePool, o: &Options) -> SphResult<()> {
             if f.is_sleeping() { "asleep" } else { "awake" },
         );
         (substeps, iterations) = (0, 0);
+        if o.breakdown {
+            breakdown(pool, &anchor);
+        }
         let f = &pool.world.fluids[pool.water];
         anchor = f
             .ids()
