@@ -2,12 +2,16 @@
 //! for bodies (Box2D's and Jolt's sleeping, Bullet's deactivation).
 //!
 //! A fluid whose [`crate::FluidParams::sleep`] is set falls asleep once, for
-//! [`Sleep::time`] seconds of consecutive frames, its particles stayed where they were (their
-//! root-mean-square displacement below [`Sleep::mean_drift`] spacings, every one's below
+//! [`Sleep::time`] seconds of consecutive frames, its water stayed where it was (the
+//! particles' displacements averaged over cubic cells of one kernel support, their
+//! root-mean-square below [`Sleep::mean_drift`] spacings, and every particle's own below
 //! [`Sleep::max_drift`]), its mean density error below [`Sleep::density_error`], and every
 //! non-fixed body near it stayed within [`Sleep::max_drift`] spacings too. Displacements,
 //! not speeds: SPH water at rest jitters in place (DFSPH's at about 3 cm/s, see
-//! docs/performance.md), and a hull floating on it rocks with it, but neither goes anywhere. Falling asleep sets its
+//! docs/performance.md), and a hull floating on it rocks with it, but neither goes anywhere.
+//! Averaged over cells, because that jitter moves the particles past each other below the
+//! kernel's resolution while the water they make up stays put; a current moves a cell's
+//! particles together and is not averaged away. Falling asleep sets its
 //! particles' velocities to zero (the kinetic energy dropped is recorded:
 //! [`SleepInfo::dropped_kinetic_energy`]) and puts the dynamic bodies near it to sleep in
 //! rapier (`RigidBody::sleep`): the fluid and the bodies floating in it form one island, and
@@ -64,10 +68,15 @@ pub struct Sleep {
     /// Seconds the fluid must stay at rest before it falls asleep: the window over which
     /// the particles' displacements are measured. Default: 0.5.
     pub time: Real,
-    /// Largest root-mean-square displacement of the particles over [`Sleep::time`] that
-    /// still counts as at rest, in particle spacings. Default: 0.1 (water jitters in place
-    /// by about 0.05 spacings over 0.5 s, see docs/performance.md; a current of
-    /// `0.1·spacing/time`, 6 mm/s at 3 cm and 0.5 s, keeps it awake).
+    /// Largest root-mean-square displacement of the water over [`Sleep::time`] that still
+    /// counts as at rest, in particle spacings: each particle's displacement averaged with
+    /// those of the particles whose window-start positions share its cubic cell of one
+    /// kernel support ([`crate::FluidParams::smoothing_length`]), so that the particles'
+    /// own jitter, which moves them past each other, averages out and a current does
+    /// not. Default: 0.1 (a current of `0.1·spacing/time`, 6 mm/s at 3 cm and 0.5 s, keeps
+    /// the water awake; the game preset's still 10,368-particle pool's cells drift 0.06–0.11
+    /// spacings per 0.5 s from 12 to 20 s, its particles 0.11–0.17, see
+    /// docs/performance.md).
     pub mean_drift: Real,
     /// Largest displacement over [`Sleep::time`] of any particle, and of any point of a
     /// non-fixed body near the fluid (its center of mass's displacement plus its turn times

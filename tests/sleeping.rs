@@ -393,7 +393,7 @@ fn pool_asleep_after(pool: &mut rapier_sph::scenes::WavePool, limit: usize) -> O
 }
 
 /// The still game pool without its hull settles (the start's slosh dies out) and falls
-/// asleep with the default thresholds (after about 8.5 s here, docs/performance.md); a ball
+/// asleep with the default thresholds (after about 4 s here, docs/performance.md); a ball
 /// dropped from 0.3 m above it wakes it before it reaches the water (within the margin the
 /// wake test looks around the fluid: a kernel support, a particle radius and a frame's
 /// fall), not earlier: the water sleeps through every frame before.
@@ -443,7 +443,7 @@ fn the_still_game_pool_falls_asleep_and_a_falling_ball_wakes_it() {
 }
 
 /// The same pool with its hull floating settles too (nothing does work on it) and falls
-/// asleep with the default thresholds (after about 8.5 s, as without the hull;
+/// asleep with the default thresholds (after about 5 s, as without the hull;
 /// docs/performance.md, "Sleeping water"). It did not while the coupling's exchange gave the
 /// water under the hull the fluid's lift of the hull every substep without the fall rapier
 /// gave it (`Coupling::exchange`): the water's kinetic energy stayed at about 2 J and the
@@ -489,4 +489,80 @@ fn the_floating_hull_does_not_pump_energy_into_the_still_pool() {
         late < early,
         "the still pool gained kinetic energy: {early:.4} J over 4-6 s, {late:.4} J over 8-10 s"
     );
+}
+
+/// The still game pool with its floating hull (2,556 particles, the water preset, default
+/// thresholds) falls asleep with its hull asleep in rapier (one island), and stays so; a
+/// ball dropped from 0.3 m beside the hull wakes the water before it reaches it, and the
+/// water's push wakes the hull. Three seconds after the drop the ball and the hull float
+/// as high as they float in the same pool never put to sleep (sleep off, the ball dropped at
+/// the same frame), within one spacing (the resolution of the water's surface): falling
+/// asleep froze every particle within `max_drift` (one spacing) of where the awake water had
+/// it over the window, and dropped only the jitter's velocities (docs/performance.md,
+/// "Sleeping water", has the measured differences). Heights, not positions: where on the
+/// surface the ball drifts after its splash is not determined by the water's jitter-level
+/// state (one second after the drop the two balls were 7 cm apart).
+#[test]
+fn the_pool_and_its_hull_sleep_together_and_a_ball_wakes_both() {
+    use rapier_sph::scenes::{WavePool, WavePoolConfig};
+    let mut pool = still_pool(true);
+    let asleep = pool_asleep_after(&mut pool, 20 * 60).expect("the pool did not fall asleep");
+    assert!(pool.world.physics.bodies[pool.hull].is_sleeping());
+    let hull_at = *pool.world.physics.bodies[pool.hull].position();
+    for _ in 0..30 {
+        pool.frame().unwrap();
+        assert!(pool.world.fluids[pool.water].is_sleeping());
+    }
+    assert!(pool.world.physics.bodies[pool.hull].is_sleeping());
+    assert_eq!(*pool.world.physics.bodies[pool.hull].position(), hull_at);
+    let drop_frame = asleep + 30;
+
+    // The same pool, never asleep, to the same frame.
+    let config = WavePoolConfig {
+        particles: 2500,
+        params: |s| FluidParamsBuilder::water(s).build(),
+        paddle: (0.0, 1.5),
+        ..Default::default()
+    };
+    let mut awake = WavePool::new(config).unwrap();
+    for _ in 0..drop_frame {
+        awake.frame().unwrap();
+    }
+
+    let r = 0.05;
+    let at = Vector::new(0.7, WavePool::DEPTH + 0.3 + r, 0.35);
+    let drop = |pool: &mut WavePool| {
+        let ball = pool
+            .world
+            .physics
+            .insert_body(RigidBodyBuilder::dynamic().translation(at));
+        let collider = ColliderBuilder::ball(r).density(500.0);
+        pool.world.physics.insert_collider(collider, Some(ball));
+        ball
+    };
+    let (ball, awake_ball) = (drop(&mut pool), drop(&mut awake));
+    let (mut water_woke, mut hull_woke) = (None, None);
+    for frame in 1..=180 {
+        pool.frame().unwrap();
+        awake.frame().unwrap();
+        if water_woke.is_none() && !pool.world.fluids[pool.water].is_sleeping() {
+            water_woke = Some(frame);
+        }
+        if hull_woke.is_none() && !pool.world.physics.bodies[pool.hull].is_sleeping() {
+            hull_woke = Some(frame);
+        }
+    }
+    let (water_woke, hull_woke) = (water_woke.unwrap(), hull_woke.expect("the hull slept on"));
+    assert!(water_woke <= hull_woke, "{water_woke} {hull_woke}");
+    let s = pool.spacing;
+    let y = |p: &WavePool, b: RigidBodyHandle| p.world.physics.bodies[b].translation().y;
+    let (ball_gap, hull_gap) = (
+        (y(&pool, ball) - y(&awake, awake_ball)).abs(),
+        (y(&pool, pool.hull) - y(&awake, awake.hull)).abs(),
+    );
+    eprintln!(
+        "asleep after {asleep} frames; after the drop the water woke at frame {water_woke}, the hull at {hull_woke}; 3 s after: the ball {:.6} m, the hull {:.6} m higher or lower than in the awake run (spacing {s:.4} m)",
+        ball_gap, hull_gap
+    );
+    assert!(ball_gap <= s && hull_gap <= s, "{ball_gap} {hull_gap}");
 }

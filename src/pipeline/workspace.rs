@@ -61,6 +61,8 @@ pub(crate) struct Workspace {
     pub viscosity: crate::forces::viscosity_implicit::Scratch,
     /// The mixture's buffers (`crate::mixture`; empty for a fluid without a mixture).
     pub mixture: crate::mixture::Scratch,
+    /// The sleep test's cells (`pipeline::sleep`; empty for a fluid that may not sleep).
+    pub sleep_cells: super::sleep::DriftCells,
 }
 
 impl Workspace {
@@ -99,6 +101,7 @@ impl Workspace {
             + self.forces.heap_bytes()
             + (self.scalar_scratch.0.capacity() + self.scalar_scratch.1.capacity()) * 4
             + self.mixture.heap_bytes()
+            + self.sleep_cells.heap_bytes()
     }
 }
 

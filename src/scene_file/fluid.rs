@@ -125,7 +125,8 @@ pub struct SleepDesc {
     /// Seconds at rest before it falls asleep ([`crate::Sleep::time`]).
     #[serde(default)]
     pub time: Option<Positive>,
-    /// Largest RMS drift at rest, in spacings ([`crate::Sleep::mean_drift`]).
+    /// Largest RMS drift of the water (averaged over cells of a kernel support) at rest, in
+    /// spacings ([`crate::Sleep::mean_drift`]).
     #[serde(default)]
     pub mean_drift: Option<Positive>,
     /// Largest drift of any particle or body near at rest, in spacings
