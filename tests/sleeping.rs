@@ -126,6 +126,29 @@ fn still_water_under_gravity_falls_asleep_with_the_defaults() {
     assert!(info.density_error_at_sleep <= Sleep::default().density_error);
 }
 
+/// Motion the particles' own threshold (`max_drift`) lets through, and that a mean over the
+/// whole fluid would cancel, keeps the water awake: two layers of the zero-gravity block
+/// sliding past each other, the top two particle layers at +v along x and the bottom two
+/// at −v, `v` twice the speed `mean_drift` allows (0.2 spacings per window, a fifth of
+/// `max_drift`). Each layer pair fills its own row of cells of one kernel support, so the
+/// cell-averaged drift is the layers' own.
+#[test]
+fn counter_flowing_layers_keep_the_water_awake() {
+    let sleep = quick();
+    let (mut world, water, _) = tank(Vector::ZERO, Some(sleep));
+    let speed = 2.0 * sleep.mean_drift * SPACING / sleep.time;
+    let ys: Vec<Real> = world.fluids[water].positions().iter().map(|x| x.y).collect();
+    let split = 2.0 * SPACING;
+    for (v, y) in world.fluids[water].velocities_mut().iter_mut().zip(ys) {
+        *v = Vector::new(if y > split { speed } else { -speed }, 0.0, 0.0);
+    }
+    // 0.25 s, 2.5 windows; the block's ends still a kernel support from the walls.
+    for _ in 0..15 {
+        world.step().unwrap();
+        assert!(!world.fluids[water].is_sleeping());
+    }
+}
+
 #[test]
 fn exact_results_without_sleep() {
     let (mut a, wa, _) = tank(Vector::ZERO, None);
