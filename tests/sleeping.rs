@@ -137,7 +137,11 @@ fn counter_flowing_layers_keep_the_water_awake() {
     let sleep = quick();
     let (mut world, water, _) = tank(Vector::ZERO, Some(sleep));
     let speed = 2.0 * sleep.mean_drift * SPACING / sleep.time;
-    let ys: Vec<Real> = world.fluids[water].positions().iter().map(|x| x.y).collect();
+    let ys: Vec<Real> = world.fluids[water]
+        .positions()
+        .iter()
+        .map(|x| x.y)
+        .collect();
     let split = 2.0 * SPACING;
     for (v, y) in world.fluids[water].velocities_mut().iter_mut().zip(ys) {
         *v = Vector::new(if y > split { speed } else { -speed }, 0.0, 0.0);
