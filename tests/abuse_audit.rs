@@ -1,0 +1,272 @@
+//! Abuse, the combinations the other suites leave out: an overfilled spawn (the same points
+//! added twice, a double-clicked "spawn water") into a closed tank that is already moving and
+//! spinning, and the explicit viscosity of 100–1,000 Pa·s (below the 10⁴ Pa·s of
+//! `tests/abuse.rs`, where a fluid at rest once reached about 500 m/s) on a block at rest.
+//! Every solver; `cargo test --release --test abuse_audit -- --nocapture` prints the figures.
+//! The overfilled spawn into a tank that translates and spins at once still leaks: that test
+//! is ignored as a known failure (`-- --ignored` runs it).
+
+use rapier_sph::math::{Real, Vector};
+use rapier_sph::pipeline::RELAX_FRAME_ROUNDS;
+use rapier_sph::rapier3d::prelude::*;
+use rapier_sph::scenes::add_closed_box;
+use rapier_sph::{Fluid, FluidHandle, FluidParamsBuilder, FluidWorld, Solver};
+
+fn solvers() -> [Solver; 4] {
+    [
+        Solver::dfsph(),
+        Solver::Wcsph,
+        Solver::pbf(),
+        Solver::clavet(),
+    ]
+}
+
+const SPACING: Real = 0.04;
+/// Half the moving tank's inner width (m) and its walls' thickness (thinner than a spacing).
+const INNER: Real = 0.2;
+const WALL: Real = 0.02;
+
+/// A closed tank of six cuboids on a kinematic body moving with `linvel` and spinning with
+/// `angvel` about its center.
+fn moving_tank(world: &mut FluidWorld, linvel: Vector, angvel: Vector) -> RigidBodyHandle {
+    let body = world.physics.insert_body(
+        RigidBodyBuilder::kinematic_velocity_based()
+            .linvel(linvel)
+            .angvel(angvel),
+    );
+    let (a, t) = (INNER + 2.0 * WALL, INNER + WALL);
+    for axis in 0..3 {
+        for side in [-1.0, 1.0] {
+            let mut half = Vector::splat(a);
+            half[axis] = WALL;
+            let mut c = Vector::ZERO;
+            c[axis] = side * t;
+            world.physics.insert_collider(
+                ColliderBuilder::cuboid(half.x, half.y, half.z).translation(c),
+                Some(body),
+            );
+        }
+    }
+    body
+}
+
+/// Lattice points of the tank's interior in the layers `layers` (counted from its floor),
+/// placed at the tank's current pose.
+fn layers_in_tank(
+    world: &FluidWorld,
+    body: RigidBodyHandle,
+    layers: std::ops::Range<usize>,
+) -> Vec<Vector> {
+    let pose = *world.physics.bodies[body].position();
+    let n = ((2.0 * INNER) / SPACING).round() as usize;
+    let mut points = Vec::new();
+    for i in 0..n {
+        for j in layers.clone() {
+            for k in 0..n {
+                let local = Vector::new(
+                    -INNER + (i as Real + 0.5) * SPACING,
+                    -INNER + (j as Real + 0.5) * SPACING,
+                    -INNER + (k as Real + 0.5) * SPACING,
+                );
+                points.push(pose.transform_point(local));
+            }
+        }
+    }
+    points
+}
+
+/// What an overfilled spawn into a moving tank did over 16 frames (see [`overfill`]).
+struct Overfill {
+    /// Most particles outside the tank's interior after a frame, and the first such frame.
+    out: usize,
+    first_out: Option<usize>,
+    /// Largest particle speed (m/s) and its bound.
+    vmax: Real,
+    bound: Real,
+}
+
+/// A closed tank moving with `linvel` and spinning with `angvel` about its center: four
+/// layers of water spawned twice over (every point twice, a double-clicked "spawn water") at
+/// frame 2, and two more layers spawned twice on top at frame 8 (1,200 particles, 1.2 times
+/// what the tank holds at rest density: the relaxation cannot finish and the solver holds the
+/// rest compressed). After every frame: none quarantined or lost, no frame relaxing more than
+/// its budget of rounds, every position and velocity finite. Returns the particles outside
+/// the tank's interior (in the tank's frame) and the largest speed against its bound: the
+/// water's speed of sound (which bounds what a released compression can give) plus twice
+/// the fastest wall speed (a reflection off the moving walls).
+fn overfill(solver: Solver, linvel: Vector, angvel: Vector) -> Overfill {
+    let wall_speed = linvel.length() + angvel.length() * (2.0 as Real).sqrt() * (INNER + WALL);
+    let mut world = FluidWorld::new();
+    let body = moving_tank(&mut world, linvel, angvel);
+    world.physics.step();
+    let params = FluidParamsBuilder::water(SPACING)
+        .solver(solver)
+        .build()
+        .unwrap();
+    let bound = params.equation_of_state.speed_of_sound() + 2.0 * wall_speed;
+    let fluid = world.fluids.insert(Fluid::new(params).unwrap());
+    let (mut out_most, mut first_out, mut vmax) = (0, None, 0.0 as Real);
+    for frame in 0..16 {
+        let spawn = match frame {
+            2 => Some(0..4),
+            8 => Some(6..8),
+            _ => None,
+        };
+        if let Some(layers) = spawn {
+            let points = layers_in_tank(&world, body, layers);
+            for _ in 0..2 {
+                world.fluids[fluid].add_particles(&points).unwrap();
+            }
+        }
+        let n = world.fluids[fluid].len();
+        let r = world.step().unwrap().clone();
+        let f = &world.fluids[fluid];
+        let label = format!("{} frame {frame}", solver.name());
+        assert_eq!(r.quarantined, 0, "{label}");
+        assert_eq!(f.len(), n, "{label}: lost");
+        assert!(r.relax_rounds <= RELAX_FRAME_ROUNDS, "{label}");
+        let pose = *world.physics.bodies[body].position();
+        let out = f
+            .positions()
+            .iter()
+            .filter(|p| pose.inverse_transform_point(**p).abs().max_element() > INNER)
+            .count();
+        if out > 0 {
+            first_out = first_out.or(Some(frame));
+        }
+        out_most = out_most.max(out);
+        for (x, v) in f.positions().iter().zip(f.velocities()) {
+            assert!(x.is_finite() && v.is_finite(), "{label}");
+            vmax = vmax.max(v.length());
+        }
+    }
+    Overfill {
+        out: out_most,
+        first_out,
+        vmax,
+        bound,
+    }
+}
+
+/// Runs [`overfill`] with every solver for each motion; panics naming the runs that let a
+/// particle out or went beyond the speed bound.
+fn check_overfill(motions: &[(&str, Vector, Vector)]) {
+    let mut failures = Vec::new();
+    for &(name, linvel, angvel) in motions {
+        for solver in solvers() {
+            let o = overfill(solver, linvel, angvel);
+            println!(
+                "{name}, {:6}: at most {} outside (first after frame {:?}), largest speed \
+                 {:.2} m/s (bound {:.1})",
+                solver.name(),
+                o.out,
+                o.first_out,
+                o.vmax,
+                o.bound
+            );
+            if o.out > 0 || o.vmax > o.bound {
+                failures.push(format!("{name}, {}", solver.name()));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "failed: {failures:?}");
+}
+
+/// An overfilled spawn into a tank translating at 2 m/s, and into one spinning at 5 rad/s:
+/// no particle leaves it. Measured (`cargo test --release --test abuse_audit -- --nocapture`):
+/// none outside with every solver, largest speeds 5.4–20.8 m/s at 2 m/s (bound 34.0) and
+/// 2.3–3.7 m/s at 5 rad/s (bound 33.1).
+#[test]
+fn an_overfilled_spawn_into_a_translating_or_spinning_tank_stays_in() {
+    check_overfill(&[
+        ("2 m/s", Vector::new(2.0, 0.0, 0.0), Vector::ZERO),
+        ("5 rad/s", Vector::ZERO, Vector::new(0.0, 0.0, 5.0)),
+    ]);
+}
+
+/// Known failure: the same overfilled spawn into a tank that translates at 2 m/s *and* spins
+/// at 5 rad/s, or spins at 20 rad/s, leaks with every solver. Measured (`cargo test --release
+/// --test abuse_audit -- --ignored --nocapture`): at 2 m/s + 5 rad/s 57 of the 800 particles
+/// of the first spawn are outside after its first frame with each of the four solvers (the
+/// same count: the leak comes before the solvers differ, in the overlap relaxation or
+/// contact's push-out; not traced further), and no more later; at 20 rad/s 11–39 after the
+/// first frame, 63–91 at most (1,200 particles). The same spawn made once (no overlap) stays in at both motions, as
+/// `tests/moving_container.rs` checks; either motion alone at 2 m/s or 5 rad/s holds (above).
+#[test]
+#[ignore = "known failure: an overfilled spawn leaks from a tank translating and spinning (57 of 800 out after the first frame, every solver), or spinning at 20 rad/s"]
+fn an_overfilled_spawn_into_a_translating_and_spinning_tank_stays_in() {
+    check_overfill(&[
+        (
+            "2 m/s + 5 rad/s",
+            Vector::new(2.0, 0.0, 0.0),
+            Vector::new(0.0, 0.0, 5.0),
+        ),
+        ("20 rad/s", Vector::ZERO, Vector::new(0.0, 0.0, 20.0)),
+    ]);
+}
+
+/// A closed box `min..max` (walls 0.1 m thick) and one empty fluid.
+fn tank(params: rapier_sph::FluidParams, max: Vector) -> (FluidWorld, FluidHandle) {
+    let mut world = FluidWorld::new();
+    add_closed_box(&mut world, Vector::ZERO, max, 0.1);
+    world.physics.step();
+    let fluid = world.fluids.insert(Fluid::new(params).unwrap());
+    (world, fluid)
+}
+
+/// Explicit viscosities of 100 and 1,000 Pa·s (200 and 2,000 times the water preset's; at
+/// 1,000 Pa·s a block at rest once reached about 500 m/s) on a block resting on the floor of
+/// a closed box, 5 cm spacing, 20 frames: nothing quarantined, nothing out of the box, and the
+/// kinetic energy never above the block's potential energy over the floor (nothing else can
+/// feed it: the viscosity only dissipates).
+#[test]
+fn viscosities_of_100_and_1000_pa_s_keep_a_resting_block_at_rest() {
+    let mut failures = Vec::new();
+    for mu in [100.0 as Real, 1_000.0] {
+        for solver in solvers() {
+            let params = FluidParamsBuilder::water(0.05)
+                .solver(solver)
+                .viscosity(mu)
+                .build()
+                .unwrap();
+            let max = Vector::new(0.6, 0.6, 0.6);
+            let (mut world, h) = tank(params, max);
+            world.fluids[h]
+                .add_block(Vector::ZERO, Vector::new(0.6, 0.3, 0.6))
+                .unwrap();
+            let f = &world.fluids[h];
+            let m = f.params().particle_mass as f64;
+            let pe0: f64 = f.positions().iter().map(|x| m * 9.81 * x.y as f64).sum();
+            let n = f.len();
+            let (mut worst, mut vmax, mut limited) = (0.0f64, 0.0 as Real, 0);
+            for _ in 0..20 {
+                let r = world.step().unwrap().clone();
+                assert_eq!(r.quarantined, 0, "{} {mu}", solver.name());
+                limited += r.viscosity_limited;
+                vmax = vmax.max(r.max_speed);
+                worst = worst.max(world.fluids[h].kinetic_energy() / pe0);
+            }
+            let f = &world.fluids[h];
+            let eps = 1e-3;
+            let out = f
+                .positions()
+                .iter()
+                .filter(|p| {
+                    !(p.cmpge(Vector::splat(-eps)).all() && p.cmple(max + Vector::splat(eps)).all())
+                })
+                .count();
+            let finite = f.positions().iter().all(|x| x.is_finite())
+                && f.densities().iter().all(|x| x.is_finite())
+                && f.pressures().iter().all(|x| x.is_finite());
+            println!(
+                "{:6} ε = {mu}: KE at most {worst:.2e} of PE0, largest speed {vmax:.3} m/s, \
+                 {limited} particle-frames limited, {out} out",
+                solver.name()
+            );
+            if worst > 1.0 || out > 0 || !finite || f.len() != n {
+                failures.push(format!("{} at {mu} Pa·s", solver.name()));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "failed: {failures:?}");
+}
