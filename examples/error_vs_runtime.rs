@@ -342,6 +342,7 @@ fn error_panel(
 }
 
 /// Simulated curves (adaptive runs, every resolution) over the reference points.
+#[allow(clippy::too_many_arguments)] // one panel's axes, labels and data, each from its caller
 fn curve_panel(
     area: &DrawingArea<SVGBackend, plotters::coord::Shift>,
     title: &str,
@@ -551,7 +552,8 @@ fn draw_report(
                 next += 1;
             }
         }
-        let cases: [(Scene, fn() -> rapier_sph::SphResult<vdb::Case>); 3] = [
+        type CaseFn = fn() -> rapier_sph::SphResult<vdb::Case>;
+        let cases: [(Scene, CaseFn); 3] = [
             (Scene::MartinMoyceSquare, vdb::Case::martin_moyce_square),
             (Scene::MartinMoyceN2, vdb::Case::martin_moyce_n2),
             (Scene::KoshizukaOka, vdb::Case::koshizuka_oka),

@@ -351,7 +351,7 @@ fn the_obstacle_course_file_is_the_rust_scene() {
     scene.fluids[0].preset = Preset::Water {
         spacing: Positive(0.05),
     };
-    let mut a = scene.build(&path, &scenes_dir()).unwrap();
+    let mut a = scene.build(&path, scenes_dir()).unwrap();
     let mut b = obstacle_course(&ObstacleCourseConfig::new(params(0.05))).unwrap();
     assert_same_rapier_world(&a.world, &b.world);
     let (ha, hb) = (a.fluids[0], b.fluid);
