@@ -5,7 +5,7 @@
 //! cargo run --release --example buoyancy -- --solver pbf --spacing 0.03 --seconds 5
 //! cargo run --release --example buoyancy -- --solver dfsph-hw   # DFSPH, hydrostatic walls
 //! cargo run --release --example buoyancy -- --solver dfsph --density 250 --trace 10  # a line every 10 frames
-//! cargo run --release --example buoyancy -- --solver pbf --cubes   # the cubes test's scene: 16 cm cubes, 2.5 cm, 4 s
+//! cargo run --release --example buoyancy -- --solver pbf --cubes   # the cubes test's scene: 16 cm cubes, 2.5 cm, 4 s (the test runs 3)
 //! cargo run --release --example buoyancy -- --cubes --depth 0.2     # the same in shallower water (0.2 m)
 //! cargo run --release --example buoyancy --features render -- --render out/  # PNG + GIF per box
 //! ```
