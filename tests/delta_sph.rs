@@ -27,6 +27,25 @@ fn no_progress() -> impl FnMut(Real) {
     |_| {}
 }
 
+/// `scene.run` with [`wcsph_delta`] at `resolution` and `policy`. The hydrostatic tank at
+/// N = 8 with the adaptive step is read by both the pressure and the energy test: that run
+/// is made once and shared (the harness runs the tests in one process; a test asking while
+/// the other computes it waits, `OnceLock::get_or_init`).
+fn delta_run(scene: Scene, resolution: usize, policy: TimePolicy) -> RunRecord {
+    use std::sync::OnceLock;
+    static HYDROSTATIC_8: OnceLock<RunRecord> = OnceLock::new();
+    let run = || {
+        scene
+            .run(&wcsph_delta(), resolution, policy, &mut no_progress())
+            .unwrap()
+    };
+    if (scene, resolution, policy) == (Scene::Hydrostatic, 8, TimePolicy::Adaptive) {
+        HYDROSTATIC_8.get_or_init(run).clone()
+    } else {
+        run()
+    }
+}
+
 /// Stable, no particle lost (each has the same mass: the mass is conserved iff the count
 /// is), none outside the tank.
 fn assert_conserved(r: &RunRecord) {
@@ -47,9 +66,7 @@ fn assert_conserved(r: &RunRecord) {
 #[test]
 fn delta_sph_hydrostatic_bottom_pressure_within_2_percent() {
     for n in [8, 12] {
-        let r = Scene::Hydrostatic
-            .run(&wcsph_delta(), n, TimePolicy::Adaptive, &mut no_progress())
-            .unwrap();
+        let r = delta_run(Scene::Hydrostatic, n, TimePolicy::Adaptive);
         assert_conserved(&r);
         let e = r.error("bottom_pressure").unwrap();
         println!(
@@ -70,16 +87,12 @@ fn delta_sph_hydrostatic_bottom_pressure_within_2_percent() {
 /// energy `Σ m·u(ρ)`), so it must not raise this bound. The highest particle is printed.
 #[test]
 fn delta_sph_mechanical_energy_never_exceeds_the_initial_potential_energy() {
-    let m = wcsph_delta();
-    for scene in Scene::ALL {
+    // The Taylor–Green vortex has no gravity (its `energy_excess` is NaN): not run.
+    for scene in Scene::ALL.into_iter().filter(|&s| s != Scene::TaylorGreen) {
         for policy in [TimePolicy::Adaptive, TimePolicy::FixedSmall] {
-            let r = scene
-                .run(&m, scene.default_resolution(), policy, &mut no_progress())
-                .unwrap();
+            let r = delta_run(scene, scene.default_resolution(), policy);
             let excess = r.error("energy_excess").unwrap();
-            if excess.is_nan() {
-                continue; // no gravity (Taylor–Green)
-            }
+            assert!(!excess.is_nan(), "{}: no energy under gravity", r.scene);
             assert_conserved(&r);
             let label = format!("{} N={} {}", r.scene, r.resolution, policy.name());
             println!(
