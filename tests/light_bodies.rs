@@ -205,6 +205,14 @@ fn heavy_cases() -> Vec<(Solver, Real)> {
     cases
 }
 
+/// The outcomes of [`drop_heavy`] over [`heavy_cases`], which both heavy-body tests read:
+/// dropped once and shared (the harness runs the tests in one process; a test asking while
+/// the other drops them waits, `OnceLock::get_or_init`).
+fn heavy_outcomes() -> &'static [(String, Outcome)] {
+    static OUTCOMES: std::sync::OnceLock<Vec<(String, Outcome)>> = std::sync::OnceLock::new();
+    OUTCOMES.get_or_init(|| drop_heavy(&heavy_cases()))
+}
+
 /// Drops 16 cm boxes much heavier than water (`cases`: solver and density) in the same tank;
 /// prints the figures and returns the outcomes.
 fn drop_heavy(cases: &[(Solver, Real)]) -> Vec<(String, Outcome)> {
@@ -239,8 +247,8 @@ fn drop_heavy(cases: &[(Solver, Real)]) -> Vec<(String, Outcome)> {
 #[test]
 fn heavy_bodies_sink_without_being_thrown() {
     let (body_bound, water_bound) = speed_bounds(0.24, 0.05);
-    let failures: Vec<String> = drop_heavy(&heavy_cases())
-        .into_iter()
+    let failures: Vec<String> = heavy_outcomes()
+        .iter()
         .filter(|(_, o)| {
             !(o.body_speed <= body_bound
                 && o.water_speed <= water_bound
@@ -248,7 +256,7 @@ fn heavy_bodies_sink_without_being_thrown() {
                 && o.quarantined == 0
                 && !o.cap_hit)
         })
-        .map(|(name, _)| name)
+        .map(|(name, _)| name.clone())
         .collect();
     assert!(failures.is_empty(), "failed: {failures:?}");
 }
@@ -274,12 +282,12 @@ fn heavy_bodies_sink_without_being_thrown() {
 #[test]
 fn heavy_bodies_rest_on_the_floor_with_no_particle_inside() {
     let spacing = 0.04;
-    let failures: Vec<String> = drop_heavy(&heavy_cases())
-        .into_iter()
+    let failures: Vec<String> = heavy_outcomes()
+        .iter()
         .filter(|(_, o)| {
             !(o.inside == 0 && o.lowest <= 1.25 * spacing && o.lowest >= -0.25 * spacing)
         })
-        .map(|(name, _)| name)
+        .map(|(name, _)| name.clone())
         .collect();
     assert!(failures.is_empty(), "failed: {failures:?}");
 }
