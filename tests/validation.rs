@@ -139,7 +139,7 @@ fn shared_run(key: String, run: impl FnOnce() -> RunRecord) -> &'static RunRecor
     use std::collections::HashMap;
     use std::sync::{Mutex, OnceLock};
     static RUNS: OnceLock<Mutex<HashMap<String, &'static OnceLock<RunRecord>>>> = OnceLock::new();
-    let cell: &'static OnceLock<RunRecord> = *RUNS
+    let cell: &'static OnceLock<RunRecord> = RUNS
         .get_or_init(Default::default)
         .lock()
         .unwrap()
