@@ -5,8 +5,9 @@
 //! Walls count in the density (`wall_density(true)`; WCSPH and DFSPH, the water preset's
 //! default), so the water's pressure pushes the body (contact alone transmits too little: the
 //! boxes float 5–12 % too deep). Measured (4 cm, the 3rd second): WCSPH 0.241 / 0.502 /
-//! 0.726, corners 0.050 / 0.040 / 0.043 g; DFSPH (hydrostatic walls) 0.257 / 0.503 / 0.761,
-//! 0.062 / 0.051 / 0.044 g; the 2000 kg/m³ box's lowest corner 0.0400 m up with both (it
+//! 0.726, corners 0.050 / 0.040 / 0.043 g; DFSPH (hydrostatic walls) 0.216 / 0.461 / 0.709
+//! (a fifth of a spacing high: docs/coupling.md, "Buoyancy"), corners 0.029–0.047 g; the
+//! 2000 kg/m³ box's lowest corner 0.0400 m up with both (it
 //! rests on the last particle layer, held against the floor by contact: `contact::hold`).
 //!
 //! The suite's test is lean (4 cm particles, a box 5 particles tall, ~1 800 particles, a few
