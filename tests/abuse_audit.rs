@@ -3,8 +3,6 @@
 //! spinning, and the explicit viscosity of 100–1,000 Pa·s (below the 10⁴ Pa·s of
 //! `tests/abuse.rs`, where a fluid at rest once reached about 500 m/s) on a block at rest.
 //! Every solver; `cargo test --release --test abuse_audit -- --nocapture` prints the figures.
-//! The overfilled spawn into a tank that translates and spins at once still leaks: that test
-//! is ignored as a known failure (`-- --ignored` runs it).
 
 use rapier_sph::math::{Real, Vector};
 use rapier_sph::pipeline::RELAX_FRAME_ROUNDS;
@@ -174,8 +172,9 @@ fn check_overfill(motions: &[(&str, Vector, Vector)]) {
 
 /// An overfilled spawn into a tank translating at 2 m/s, and into one spinning at 5 rad/s:
 /// no particle leaves it. Measured (`cargo test --release --test abuse_audit -- --nocapture`):
-/// none outside with every solver, largest speeds 5.4–20.8 m/s at 2 m/s (bound 34.0) and
-/// 2.3–3.7 m/s at 5 rad/s (bound 33.1).
+/// none outside with every solver, largest speeds 6.8–10.1 m/s at 2 m/s (bound 34.0) and
+/// 2.2–6.0 m/s at 5 rad/s (bound 33.1); 5.4–20.8 and 2.3–3.7 m/s before the overlap
+/// relaxation stood moving bodies at their pose of the substep's start (below).
 #[test]
 fn an_overfilled_spawn_into_a_translating_or_spinning_tank_stays_in() {
     check_overfill(&[
@@ -184,16 +183,16 @@ fn an_overfilled_spawn_into_a_translating_or_spinning_tank_stays_in() {
     ]);
 }
 
-/// Known failure: the same overfilled spawn into a tank that translates at 2 m/s *and* spins
-/// at 5 rad/s, or spins at 20 rad/s, leaks with every solver. Measured (`cargo test --release
-/// --test abuse_audit -- --ignored --nocapture`): at 2 m/s + 5 rad/s 57 of the 800 particles
-/// of the first spawn are outside after its first frame with each of the four solvers (the
-/// same count: the leak comes before the solvers differ, in the overlap relaxation or
-/// contact's push-out; not traced further), and no more later; at 20 rad/s 11–39 after the
-/// first frame, 63–91 at most (1,200 particles). The same spawn made once (no overlap) stays in at both motions, as
-/// `tests/moving_container.rs` checks; either motion alone at 2 m/s or 5 rad/s holds (above).
+/// The same overfilled spawn into a tank that translates at 2 m/s *and* spins at 5 rad/s,
+/// and into one spinning at 20 rad/s: no particle leaves it. Measured (`cargo test --release
+/// --test abuse_audit -- --nocapture`): none outside with every solver, largest speeds
+/// 6.9–9.2 m/s at 2 m/s + 5 rad/s (bound 37.1) and 8.0–14.4 m/s at 20 rad/s (bound 42.4).
+/// Before the overlap relaxation stood moving bodies at their pose of the substep's start
+/// (it met them at rapier's end-of-frame pose, 3.3 cm and 0.083 rad ahead), 57 of the 800
+/// particles of the first spawn were outside after its first frame at 2 m/s + 5 rad/s with
+/// each solver (with DFSPH: 26 through the +x wall, 31 through the −x wall, all beyond the
+/// walls' outer faces), and 63–91 of 1,200 at most at 20 rad/s.
 #[test]
-#[ignore = "known failure: an overfilled spawn leaks from a tank translating and spinning (57 of 800 out after the first frame, every solver), or spinning at 20 rad/s"]
 fn an_overfilled_spawn_into_a_translating_and_spinning_tank_stays_in() {
     check_overfill(&[
         (

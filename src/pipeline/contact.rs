@@ -25,14 +25,16 @@ pub(crate) struct Scene<'a> {
 }
 
 /// Collider contact of every particle, swept from the positions at the substep's start to
-/// the current ones; the impulses it recorded on dynamic bodies go to them. Returns the
-/// number of particles pushed out of a solid.
+/// the current ones; with `exchange`, the impulses it recorded on dynamic bodies go to them
+/// (the overlap relaxation passes `false`: it stands the coupling table's bodies at the
+/// pose its particles are in and moves no body). Returns the number of particles pushed out
+/// of a solid.
 pub(super) fn collider_contact(
     fluid: &mut Fluid,
     ws: &mut Workspace,
     scene: Option<Scene<'_>>,
     depenetrate: bool,
-    mut coupling: Option<&mut Coupling>,
+    (mut coupling, exchange): (Option<&mut Coupling>, bool),
     report: &mut StepReport,
 ) -> usize {
     let Some(scene) = scene else {
@@ -88,6 +90,12 @@ pub(super) fn collider_contact(
         });
         contact::resolve(&input, positions, velocities, movers)
     });
+    if !exchange {
+        // What the relaxation's contact recorded on bodies is dropped, and its forces are
+        // read as before it had a table (each collider as at rest).
+        impulses.iter_mut().for_each(Vec::clear);
+        coupling = None;
+    }
     let ids = &particles.ids[..];
     let table = coupling.as_deref().map_or(&[][..], |c| c.table());
     let records = if table.is_empty() {

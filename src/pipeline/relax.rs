@@ -5,10 +5,12 @@
 //! step (an explosion). Instead, the overlap beyond [`RELAX_TOLERANCE`] is projected out of
 //! the *positions* only, with the PBF density constraint (unilateral, no artificial pressure,
 //! moves of at most [`RELAX_MAX_MOVE`] spacings per round, each round with a fresh neighbour
-//! search), each round's move swept through collider contact. Velocities are left as they
-//! were. It runs only when particles were added or depenetrated (or an earlier relaxation was
-//! stopped by its budget); otherwise it costs one flag check. Its time is reported as
-//! [`Stage::Relaxation`].
+//! search), each round's move swept through collider contact, with moving bodies standing at
+//! their pose of the substep's start (where the particles are; rapier has already moved them
+//! to the frame's end) and moving no body. The projection leaves velocities as they were
+//! (contact reflects those of the particles it pushes). It runs only when particles were
+//! added or depenetrated (or an earlier relaxation was stopped by its budget); otherwise it
+//! costs one flag check. Its time is reported as [`Stage::Relaxation`].
 //!
 //! **Budget.** A fluid's relaxation runs at most [`RELAX_FRAME_ROUNDS`] rounds per frame,
 //! over all the frame's substeps together ([`RelaxBudget`]); what is not finished goes on in
@@ -25,6 +27,7 @@
 
 use super::contact::{Scene, collider_contact};
 use super::workspace::Workspace;
+use crate::boundary::Coupling;
 use crate::boundary::wall::WallQuery;
 use crate::diagnostics::{Stage, StepReport};
 use crate::domain::Separation;
@@ -63,7 +66,7 @@ const RELAX_TOLERANCE: Real = 0.01;
 const RELAX_SETTLED: Real = 2.0 * RELAX_TOLERANCE;
 /// Largest move of a particle per relaxation round, in spacings (a position-based
 /// safeguard: the projection's linearisation holds for small moves).
-const RELAX_MAX_MOVE: Real = 0.2;
+pub(super) const RELAX_MAX_MOVE: Real = 0.2;
 
 /// One fluid's relaxation rounds: what is left of this frame's budget, and what the frame's
 /// rounds achieved (kept by the pipeline from one frame to the next; see the module docs).
@@ -164,6 +167,7 @@ pub(super) fn relax_overlaps(
     fluid: &mut Fluid,
     ws: &mut Workspace,
     scene: Option<Scene<'_>>,
+    mut bodies: Option<&mut Coupling>,
     budget: &mut RelaxBudget,
     report: &mut StepReport,
 ) -> bool {
@@ -184,7 +188,14 @@ pub(super) fn relax_overlaps(
             if depenetrate {
                 // Out of the solids first: a particle inside one would be pushed by the
                 // wall's density from the inside.
-                let pushed = collider_contact(fluid, ws, scene, true, None, report);
+                let pushed = collider_contact(
+                    fluid,
+                    ws,
+                    scene,
+                    true,
+                    (bodies.as_deref_mut(), false),
+                    report,
+                );
                 ws.previous_positions.copy_from_slice(fluid.positions());
                 if rigid_carry && pushed == 0 {
                     // A rigid carry that landed in no solid made no overlap (the carried
@@ -194,7 +205,7 @@ pub(super) fn relax_overlaps(
                 }
             }
         }
-        let moved = project(fluid, ws, scene, lattice_density, report);
+        let moved = project(fluid, ws, scene, bodies.as_deref(), lattice_density, report);
         if moved == 0 {
             budget.hold = 1.0;
             return true;
@@ -203,7 +214,14 @@ pub(super) fn relax_overlaps(
         // Each round's move is swept through the solids before the next projection sees it
         // (an expanding block must meet the walls it expands against, not pile onto them
         // after the last round).
-        collider_contact(fluid, ws, scene, false, None, report);
+        collider_contact(
+            fluid,
+            ws,
+            scene,
+            false,
+            (bodies.as_deref_mut(), false),
+            report,
+        );
         ws.previous_positions.copy_from_slice(fluid.positions());
         // The densities are those the round corrected: within the settled bound, this
         // round's moves were the last small ones.
@@ -291,6 +309,7 @@ fn project(
     fluid: &mut Fluid,
     ws: &mut Workspace,
     scene: Option<Scene<'_>>,
+    bodies: Option<&Coupling>,
     lattice_density: Real,
     report: &mut StepReport,
 ) -> usize {
@@ -301,7 +320,7 @@ fn project(
                 params: p,
                 force_kernel: p.density_kernel,
                 scene: (scene.bvh, scene.colliders, scene.bodies),
-                coupling: None,
+                coupling: bodies,
                 hydrostatic: None,
                 viscous: false,
                 predicted: false,
