@@ -178,7 +178,7 @@ fn relax_if_needed(
 /// walls 3.3 cm and 0.083 rad ahead of those it was spawned in (DFSPH: 122 of 800 particles
 /// beyond the inner faces of the spawn pose's walls after the first substep's relaxation),
 /// and the substep's contact, at the start pose, pushed 57 of them out through the walls
-/// (`tests/abuse_audit.rs`). `None` when no moving body is near: the relaxation's contact is
+/// (`tests/moving_container.rs`). `None` when no moving body is near: the relaxation's contact is
 /// then that of a scene at rest, as before.
 fn relax_coupling<'c>(
     fluid: &Fluid,
