@@ -178,8 +178,12 @@ fn relax_if_needed(
 /// walls 3.3 cm and 0.083 rad ahead of those it was spawned in (DFSPH: 122 of 800 particles
 /// beyond the inner faces of the spawn pose's walls after the first substep's relaxation),
 /// and the substep's contact, at the start pose, pushed 57 of them out through the walls
-/// (`tests/moving_container.rs`). `None` when no moving body is near: the relaxation's contact is
-/// then that of a scene at rest, as before.
+/// (`tests/moving_container.rs`). Kinematic bodies only: the relaxation moves no body, and
+/// a contact with a dynamic one whose impulse it does not hand over would break the balance
+/// of the fluid's momentum with the forces reported on the bodies (`tests/collider_forces.rs`
+/// checks it every frame), so dynamic bodies stand at rapier's pose of the frame's end, at
+/// rest, as before. `None` when no kinematic body is near: the relaxation's contact is then
+/// that of a scene at rest.
 fn relax_coupling<'c>(
     fluid: &Fluid,
     input: &SubstepInput<'_>,
@@ -201,6 +205,7 @@ fn relax_coupling<'c>(
         let margin = p.smoothing_length + p.particle_radius + reach;
         let fluid_box = parry3d::bounding_volume::Aabb::new(lo, hi);
         coupling.begin_substep(scene.colliders, &fluid_box, margin, back, back);
+        coupling.keep_kinematic();
     });
     (!coupling.table().is_empty()).then_some(coupling)
 }

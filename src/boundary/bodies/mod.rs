@@ -488,6 +488,12 @@ impl Coupling {
         }
     }
 
+    /// Drops the dynamic bodies' colliders from the current substep's table (the overlap
+    /// relaxation's table: it moves no body, see `pipeline::substep`).
+    pub fn keep_kinematic(&mut self) {
+        self.table.retain(|m| !m.dynamic);
+    }
+
     /// The table of the current substep (sorted by handle).
     pub fn table(&self) -> &[MovingCollider] {
         &self.table
