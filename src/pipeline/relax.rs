@@ -7,8 +7,9 @@
 //! moves of at most [`RELAX_MAX_MOVE`] spacings per round, each round with a fresh neighbour
 //! search), each round's move swept through collider contact, with kinematic bodies standing
 //! at their pose of the substep's start (where the particles are; rapier has already moved
-//! them to the frame's end; dynamic bodies at rest at that end pose) and moving no body. The projection leaves velocities as they were
-//! (contact reflects those of the particles it pushes). It runs only when particles were
+//! them to the frame's end; dynamic bodies at rest at that end pose) and moving no body. The
+//! projection leaves velocities as they were (contact reflects those of the particles it
+//! pushes). It runs only when particles were
 //! added or depenetrated (or an earlier relaxation was stopped by its budget); otherwise it
 //! costs one flag check. Its time is reported as [`Stage::Relaxation`].
 //!

@@ -151,8 +151,8 @@ fn continuity_density(
 }
 
 /// The overlap relaxation (pipeline/relax.rs) when particles were added or pushed out of a
-/// solid, within what is left of the frame's budget. Moving bodies near the fluid stand at
-/// their pose of the substep's start throughout (see [`relax_coupling`]).
+/// solid, within what is left of the frame's budget. Kinematic bodies near the fluid stand
+/// at their pose of the substep's start throughout (see [`relax_coupling`]).
 fn relax_if_needed(
     fluid: &mut Fluid,
     rt: &mut FluidRuntime,
@@ -169,8 +169,8 @@ fn relax_if_needed(
     }
 }
 
-/// The coupling table the overlap relaxation sees, if a moving body is near the fluid: every
-/// moving body stands at its pose of the substep's start (the table's start and stop poses
+/// The coupling table the overlap relaxation sees, if a kinematic body is near the fluid:
+/// every kinematic body stands at its pose of the substep's start (the table's start and stop poses
 /// both there), where the particles are; contact reflects velocities against its surface
 /// velocity, as the substep's contact does, and moves no body. Without it the relaxation met
 /// a moving body as if at rest at rapier's pose of the frame's end: water spawned twice over
