@@ -84,11 +84,13 @@ fn outside(world: &FluidWorld, fluid: FluidHandle, body: RigidBodyHandle) -> usi
         .count()
 }
 
-/// Moves the tank for 20 frames, adds water at frame 2 and again at frame 10 (on top), and
-/// checks after every frame that none was lost or NaN. Returns the most particles outside the
-/// tank after a frame, and the first frame with some outside.
-fn run(label: &str, solver: Solver, linvel: Vector, angvel: Vector) -> (usize, Option<usize>) {
-    let (mut worst, mut first) = (0, None);
+/// A world with the moving [`tank`], stepped once by rapier, and an empty water fluid of
+/// `solver` at [`SPACING`].
+fn moving_world(
+    solver: Solver,
+    linvel: Vector,
+    angvel: Vector,
+) -> (FluidWorld, RigidBodyHandle, FluidHandle) {
     let mut world = FluidWorld::new();
     let body = tank(&mut world, linvel, angvel);
     world.physics.step();
@@ -97,6 +99,15 @@ fn run(label: &str, solver: Solver, linvel: Vector, angvel: Vector) -> (usize, O
         .build()
         .unwrap();
     let fluid = world.fluids.insert(Fluid::new(params).unwrap());
+    (world, body, fluid)
+}
+
+/// Moves the tank for 20 frames, adds water at frame 2 and again at frame 10 (on top), and
+/// checks after every frame that none was lost or NaN. Returns the most particles outside the
+/// tank after a frame, and the first frame with some outside.
+fn run(label: &str, solver: Solver, linvel: Vector, angvel: Vector) -> (usize, Option<usize>) {
+    let (mut worst, mut first) = (0, None);
+    let (mut world, body, fluid) = moving_world(solver, linvel, angvel);
     for frame in 0..20 {
         if frame == 2 {
             let points = points_in_tank(&world, body, 0..4);
@@ -163,15 +174,12 @@ struct Overfill {
 /// the fastest wall speed (a reflection off the moving walls).
 fn overfill(solver: Solver, linvel: Vector, angvel: Vector) -> Overfill {
     let wall_speed = linvel.length() + angvel.length() * (2.0 as Real).sqrt() * (INNER + WALL);
-    let mut world = FluidWorld::new();
-    let body = tank(&mut world, linvel, angvel);
-    world.physics.step();
-    let params = FluidParamsBuilder::water(SPACING)
-        .solver(solver)
-        .build()
-        .unwrap();
-    let bound = params.equation_of_state.speed_of_sound() + 2.0 * wall_speed;
-    let fluid = world.fluids.insert(Fluid::new(params).unwrap());
+    let (mut world, body, fluid) = moving_world(solver, linvel, angvel);
+    let sound = world.fluids[fluid]
+        .params()
+        .equation_of_state
+        .speed_of_sound();
+    let bound = sound + 2.0 * wall_speed;
     let (mut out_most, mut first_out, mut vmax) = (0, None, 0.0 as Real);
     for frame in 0..16 {
         let spawn = match frame {
