@@ -8,7 +8,12 @@
 //! cargo run --release --features report --example error_vs_runtime -- --quick # < 1 min
 //! cargo run --release --features report --example error_vs_runtime -- --full  # deeper sweeps
 //! cargo run --release --features report --example error_vs_runtime -- --out /tmp/r
+//! cargo run --release --features report --example error_vs_runtime -- --wcsph-adami --wcsph-delta
 //! ```
+//!
+//! The committed report (`report/`) is the last command's output: every solver plus WCSPH with
+//! Adami walls (`WCSPH-A`) and with δ-SPH densities (`WCSPH-D`), the two remedies for WCSPH's
+//! impact-pressure noise, beside the paper's WCSPH.
 //!
 //! Writes into `--out` (default `report/`): `error_vs_runtime.csv` (one row per run, machine
 //! and git revision in `#` lines at the top), `error_vs_runtime.md` (a table per scene,
@@ -852,9 +857,23 @@ fn main() {
         .map(|e| e.0)
         .collect();
 
+    // The command that reproduces this report: its depth and the WCSPH variants it swept.
+    let mut flags: Vec<&str> = depth_flag(args.depth).split_whitespace().collect();
+    for (on, flag) in [
+        (args.wcsph_adami, "--wcsph-adami"),
+        (args.wcsph_delta, "--wcsph-delta"),
+    ] {
+        if on {
+            if flags.is_empty() {
+                flags.push("--");
+            }
+            flags.push(flag);
+        }
+    }
     let command = format!(
-        "cargo run --release --features report --example error_vs_runtime{}",
-        depth_flag(args.depth)
+        "cargo run --release --features report --example error_vs_runtime{}{}",
+        if flags.is_empty() { "" } else { " " },
+        flags.join(" ")
     );
 
     // CSV.
