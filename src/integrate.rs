@@ -28,10 +28,11 @@ pub fn symplectic_euler(
                 prev[k] = x[k];
                 v[k] += accelerations[base + k] * dt;
                 x[k] += v[k] * dt;
-                if !is_finite(x[k]) || !is_finite(v[k]) {
+                let v2 = v[k].length_squared();
+                if !is_finite(x[k]) || !v2.is_finite() {
                     bad += 1;
                 } else {
-                    vmax2 = vmax2.max(v[k].length_squared());
+                    vmax2 = vmax2.max(v2);
                 }
             }
             (bad, vmax2)
@@ -59,10 +60,11 @@ pub fn advance_positions(
                 let v = velocities[base + k];
                 prev[k] = x[k];
                 x[k] += v * dt;
-                if !is_finite(x[k]) || !is_finite(v) {
+                let v2 = v.length_squared();
+                if !is_finite(x[k]) || !v2.is_finite() {
                     bad += 1;
                 } else {
-                    vmax2 = vmax2.max(v.length_squared());
+                    vmax2 = vmax2.max(v2);
                 }
             }
             (bad, vmax2)
@@ -89,10 +91,11 @@ pub fn velocities_from_positions(
             for (k, v) in v.iter_mut().enumerate() {
                 let x = positions[base + k];
                 *v = (x - previous[base + k]) * inv_dt;
-                if !is_finite(x) || !is_finite(*v) {
+                let v2 = v.length_squared();
+                if !is_finite(x) || !v2.is_finite() {
                     bad += 1;
                 } else {
-                    vmax2 = vmax2.max(v.length_squared());
+                    vmax2 = vmax2.max(v2);
                 }
             }
             (bad, vmax2)
@@ -132,7 +135,8 @@ pub fn add_accelerations(dt: Real, accelerations: &[Vector], velocities: &mut [V
         });
 }
 
-/// Largest speed, and the number of particles whose position or velocity is not finite.
+/// Largest speed, and the number of particles whose position or velocity is not finite (a speed
+/// whose square overflows counts as not finite: [`crate::math::is_finite_velocity`]).
 pub fn scan(positions: &[Vector], velocities: &[Vector]) -> (usize, Real) {
     let chunks = crate::par_chunks!(positions, CHUNK)
         .enumerate()
@@ -142,10 +146,11 @@ pub fn scan(positions: &[Vector], velocities: &[Vector]) -> (usize, Real) {
             let mut vmax2: Real = 0.0;
             for k in 0..x.len() {
                 let v = velocities[base + k];
-                if !is_finite(x[k]) || !is_finite(v) {
+                let v2 = v.length_squared();
+                if !is_finite(x[k]) || !v2.is_finite() {
                     bad += 1;
                 } else {
-                    vmax2 = vmax2.max(v.length_squared());
+                    vmax2 = vmax2.max(v2);
                 }
             }
             (bad, vmax2)

@@ -25,6 +25,23 @@ pub fn is_finite(v: Vector) -> bool {
     v.x.is_finite() && v.y.is_finite() && v.z.is_finite()
 }
 
+/// `true` when a velocity's squared speed is finite: its components are finite and its speed
+/// is below about 1.8·10¹⁹ m/s (in `f32`). Beyond that the kinetic energy, the adaptive step's
+/// speed and the contact sweep overflow, and a particle written at such a speed got through a
+/// closed container's walls (1.5·10³⁴ m/s); the step treats it as non-finite (quarantined and
+/// counted), as it does NaN.
+///
+/// ```
+/// use rapier_sph::math::{Vector, is_finite_velocity};
+/// assert!(is_finite_velocity(Vector::new(1e6, 0.0, 0.0)));
+/// assert!(!is_finite_velocity(Vector::new(1e20, 0.0, 0.0)));
+/// assert!(!is_finite_velocity(Vector::new(f32::NAN, 0.0, 0.0)));
+/// ```
+#[inline]
+pub fn is_finite_velocity(v: Vector) -> bool {
+    v.length_squared().is_finite()
+}
+
 /// A deterministic unit direction for a pair of coincident particles `(i, j)`.
 ///
 /// Two particles at exactly the same position have no defined separation direction, yet the

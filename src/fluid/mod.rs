@@ -539,12 +539,14 @@ impl Fluid {
         n - w
     }
 
-    /// Removes every particle whose position or velocity is not finite (NaN or infinite),
-    /// before it can poison its neighbours through the density sums. Returns how many were
+    /// Removes every particle whose position or velocity is not finite (NaN or infinite, or a
+    /// speed whose square overflows: [`crate::math::is_finite_velocity`]), before it can poison
+    /// its neighbours through the density sums. Returns how many were
     /// removed; the pipeline calls this at the start of every frame and after any substep that
     /// produced such a particle, and reports the count as `StepReport::quarantined`.
     pub fn quarantine_non_finite(&mut self) -> usize {
-        let removed = self.remove_where(|x, v, _| !is_finite(x) || !is_finite(v));
+        let removed =
+            self.remove_where(|x, v, _| !is_finite(x) || !crate::math::is_finite_velocity(v));
         self.quarantined += removed;
         removed
     }

@@ -68,6 +68,10 @@ pub(super) fn collider_contact(
             &query,
         );
         if !contact.any() {
+            // No particle near a collider: no impulse on any body this substep (the records
+            // of an earlier substep, whose particles may since have been quarantined, must
+            // not be exchanged again).
+            impulses.iter_mut().for_each(Vec::clear);
             return contact::ContactCounts::default();
         }
         let response = ContactResponse {
