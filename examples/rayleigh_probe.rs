@@ -36,19 +36,6 @@ struct Args {
     /// Akinci's γ.
     #[arg(long, default_value_t = 1.0)]
     gamma: Real,
-    /// He et al. 2014's `κ` (N): when positive, the droplet holds by this surface tension
-    /// instead of Akinci's (`--gamma` is then ignored).
-    #[arg(long, default_value_t = 0.0)]
-    he: Real,
-    /// WCSPH with negative pressures kept (the bulk carries tension) instead of DFSPH.
-    #[arg(long)]
-    wcsph_tension: bool,
-    /// Frame length (s).
-    #[arg(long, default_value_t = 1e-3)]
-    dt: Real,
-    /// The adaptive substep's Courant number.
-    #[arg(long, default_value_t = 0.4)]
-    courant: Real,
     /// Settling time (s) at viscosity 0.5.
     #[arg(long, default_value_t = 0.5)]
     settle: Real,
@@ -69,6 +56,8 @@ struct Args {
     out: Option<String>,
 }
 
+const DT: Real = 1e-3;
+
 fn core_pressure(f: &Fluid, r: f64) -> f64 {
     let c = centre(f.positions());
     let (mut sum, mut k) = (0.0f64, 0);
@@ -81,75 +70,15 @@ fn core_pressure(f: &Fluid, r: f64) -> f64 {
     sum / k.max(1) as f64
 }
 
-/// He et al.'s surface energy `(κ/2) Σ_i V_i |∇C_i|²` (J) of the fluid's particles, by
-/// direct sums over all pairs (cubic spline, as the water preset's density kernel).
-fn he_energy(f: &Fluid, kappa: f64) -> f64 {
-    let p = f.params();
-    if std::env::var_os("RAPIER_SPH_HE_EXACT").is_some() {
-        // (κ/2) V Σ |G_i|², G_i = V Σ_j ∇W_ij, V = m/ρ0.
-        let (h, x) = (p.smoothing_length, f.positions());
-        let v = (p.particle_mass / p.rest_density) as f64;
-        let k = rapier_sph::KernelKind::CubicSpline;
-        return x
-            .iter()
-            .map(|xi| {
-                let g = x.iter().fold(Vector::ZERO, |g, xj| {
-                    let r = *xi - *xj;
-                    let d = r.length();
-                    if d > 0.0 && d < h {
-                        g + r * (k.dw(d, h) / d)
-                    } else {
-                        g
-                    }
-                });
-                0.5 * kappa * v * v * v * g.length_squared() as f64
-            })
-            .sum();
-    }
-    let (h, m) = (p.smoothing_length, p.particle_mass as f64);
-    let x = f.positions();
-    let rho = f.densities();
-    let n = x.len();
-    let k = rapier_sph::KernelKind::CubicSpline;
-    let near = |i: usize| (0..n).filter(move |&j| j != i && (x[i] - x[j]).length() < h);
-    let colour: Vec<f64> = (0..n)
-        .map(|i| {
-            let own = k.w(0.0, h) as f64 / rho[i] as f64;
-            m * near(i).fold(own, |c, j| {
-                c + k.w((x[i] - x[j]).length(), h) as f64 / rho[j] as f64
-            })
-        })
-        .collect();
-    (0..n)
-        .map(|i| {
-            let g = near(i).fold(Vector::ZERO, |g, j| {
-                let r = x[i] - x[j];
-                let d = r.length();
-                g + r * (k.dw(d, h) / d / rho[j] * colour[j] as Real)
-            }) * (m / colour[i]) as Real;
-            0.5 * kappa * m / rho[i] as f64 * g.length_squared() as f64
-        })
-        .sum()
-}
-
 fn main() {
     let a = Args::parse();
-    let dt_frame = a.dt;
     let s = a.spacing;
     let params = |viscosity: Real| {
-        let b = FluidParamsBuilder::water(s);
-        let b = if a.he > 0.0 {
-            b.surface_tension_he(a.he)
-        } else {
-            b.surface_tension(a.gamma)
-        };
-        let b = if a.wcsph_tension {
-            b.solver(rapier_sph::Solver::Wcsph)
-                .clamp_negative_pressure(false)
-        } else {
-            b
-        };
-        b.viscosity(viscosity).build().unwrap()
+        FluidParamsBuilder::water(s)
+            .surface_tension(a.gamma)
+            .viscosity(viscosity)
+            .build()
+            .unwrap()
     };
     let mut fluid = Fluid::new(params(0.5)).unwrap();
     let k = a.radius.ceil() as i32;
@@ -169,10 +98,7 @@ fn main() {
     let r = (3.0 * n as f64 / (4.0 * PI)).cbrt() * s as f64;
     let mut set = FluidSet::new();
     let h = set.insert(fluid);
-    let mut pipeline = FluidPipeline::with_time_stepping(rapier_sph::TimeStepping::Adaptive {
-        courant: a.courant,
-        max_substeps: 64,
-    });
+    let mut pipeline = FluidPipeline::new();
     let (mut bodies, colliders, bvh) = (
         RigidBodySet::new(),
         ColliderSet::new(),
@@ -181,10 +107,10 @@ fn main() {
     let clock = Instant::now();
     let mut step = |set: &mut FluidSet| {
         pipeline
-            .step(Vector::ZERO, dt_frame, set, &mut bodies, &colliders, &bvh)
+            .step(Vector::ZERO, DT, set, &mut bodies, &colliders, &bvh)
             .expect("step");
     };
-    for _ in 0..(a.settle / dt_frame).round() as usize {
+    for _ in 0..(a.settle / DT).round() as usize {
         step(&mut set);
     }
     set[h].set_params(params(a.viscosity)).unwrap();
@@ -196,68 +122,17 @@ fn main() {
         *v += Vector::new(-d.x, -d.y, 2.0 * d.z) * amp;
     }
     let (mut q, mut pc) = (Vec::new(), Vec::new());
-    let frames = (a.seconds / dt_frame).round() as usize;
-    let energy = |f: &Fluid| {
-        let e = if a.he > 0.0 {
-            he_energy(f, a.he as f64)
-        } else {
-            0.0
-        };
-        (f.kinetic_energy(), e)
-    };
-    let report = |k: usize, (kin, e): (f64, f64)| {
-        println!(
-            "t {:.3} s: kinetic {kin:.4e} J, surface {e:.6e} J, sum {:.6e} J",
-            k as f64 * dt_frame as f64,
-            kin + e
-        )
-    };
-    report(0, energy(&set[h]));
-    let every = (frames / 10).max(1);
-    for k in 0..frames {
+    for _ in 0..(a.seconds / DT).round() as usize {
         step(&mut set);
         q.push(quadrupole(set[h].positions()));
         pc.push(core_pressure(&set[h], r));
-        if (k + 1) % every == 0 {
-            report(k + 1, energy(&set[h]));
-        }
     }
-    // Particles shed: farther than R + 2 spacings from the centre.
-    let c = centre(set[h].positions());
-    let shed = set[h]
-        .positions()
-        .iter()
-        .filter(|p| ((**p - c).length() as f64) > r + 2.0 * s as f64)
-        .count();
-    println!("shed (beyond R + 2 spacings): {shed}");
-    let mut radii: Vec<f64> = set[h]
-        .positions()
-        .iter()
-        .map(|p| (*p - c).length() as f64 / s as f64)
-        .collect();
-    radii.sort_by(f64::total_cmp);
-    let at = |q: f64| radii[((radii.len() - 1) as f64 * q) as usize];
-    let core: Vec<Real> = set[h]
-        .positions()
-        .iter()
-        .zip(set[h].densities())
-        .filter(|(p, _)| ((**p - c).length() as f64) < 0.5 * r)
-        .map(|(_, d)| *d)
-        .collect();
-    println!(
-        "radii (spacings): median {:.2}, 90 % {:.2}, 99 % {:.2}, max {:.2}; core density {:.1}",
-        at(0.5),
-        at(0.9),
-        at(0.99),
-        at(1.0),
-        core.iter().sum::<Real>() / core.len() as Real
-    );
     let wall = clock.elapsed().as_secs_f64();
     if let Some(path) = &a.out {
         let text: String = q
             .iter()
             .enumerate()
-            .map(|(k, v)| format!("{:.4} {v:.6e}\n", (k + 1) as f64 * dt_frame as f64))
+            .map(|(k, v)| format!("{:.4} {v:.6e}\n", (k + 1) as f64 * DT as f64))
             .collect();
         std::fs::write(path, text).unwrap();
     }
@@ -278,17 +153,11 @@ fn main() {
         );
         return;
     }
-    let skip = (a.skip / dt_frame).round() as usize;
+    let skip = (a.skip / DT).round() as usize;
     let rho = 1000.0;
     // Scan periods from 0.05 s to the window's length.
-    let span = (q.len() - skip) as f64 * dt_frame as f64;
-    let f = fit::fit(
-        &q[skip..],
-        dt_frame as f64,
-        2.0 * PI / span,
-        2.0 * PI / 0.05,
-    )
-    .expect("fit");
+    let span = (q.len() - skip) as f64 * DT as f64;
+    let f = fit::fit(&q[skip..], DT as f64, 2.0 * PI / span, 2.0 * PI / 0.05).expect("fit");
     let w0 = (f.omega * f.omega + f.decay * f.decay).sqrt();
     let sigma = rho * r.powi(3) * w0 * w0 / 8.0;
     println!(

@@ -247,14 +247,6 @@ pub struct FluidParams {
     /// surface tension. Both presets: 0 (the stage is skipped).
     #[cfg_attr(feature = "snapshot", serde(default))]
     pub surface_tension: Real,
-    /// Surface energy coefficient `κ` (N) of He et al. (2014)'s surface tension: the energy
-    /// `(κ/2) Σ_i V_i |∇C_i|²` of the smoothed colour field's gradient and the pairwise,
-    /// momentum-conserving force derived from it (`src/forces/surface_tension_he.rs` has
-    /// the model and what it was measured to do). An alternative to Akinci's
-    /// [`Self::surface_tension`], opt-in; not available with the Clavet solver. Both
-    /// presets: 0 (the stage is skipped).
-    #[cfg_attr(feature = "snapshot", serde(default))]
-    pub surface_tension_he: Real,
     /// Adhesion `β` of Akinci et al. (2013) to colliders (m⁴ kg⁻¹ s⁻², as `γ`'s cohesion
     /// term): particles within `h` of a collider are pulled towards its surface, which sets
     /// the contact angle a droplet takes on it (larger `β`: smaller angle, more wetting).
@@ -500,7 +492,6 @@ impl FluidParams {
     /// neither with Clavet (its cohesion is its surface tension).
     fn validate_surface_tension(&self) -> SphResult<()> {
         non_negative("surface_tension", self.surface_tension)?;
-        non_negative("surface_tension_he", self.surface_tension_he)?;
         non_negative("adhesion", self.adhesion)?;
         if self.adhesion > 0.0 && !self.wall_density {
             return invalid(
@@ -512,7 +503,6 @@ impl FluidParams {
         let clavet = matches!(self.solver, Solver::Clavet(_));
         for (field, v) in [
             ("surface_tension", self.surface_tension),
-            ("surface_tension_he", self.surface_tension_he),
             ("adhesion", self.adhesion),
         ] {
             if clavet && v > 0.0 {
@@ -617,7 +607,6 @@ impl FluidParamsBuilder {
                 wall_viscosity: 0.0,
                 viscosity_solve: ViscositySolve::Explicit,
                 surface_tension: 0.0,
-                surface_tension_he: 0.0,
                 adhesion: 0.0,
                 density_kernel: KernelKind::CubicSpline,
                 pressure_kernel: KernelKind::CubicSpline,
@@ -685,7 +674,6 @@ impl FluidParamsBuilder {
                 wall_viscosity: 0.0,
                 viscosity_solve: ViscositySolve::Explicit,
                 surface_tension: 0.0,
-                surface_tension_he: 0.0,
                 adhesion: 0.0,
                 density_kernel: KernelKind::PaperPoly6,
                 pressure_kernel: KernelKind::Spiky,
@@ -853,12 +841,6 @@ impl FluidParamsBuilder {
     /// ```
     pub fn surface_tension_sigma(mut self, sigma: Real) -> Self {
         self.sigma = Some(sigma);
-        self
-    }
-    /// Surface energy coefficient `κ` (N) of He et al. 2014 (see
-    /// [`FluidParams::surface_tension_he`]); 0 (the default) skips it.
-    pub fn surface_tension_he(mut self, kappa: Real) -> Self {
-        self.params.surface_tension_he = kappa;
         self
     }
     /// Adhesion `β` to colliders (see [`FluidParams::adhesion`]); 0 (the default): none.

@@ -348,11 +348,6 @@ fn check_pair(a: &FluidParams, b: &FluidParams) -> SphResult<()> {
         ),
         ("wall_viscosity", a.wall_viscosity, b.wall_viscosity),
         ("surface_tension", a.surface_tension, b.surface_tension),
-        (
-            "surface_tension_he",
-            a.surface_tension_he,
-            b.surface_tension_he,
-        ),
         ("adhesion", a.adhesion, b.adhesion),
         ("restitution", a.restitution, b.restitution),
         ("friction", a.friction, b.friction),

@@ -4,7 +4,6 @@
 
 pub mod external;
 pub(crate) mod surface_tension;
-pub(crate) mod surface_tension_he;
 pub mod viscosity;
 pub(crate) mod viscosity_implicit;
 pub(crate) mod viscosity_stress;

@@ -498,7 +498,6 @@ fn solve(
     viscous.clear();
     wall_viscosity(&mut ctx, &mut viscous);
     surface_tension(&mut ctx, &mut ws.surface_normals);
-    surface_tension_he(&mut ctx, &mut ws.surface_colour, &mut ws.surface_normals);
     if let Some(c) = coupling {
         let watch = watch.filter(|w| w.any_dynamic_forces);
         if let Some(w) = watch {
@@ -650,42 +649,6 @@ fn surface_tension(ctx: &mut StepContext<'_>, normals: &mut Vec<Vector>) {
             crate::with_kernel!(p.density_kernel, K =>
                 forces::surface_tension::apply::<K, S>(
                     &st, &pairs, (densities, inv), normals, velocities))
-        })
-    });
-}
-
-/// He et al. (2014)'s surface tension (`forces::surface_tension_he`), after Akinci's stage
-/// (the two are independent settings); skipped when its `κ` is 0.
-fn surface_tension_he(
-    ctx: &mut StepContext<'_>,
-    scratch: &mut (Vec<Real>, Vec<Real>),
-    grads: &mut Vec<Vector>,
-) {
-    let exact = std::env::var_os("RAPIER_SPH_HE_EXACT").is_some();
-    let p = ctx.params;
-    if p.surface_tension_he <= 0.0 {
-        return;
-    }
-    let (kappa, dt) = (p.surface_tension_he, ctx.dt);
-    let (positions, neighbors) = (&*ctx.positions, ctx.neighbors);
-    let (densities, inv) = (&*ctx.densities, &*ctx.inv_densities);
-    let velocities = &mut *ctx.velocities;
-    ctx.report.timed(Stage::SurfaceTension, || {
-        crate::with_separation!(p.domain, S, sep => {
-            let pairs = crate::neighbors::Pairs {
-                positions,
-                neighbors,
-                mass: p.particle_mass,
-                h: p.smoothing_length,
-                sep,
-            };
-            crate::with_kernel!(p.density_kernel, K => if exact {
-                forces::surface_tension_he::apply_exact::<K, S>(
-                    (kappa, dt, p.rest_density), &pairs, grads, velocities)
-            } else {
-                forces::surface_tension_he::apply::<K, S>(
-                    (kappa, dt), &pairs, (densities, inv), scratch, velocities)
-            })
         })
     });
 }

@@ -35,9 +35,6 @@ pub(crate) struct Workspace {
     pub inv_densities: Vec<Real>,
     /// The surface normals of the surface-tension stage (`forces::surface_tension`).
     pub surface_normals: Vec<Vector>,
-    /// The colour field and its squared gradient of He et al.'s surface tension
-    /// (`forces::surface_tension_he`).
-    pub surface_colour: (Vec<Real>, Vec<Real>),
     /// Per-chunk partial sums for diagnostics (summed serially, so results are deterministic).
     pub partials: Vec<(f64, Real)>,
     /// Largest speed after the last substep (the adaptive time step's input).
@@ -100,7 +97,6 @@ impl Workspace {
             + self.previous_positions.capacity() * v
             + self.inv_densities.capacity() * 4
             + self.surface_normals.capacity() * v
-            + (self.surface_colour.0.capacity() + self.surface_colour.1.capacity()) * 4
             + self.partials.capacity() * std::mem::size_of::<(f64, Real)>()
             + self.forces.heap_bytes()
             + (self.scalar_scratch.0.capacity() + self.scalar_scratch.1.capacity()) * 4
