@@ -17,13 +17,15 @@
 //! cargo bench --bench game -- --preset game --modes still --gravity-substep inf --regions
 //! cargo bench --bench game -- --preset game --particle-radius 0.4
 //! cargo bench --bench game -- --preset game --gravity-substep inf --predict-walls true
+//! cargo bench --bench game -- --preset game --full-warm-start true --chebyshev 0.8
 //! ```
 //!
 //! `--preset water`, `--preset game` or `--preset water,game` (default) picks the presets,
 //! `--modes` the rows (default `moving,still,asleep`). The DFSPH flags (`--warm-start`,
 //! `--min-iterations`, `--hydrostatic-walls`, `--full-warm-start`, `--max-density-error`,
 //! `--gravity-substep`, which takes `inf` to lift DFSPH's gravity bound on the substep,
-//! `--predict-walls`) change
+//! `--predict-walls`, `--carry-density-error`, `--chebyshev`, which takes `none` or the
+//! spectral radius estimate `ρ`) change
 //! the given field of `Dfsph` in every preset's settings; `--particle-radius F` sets the
 //! contact radius (`FluidParams::particle_radius`) to `F` spacings. `--regions` prints, after each row,
 //! where the compression is (see `Regions`).
@@ -237,6 +239,15 @@ impl Args {
             }
             if let Some(w) = value("--predict-walls").and_then(|s| s.parse().ok()) {
                 dfsph.predict_walls = w;
+            }
+            if let Some(c) = value("--carry-density-error").and_then(|s| s.parse().ok()) {
+                dfsph.carry_density_error = c;
+            }
+            if let Some(r) = value("--chebyshev") {
+                dfsph.chebyshev = match r.as_str() {
+                    "none" => None,
+                    r => r.parse().ok(),
+                };
             }
             dfsph
         };
