@@ -4,6 +4,7 @@
 //! cargo run --release --example buoyancy                      # WCSPH, densities 250/500/750
 //! cargo run --release --example buoyancy -- --solver pbf --spacing 0.03 --seconds 5
 //! cargo run --release --example buoyancy -- --solver dfsph-hw   # DFSPH, hydrostatic walls
+//! cargo run --release --example buoyancy -- --solver clavet     # Clavet (its default walls)
 //! cargo run --release --example buoyancy -- --solver dfsph --density 250 --trace 10  # a line every 10 frames
 //! cargo run --release --example buoyancy -- --solver pbf --cubes   # the cubes test's scene: 16 cm cubes, 2.5 cm, 4 s (the test runs 3)
 //! cargo run --release --example buoyancy -- --cubes --depth 0.2     # the same in shallower water (0.2 m)
@@ -49,8 +50,9 @@ fn main() {
                         ..Default::default()
                     }),
                     "pbf" => Solver::Pbf(Default::default()),
+                    "clavet" => Solver::clavet(),
                     other => exit(&format!(
-                        "unknown solver {other} (wcsph, dfsph, dfsph-hw, pbf)"
+                        "unknown solver {other} (wcsph, dfsph, dfsph-hw, pbf, clavet)"
                     )),
                 }
             }

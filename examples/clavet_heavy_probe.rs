@@ -1,7 +1,8 @@
 //! A 16 cm box slightly denser than water released with its top at the surface of water
 //! 0.44 m deep (4 cm spacing, 0.6 m tank; `tests/light_bodies.rs`'s
 //! `slightly_dense_boxes_sink_once_water_covers_their_top`), with Clavet's relaxation at a
-//! chosen cohesion, walls in its densities or not: what holds the box up.
+//! chosen cohesion, the tank's walls in its densities or not (the box, a dynamic body, meets
+//! Clavet's water through contact either way): how it sinks.
 //!
 //! ```text
 //! cargo run --release --example clavet_heavy_probe -- [density] [cohesion] [seconds] [walls] [solver]
@@ -13,7 +14,8 @@
 //! fluid must carry beyond Archimedes for the column from the box's bottom to the water's
 //! level (`(m_b − ρ_w·A·(level − bottom))·g`, N: what a meniscus pinned at the top edge
 //! holds when no water is over the top face) and the number of particles over its top face
-//! (within its footprint, less than a spacing and a half above it).
+//! (within its footprint, less than a spacing and a half above it), and its tilt (the angle of
+//! its up axis from the vertical).
 //!
 //! Environment knobs (docs/coupling.md, "Known limits", has what they measured):
 //! `PROBE_LEVEL` the water's depth (m, default 0.44), `PROBE_K` Clavet's stiffness `k`
@@ -123,8 +125,11 @@ fn main() {
             })
             .count();
         let excess = (mass - 1000.0 * area * (level - lowest)) * 9.81;
+        // The tilt: the angle of the box's own up axis from the vertical.
+        let up = pose.rotation * Vector::Y;
+        let tilt = up.y.clamp(-1.0, 1.0).acos().to_degrees();
         println!(
-            "t {:.1} s: lowest corner {lowest:.4} m, v_y {:+.4} m/s, beyond Archimedes {excess:+.2} N, over the top {over}",
+            "t {:.1} s: lowest corner {lowest:.4} m, v_y {:+.4} m/s, beyond Archimedes {excess:+.2} N, over the top {over}, tilt {tilt:.1}°",
             frame as Real / 60.0,
             b.linvel().y
         );

@@ -271,9 +271,9 @@ fn a_fixed_box_under_water_takes_its_buoyancy() {
 }
 
 /// A dynamic box floating in a tank, with every collider watched: the force reported on the
-/// body is the momentum the fluid gave rapier's body, and all the reported forces balance the
-/// fluid's momentum change, every frame (Newton's third law).
-fn newton(solver: Solver, name: &str) {
+/// body is the momentum the fluid gave rapier's body, and (with `balance`) all the reported
+/// forces balance the fluid's momentum change, every frame (Newton's third law).
+fn newton(solver: Solver, name: &str, balance: bool) {
     let s = 0.025;
     let mut t = tank(solver, s, (0.3, 0.3, 0.2), None);
     let p = &mut t.world.physics;
@@ -329,7 +329,7 @@ fn newton(solver: Solver, name: &str) {
             worst.1.max(residual.length() / weight),
         );
         assert!(
-            residual.length() < 1e-4 * weight,
+            !balance || residual.length() < 1e-4 * weight,
             "{name} frame {frame}: balance residual {residual:?} N"
         );
     }
@@ -349,9 +349,13 @@ fn newton(solver: Solver, name: &str) {
 
 #[test]
 fn forces_obey_newtons_third_law_with_a_dynamic_body() {
-    newton(Solver::Dfsph(Dfsph::default()), "DFSPH");
-    newton(Solver::Wcsph, "WCSPH");
-    newton(Solver::Pbf(Pbf::default()), "PBF");
+    newton(Solver::Dfsph(Dfsph::default()), "DFSPH", true);
+    newton(Solver::Wcsph, "WCSPH", true);
+    newton(Solver::Pbf(Pbf::default()), "PBF", true);
+    // Clavet meets the dynamic body through contact only: the body takes exactly what the
+    // step reports on it. The whole balance is not claimed: its relaxation's term of the
+    // tank's fixed walls is not reported (see above).
+    newton(Solver::clavet(), "Clavet", false);
 }
 
 /// Watching colliders reads what the step does and changes none of it.

@@ -298,8 +298,8 @@ fn heavy_bodies_rest_on_the_floor_with_no_particle_inside() {
 /// While the relaxation held its bulk under tension (the fluid resting 9–13 % under `ρ0`, its
 /// negative pressure balancing the near pressure everywhere), the same box hung at the
 /// surface (bottom at 0.28 m after 2.5 s) and at cohesion 0.1 still crept through the water at
-/// 6.5 mm/s. Measured now: it lands between 1.0 and 2.5 s (lowest corner 0.0625 m, sinking at
-/// 0.11 m/s, at 1.0 s).
+/// 6.5 mm/s. Measured now (its water meets the body through contact only): it lands within
+/// 1 s (lowest corner 0.113 m at 0.5 s, 0.0400 m at 1.0 s; `examples/clavet_heavy_probe.rs`).
 #[test]
 fn clavet_heavy_body_sinks_through_deep_water() {
     let spacing = 0.04;
@@ -419,8 +419,8 @@ fn release_in_deep_water(solver: Solver, density: Real, seconds: Real) -> Releas
 /// and on the fluid), contact's impulses on the body, the added-mass solve, the body's velocity
 /// in the walls' density rate, and tightening or loosening DFSPH's density target (0.01 % to
 /// 1 %): it hangs each time; shaking the water (random kicks of 0.1–0.3 m/s) neither. Its bottom
-/// stays at 0.266–0.270 m for 6 s, against 0.264 m for the boat (PBF 0.265, Clavet 0.267,
-/// WCSPH 0.254); at 1,250 kg/m³ (top 4 cm under the level as a boat) water reaches its top
+/// stays at 0.266–0.270 m for 6 s, against 0.264 m for the boat (PBF 0.265, WCSPH 0.254,
+/// Clavet's lowest corner 0.253–0.254 m, tilted 1–3°); at 1,250 kg/m³ (top 4 cm under the level as a boat) water reaches its top
 /// between 2.0 and 2.5 s and it sinks from then on. So a box of height `H` hangs below about
 /// `ρ_w·(1 + s/H)` (1,250 kg/m³ here, 1,125 at 2 cm, where DFSPH's 1,200 kg/m³ box lands
 /// and the 1,100 one creeps): a resolution limit (no film thinner than a particle), not the
@@ -431,13 +431,8 @@ fn release_in_deep_water(solver: Solver, density: Real, seconds: Real) -> Releas
 /// speed `√(2·(Δρ/ρ_w)·g·H/C_d)` with a cube's `C_d ≈ 1.05` is 1.1 m/s: 0.2 s for the 0.24 m;
 /// the bound is generous, not tight), and no box sinks before water covers its top (the
 /// 1,100 kg/m³ one with DFSPH: never flooded, never sank): none goes a spacing deeper than
-/// the boat's depth before a particle stands over its top face. Clavet is left out: with
-/// walls in its densities (its default) it holds the 1,400 kg/m³ box, at its default cohesion
-/// above its boat depth until water covers the top after 1.5–2 s (lowest corner 0.237 → 0.217
-/// m in 4 s), without cohesion in the bulk once covered (0.138–0.140 m from 2 to 8 s, 3.5
-/// spacings above the floor); with contact-only walls it sinks once covered (without cohesion
-/// it lands within 1 s). The hold comes with its walls term on the body, not its cohesion;
-/// not traced further (docs/coupling.md, `examples/clavet_heavy_probe.rs`).
+/// the boat's depth before a particle stands over its top face. Clavet has its own test below
+/// (its cohesion keeps water off the top face for a second, and it lands tilted).
 #[test]
 fn slightly_dense_boxes_sink_once_water_covers_their_top() {
     let cases = [
@@ -466,6 +461,52 @@ fn slightly_dense_boxes_sink_once_water_covers_their_top() {
         let sinks = density < 1_250.0 || r.lowest < 3.0 * 0.04;
         if !(order && sinks) {
             failures.push(format!("{} at {density} kg/m³", solver.name()));
+        }
+    }
+    assert!(failures.is_empty(), "failed: {failures:?}");
+}
+
+/// Clavet's water lets the 1,400 kg/m³ box of the test above sink and land, as DFSPH's, PBF's
+/// and WCSPH's do: dynamic bodies meet its water through contact only (`solver::clavet`,
+/// "Walls"). While they counted in its wall densities the box was held in the water: at the
+/// default cohesion above its boat depth (lowest corner 0.237 → 0.217 m over 4 s), without
+/// cohesion 3.5 spacings above the floor (0.138–0.140 m from 2 to 8 s). Bounds: it sinks only
+/// once water covers its top (as above), and within the 4 s the test above gives the other
+/// solvers it rests on the last particle layer under it (lowest corner one spacing up, lower
+/// if it rests tilted) or near it: at most two spacings up (the held box stood at 3.5), and no
+/// lower than a quarter spacing under the floor. Measured: without cohesion water covers the
+/// top at frame 14 and the box rests at 0.0400 m within 1 s (the form-drag terminal speed,
+/// 1.1 m/s, takes it the 0.18 m from its boat depth in 0.2 s); at the default cohesion water
+/// covers it at frame 59, and it sinks at 0.04–0.08 m/s, tilting by 20–24°, to 0.0302 m at
+/// 4 s (resting tilted from 3.5 s; what slows it is not traced). Figures:
+/// `cargo test --release --test light_bodies clavet -- --nocapture`.
+#[test]
+fn clavet_slightly_dense_box_lands() {
+    let spacing = 0.04;
+    let cases = [
+        ("cohesion 1", Solver::clavet()),
+        (
+            "cohesion 0",
+            Solver::Clavet(rapier_sph::Clavet {
+                cohesion: 0.0,
+                ..Default::default()
+            }),
+        ),
+    ];
+    let mut failures = Vec::new();
+    for (name, solver) in cases {
+        let r = release_in_deep_water(solver, 1_400.0, 4.0);
+        println!(
+            "Clavet {name}, 1400 kg/m³: lowest corner {:.4} m after 4 s, water over its top \
+             from frame {:?}, a spacing under its depth as a boat from frame {:?}",
+            r.lowest, r.flooded, r.sank
+        );
+        let order = match (r.flooded, r.sank) {
+            (Some(f), Some(s)) => f <= s,
+            _ => false,
+        };
+        if !(order && r.lowest <= 2.0 * spacing && r.lowest >= -0.25 * spacing) {
+            failures.push(format!("{name}: lowest corner {:.4} m", r.lowest));
         }
     }
     assert!(failures.is_empty(), "failed: {failures:?}");

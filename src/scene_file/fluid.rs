@@ -456,8 +456,9 @@ pub struct FluidDesc {
     /// Pressure solver ([`crate::Solver`]). Default: the preset's (water: DFSPH; paper: WCSPH).
     #[serde(default)]
     pub solver: Option<SolverDesc>,
-    /// Walls count in the density ([`FluidParamsBuilder::wall_density`]). Default: the
-    /// preset's (water: on, with every solver; paper: off).
+    /// Walls count in the density ([`FluidParamsBuilder::wall_density`]; with Clavet the
+    /// fixed and kinematic ones, dynamic bodies by contact only). Default: the preset's
+    /// (water: on, with every solver; paper: off).
     #[serde(default)]
     pub wall_density: Option<bool>,
     /// How WCSPH turns pressures into forces ([`crate::WcsphPressure`]): `Paper` (the

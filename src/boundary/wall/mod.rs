@@ -56,7 +56,6 @@ use rayon::prelude::*;
 mod planes;
 mod terms;
 pub(crate) use planes::WallPlanes;
-pub(crate) use terms::ClavetCoupled;
 pub(crate) use terms::surface_near;
 use terms::{Rows, Terms, clavet_walls, update_chunk};
 
@@ -190,9 +189,6 @@ pub struct WallWorkspace {
     pub clavet: Vec<[Real; 2]>,
     /// Gradients of the two densities of `clavet` at the particle (1/m; into the walls).
     pub clavet_gradient: Vec<[Vector; 2]>,
-    /// The dynamic bodies' share of [`Self::clavet_gradient`] per particle, for their
-    /// reaction (filled by [`Self::update_clavet`] when a dynamic body is near; else empty).
-    pub clavet_coupled: Vec<ClavetCoupled>,
     clavet_tables: Option<(Real, Real, HalfSpaceTable, HalfSpaceTable)>,
     /// Per chunk of particles, the watched colliders' shares of their wall terms (in particle
     /// order; empty unless [`WallQuery::watch`]; see `boundary::forces`).
@@ -520,9 +516,8 @@ impl WallWorkspace {
     /// Clavet's wall densities ([`Self::clavet`], [`Self::clavet_gradient`]) of every particle
     /// of `grid` at its (predicted) position in `positions`, with the colliders found by the
     /// last [`Self::update`] on the same positions. Moving kinematic bodies stand at their pose
-    /// of the substep's end (the positions are predicted there), and so do dynamic bodies,
-    /// whose share goes to [`Self::clavet_coupled`] (their entry also to [`Self::coupled`]
-    /// for [`Self::reaction`]). It projects each particle near a wall onto the candidate colliders a second
+    /// of the substep's end (the positions are predicted there); dynamic bodies do not count
+    /// (contact only, see `terms::clavet_walls`). It projects each particle near a wall onto the candidate colliders a second
     /// time (the projections of `update` are not kept): the cost falls on Clavet fluids with
     /// walls only, and `update`'s loop stays as the other solvers run it.
     pub(crate) fn update_clavet(
@@ -536,52 +531,26 @@ impl WallWorkspace {
         self.clavet_tables(h, spacing);
         self.clavet.resize(n, [0.0; 2]);
         self.clavet_gradient.resize(n, [Vector::ZERO; 2]);
-        self.clavet_coupled.clear();
         if !self.candidates.any() {
             self.clavet.fill([0.0; 2]);
             self.clavet_gradient.fill([Vector::ZERO; 2]);
             return;
-        }
-        if self.coupled_any {
-            self.clavet_coupled.resize(n, ClavetCoupled::default());
         }
         let Some((_, _, t2, t3)) = &self.clavet_tables else {
             unreachable!("tables are made above")
         };
         let table = query.coupling.map_or(&[][..], |c| c.table());
         let candidates = &self.candidates;
-        if !self.coupled_any {
-            crate::par_chunks_mut!(self.clavet, CHUNK)
-                .zip(crate::par_chunks_mut!(self.clavet_gradient, CHUNK))
-                .enumerate()
-                .for_each(|(c, (dens, grad))| {
-                    for k in 0..dens.len() {
-                        let i = c * CHUNK + k;
-                        let cands = candidates.of_cell(grid.cell_of(i));
-                        let (d, g, _) = clavet_walls(query, table, cands, (t2, t3), positions[i]);
-                        (dens[k], grad[k]) = (d, g);
-                    }
-                });
-            return;
-        }
         crate::par_chunks_mut!(self.clavet, CHUNK)
             .zip(crate::par_chunks_mut!(self.clavet_gradient, CHUNK))
-            .zip(crate::par_chunks_mut!(self.clavet_coupled, CHUNK))
             .enumerate()
-            .for_each(|(c, ((dens, grad), share))| {
+            .for_each(|(c, (dens, grad))| {
                 for k in 0..dens.len() {
                     let i = c * CHUNK + k;
                     let cands = candidates.of_cell(grid.cell_of(i));
-                    (dens[k], grad[k], share[k]) =
-                        clavet_walls(query, table, cands, (t2, t3), positions[i]);
+                    (dens[k], grad[k]) = clavet_walls(query, table, cands, (t2, t3), positions[i]);
                 }
             });
-        // The body each particle's reaction goes to is Clavet's (`reaction` reads `coupled`).
-        for (cw, share) in self.coupled.iter_mut().zip(&self.clavet_coupled) {
-            if share.entry != u32::MAX {
-                (cw.entry, cw.point) = (share.entry, share.point);
-            }
-        }
     }
 
     /// Clavet's half-space tables for support `h` and spacing `spacing` (made again only
@@ -657,7 +626,6 @@ impl WallWorkspace {
             + self.coupled.capacity() * std::mem::size_of::<Coupled>()
             + self.clavet.capacity() * std::mem::size_of::<[Real; 2]>()
             + self.clavet_gradient.capacity() * std::mem::size_of::<[Vector; 2]>()
-            + self.clavet_coupled.capacity() * std::mem::size_of::<ClavetCoupled>()
             + self.adhesion.capacity() * std::mem::size_of::<Vector>()
             + self
                 .plane_chunks

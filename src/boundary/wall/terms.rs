@@ -315,9 +315,9 @@ impl Rows<'_> {
 /// Clavet's two wall densities and their gradients at `x` from the colliders among `cands`,
 /// with the tables `(t2, t3)` of the kernels `(1 − q)²` and `(1 − q)³`: the union of
 /// half-spaces per kernel, as in [`WallWorkspace::update`](super::WallWorkspace::update), per volume of the lattice rows
-/// behind the wall. Dynamic bodies count as the other walls do, and their share of the two
-/// gradients is returned with the entry of the body contributing most and its closest point
-/// (`u32::MAX`: none), for their reaction (see [`ClavetCoupled`]).
+/// behind the wall. Only fixed and kinematic colliders count: dynamic bodies meet Clavet's
+/// water through contact alone (see [`crate::solver::clavet`], "Walls": counted, their term
+/// held a 1,400 kg/m³ box in the water).
 #[inline(always)]
 pub(super) fn clavet_walls(
     query: &WallQuery<'_>,
@@ -325,87 +325,44 @@ pub(super) fn clavet_walls(
     cands: &[rapier3d::geometry::ColliderHandle],
     (t2, t3): (&HalfSpaceTable, &HalfSpaceTable),
     x: Vector,
-) -> ([Real; 2], [Vector; 2], ClavetCoupled) {
+) -> ([Real; 2], [Vector; 2]) {
     let (_, colliders, bodies) = query.scene;
     let (h, spacing) = (query.params.smoothing_length, query.params.particle_spacing);
     // Number density of the lattice rows behind the wall.
     let per_volume = 1.0 / (spacing * spacing * spacing);
     let (full2, full3) = (t2.full(), t3.full());
     let (mut u, mut g): ([Real; 2], [Vector; 2]) = ([0.0; 2], [Vector::ZERO; 2]);
-    let mut c = ClavetCoupled::default();
-    let mut largest: Real = 0.0;
     for &handle in cands {
         let Some(co) = colliders.get(handle) else {
             continue;
         };
-        let found = entry_of(table, handle);
-        if found.is_none()
-            && co
-                .parent()
-                .and_then(|b| bodies.get(b))
-                .is_some_and(|b| b.is_dynamic())
+        if co
+            .parent()
+            .and_then(|b| bodies.get(b))
+            .is_some_and(|b| b.is_dynamic())
         {
-            // A dynamic body outside the coupling table exchanges nothing: left to contact.
+            // A dynamic body: contact only.
             continue;
         }
-        let pose = match found {
+        let pose = match entry_of(table, handle) {
             Some((_, m)) if m.moving => &m.stop,
             _ => co.position(),
         };
-        let Some((d, normal, point)) = surface_near(co, pose, x, h) else {
+        let Some((d, normal, _)) = surface_near(co, pose, x, h) else {
             continue;
         };
-        let body = found.filter(|(_, m)| m.dynamic).map(|(e, _)| e);
         for (t, (table, full)) in [(t2, full2), (t3, full3)].into_iter().enumerate() {
             let (phi, area) = table.eval(d);
             let a = (phi / full).min(1.0);
             let gk = -normal * (area / full * (1.0 - u[t]));
             g[t] = g[t] * (1.0 - a) + gk;
-            c.gradient[t] *= 1.0 - a;
-            if body.is_some() {
-                c.gradient[t] += gk;
-            }
             u[t] = 1.0 - (1.0 - u[t]) * (1.0 - a);
-            if let Some(e) = body.filter(|_| t == 0)
-                && (gk.length_squared() > largest || c.entry == u32::MAX)
-            {
-                largest = gk.length_squared();
-                (c.entry, c.point) = (e, point);
-            }
         }
     }
-    c.gradient = [
-        c.gradient[0] * (full2 * per_volume),
-        c.gradient[1] * (full3 * per_volume),
-    ];
     (
         [u[0] * full2 * per_volume, u[1] * full3 * per_volume],
         [g[0] * (full2 * per_volume), g[1] * (full3 * per_volume)],
-        c,
     )
-}
-
-/// The dynamic bodies' share of one particle's Clavet wall gradients (1/m, into the walls;
-/// [`WallWorkspace::clavet_gradient`](super::WallWorkspace::clavet_gradient)'s units), and the entry of the body contributing most
-/// with its closest point (`u32::MAX`: no dynamic body near).
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub struct ClavetCoupled {
-    /// Share of the gradients of `Σ(1 − q)²` and `Σ(1 − q)³`.
-    pub gradient: [Vector; 2],
-    /// Coupling-table entry of the body contributing most.
-    pub entry: u32,
-    /// Its closest point.
-    pub point: Vector,
-}
-
-impl Default for ClavetCoupled {
-    fn default() -> Self {
-        Self {
-            gradient: [Vector::ZERO; 2],
-            entry: u32::MAX,
-            point: Vector::ZERO,
-        }
-    }
 }
 
 /// The surface of collider `co` (at `pose`) near `x`: the signed distance `d` to its closest

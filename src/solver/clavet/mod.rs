@@ -92,11 +92,19 @@
 //! the particle's pressures into the wall would give. Mirrored fully, a column at rest in a
 //! closed tank gains energy and never settles (no cohesion: still 1.0 m/s after 2 s at
 //! `h = 2s`, 5.3 m/s at `3s`), as WCSPH's walls do with the full pressure
-//! (`src/pressure/wcsph.rs`). Dynamic bodies count as the other walls do and take the
-//! reaction of their share of the wall term, `−m·Δx_b/dt` (the velocity the displacement gave
-//! the particle), through the coupling's added-mass solve. Walls counted this way are *neutral* for the cohesion
+//! (`src/pressure/wcsph.rs`). Dynamic bodies do not count: they meet the water through
+//! contact only (the swept contact's reflection and damping, whose impulses go to the body,
+//! with the added-mass solve). Counted as the other walls (their share of the wall term
+//! reacted on them as `−m·Δx_b/dt`), they held a 16 cm box of 1,400 kg/m³ released at the
+//! surface of water 0.44 m deep (4 cm spacing) in the water: at the default cohesion above
+//! its boat depth (lowest corner 0.237 → 0.217 m over 4 s), without cohesion 3.5 spacings
+//! above the floor (0.138–0.140 m from 2 to 8 s), where DFSPH, PBF and WCSPH land it; the
+//! hold grew with depth, not with the stiffness, as a jammed solid's would (docs/coupling.md,
+//! "Known limits"). Contact only, it lands on the last layer (lowest corner 0.0400 m within
+//! 1 s without cohesion; 0.030 m at 3.5 s at the default cohesion; `tests/light_bodies.rs`,
+//! `examples/clavet_heavy_probe.rs`). Walls counted in the densities are *neutral* for the cohesion
 //! (a contact angle of 90°: the liquid next to them lacks no density, so it has no surface
-//! energy there; contact-only walls are non-wetting, 180°). A column at rest in a closed tank
+//! energy there; contact-only walls, dynamic bodies among them, are non-wetting, 180°). A column at rest in a closed tank
 //! with them stays at rest with or without cohesion (largest kinetic energy 0.0013, 0.0047
 //! and 0.0067 of its potential energy at cohesion 1, 0.1 and 0, `h = 2s`; docs/solvers.md).
 //! [`crate::FluidParamsBuilder::wall_density`]`(false)` is the cheap opt-out: walls then take

@@ -34,8 +34,8 @@ pub(crate) struct ClavetState {
 impl PressureSolver for ClavetState {
     type Settings = Clavet;
     const PREDICTS_POSITIONS: bool = true;
-    // With walls in its densities, dynamic bodies count as the other walls do and take the
-    // reaction of their share of the wall term ([`PressureSolver::wall_impulse`]).
+    // Dynamic bodies are left out of its wall densities (contact only): its wall term has no
+    // share of theirs to react (`wall_impulse_scale` is 0).
     const WALL_REACTION: WallReaction = WallReaction::Impulse { added_mass: true };
 
     fn walls(_: &Clavet, params: &FluidParams) -> WallRequest {
@@ -145,26 +145,11 @@ impl PressureSolver for ClavetState {
         crate::solver::finish_position_step(ctx, sep)
     }
 
-    /// Not along one gradient: see [`PressureSolver::wall_impulse`] (0 for the watched
-    /// colliders' shares).
+    /// Zero: dynamic bodies do not count in Clavet's wall densities (they meet its water
+    /// through contact only, `boundary::wall::WallWorkspace::update_clavet`), so its wall term
+    /// gives them nothing to react to.
     fn wall_impulse_scale(&self, _: &Clavet, _: &StepContext<'_>, _: usize) -> Real {
         0.0
-    }
-
-    /// The dynamic bodies' share of the walls' term of the relaxation,
-    /// `Δx_b = −½dt²·h·(½P·∇ρ_b + ⅓P^near·∇ρ^near_b)` (see `displacements`), gave particle `i`
-    /// the velocity `Δx_b/dt` (the velocity update `(x − x_old)/dt`): the bodies take
-    /// `−m·Δx_b/dt`. Zero without a dynamic body near.
-    fn wall_impulse(&self, _: &Clavet, ctx: &StepContext<'_>, i: usize, _: Vector) -> Vector {
-        let Some(share) = ctx.wall.and_then(|w| w.clavet_coupled.get(i)) else {
-            return Vector::ZERO;
-        };
-        let Some(&(p, pn)) = self.buffers.pressure.get(i) else {
-            return Vector::ZERO;
-        };
-        let [g, gn] = share.gradient;
-        let h = ctx.params.smoothing_length;
-        (g * (0.5 * p) + gn * (pn / 3.0)) * (0.5 * ctx.dt * h * ctx.masses().of(i))
     }
 
     /// The relaxation pushes like an equation of state whose speed of sound is `c·√k` (its
