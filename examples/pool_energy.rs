@@ -12,6 +12,7 @@
 //! cargo run --release --example pool_energy -- --hull none --every 60
 //! cargo run --release --example pool_energy -- --wall-density false --every 60
 //! cargo run --release --example pool_energy -- --preset game --particles 10000 --hull none --where
+//! cargo run --release --example pool_energy -- --preset game --hull none --seconds 4 --every 60 --full-warm-start true
 //! ```
 //!
 //! `--preset water|game` (default water), `--particles N` (2500), `--seconds S` (30),
@@ -19,12 +20,14 @@
 //! `--hull-density D` (500 kg/m³), `--hull dynamic|fixed|none` (dynamic: the hull
 //! floats; fixed: it is held where it starts; none: no hull, the water fills its place),
 //! `--viscosity E`, `--wall-viscosity E`, `--wall-density true|false`, `--warm-start W`,
-//! `--min-iterations N`, `--hydrostatic-walls true|false`, `--max-density-error E` change
+//! `--min-iterations N`, `--hydrostatic-walls true|false`, `--max-density-error E`,
+//! `--full-warm-start true|false`, `--divergence-solve true|false` change
 //! the preset, `--sleep` lets the water fall asleep with `Sleep::default()`, `--where` adds
 //! a line after each saying where the particles that moved are (near the floor, the walls,
 //! the paddle, the hull, the surface, or inside) and how far the water moved, the drift
 //! averaged over cells of one and two kernel supports (what the sleep test's
-//! `Sleep::mean_drift` reads is the first).
+//! `Sleep::mean_drift` reads is the first). The last column is the fluid's relaxation
+//! halvings (`StepReport::solver_relaxation_halvings`).
 //!
 //! Energies are in J, the potential ones (`Σ m g y`) and the total relative to the first
 //! frame's. The paddle stands still, so nothing does work on the pool: once the start's
@@ -122,6 +125,12 @@ fn edited(mut p: FluidParams) -> SphResult<FluidParams> {
         }
         if let Some(v) = value("--hydrostatic-walls").and_then(|v| v.parse().ok()) {
             d.hydrostatic_walls = v;
+        }
+        if let Some(v) = value("--full-warm-start").and_then(|v| v.parse().ok()) {
+            d.full_warm_start = v;
+        }
+        if let Some(v) = value("--divergence-solve").and_then(|v| v.parse().ok()) {
+            d.divergence_solve = v;
         }
     }
     if argv.iter().any(|a| a == "--sleep") {
@@ -337,7 +346,7 @@ fn run(pool: &mut WavePool, o: &Options) -> SphResult<()> {
         o.sleep
     );
     println!(
-        "t (s) | water KE | water PE | hull KE | hull PE | total (J, from frame 0) | 0.5 s drift rms / max (spacings) | hull |v| (m/s), |ω| (rad/s) | water COM x, z (mm from frame 0) | mean density error | substeps, iterations | hull draft / expected | gap floor, hull (spacings) | asleep"
+        "t (s) | water KE | water PE | hull KE | hull PE | total (J, from frame 0) | 0.5 s drift rms / max (spacings) | hull |v| (m/s), |ω| (rad/s) | water COM x, z (mm from frame 0) | mean density error | substeps, iterations | hull draft / expected | gap floor, hull (spacings) | asleep | relaxation halvings"
     );
     let e0 = energies(pool);
     let com = |pool: &WavePool| {
@@ -379,7 +388,7 @@ fn run(pool: &mut WavePool, o: &Options) -> SphResult<()> {
         };
         let c = com(pool);
         println!(
-            "{:5.1} | {:.4} | {:+.4} | {:.4} | {:+.4} | {:+.4} | {:.3} / {:.3} | {:.4}, {:.4} | {:+.2}, {:+.2} | {:.3} % | {:.2}, {:.2} | {:.3} | {:.3}, {:.3} | {}",
+            "{:5.1} | {:.4} | {:+.4} | {:.4} | {:+.4} | {:+.4} | {:.3} / {:.3} | {:.4}, {:.4} | {:+.2}, {:+.2} | {:.3} % | {:.2}, {:.2} | {:.3} | {:.3}, {:.3} | {} | {}",
             frame as Real * o.dt,
             e[0],
             d[1],
@@ -403,6 +412,7 @@ fn run(pool: &mut WavePool, o: &Options) -> SphResult<()> {
             gaps(pool).0,
             gaps(pool).1,
             if f.is_sleeping() { "asleep" } else { "awake" },
+            report.solver_relaxation_halvings,
         );
         (substeps, iterations) = (0, 0);
         if o.breakdown {
