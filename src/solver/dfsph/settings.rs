@@ -63,7 +63,13 @@ pub struct Dfsph {
     /// of 2.5 (`cargo bench --bench game -- --full-warm-start true`; docs/performance.md).
     /// The cost: a resting 8 × 16 × 8 column is less calm (largest kinetic energy 52× and
     /// over the last 10 of 60 frames 13× the default's), and with a kernel support of 3
-    /// spacings it does not settle within 1 s (docs/solvers.md): keep it off there.
+    /// spacings it does not settle within 1 s (docs/solvers.md): keep it off there. A still
+    /// pool does not calm down with it: 10–12 J of kinetic energy in the 2,604-particle game
+    /// pool over 4 s against 1–2.5 J and falling by default (`cargo run --release --example
+    /// pool_energy -- --preset game --particles 2500 --seconds 4 --hull none
+    /// --full-warm-start true`): pressure carried into particles that would not compress without
+    /// it, which its two iterations do not take back (docs/solvers.md, "Why the full warm
+    /// start stirs a still pool").
     #[cfg_attr(feature = "snapshot", serde(default))]
     pub full_warm_start: bool,
     /// Walls with hydrostatic pressure (default true): the wall's pressure
