@@ -27,7 +27,8 @@
 //! `--predict-walls`, `--carry-density-error`, `--chebyshev`, which takes `none` or the
 //! spectral radius estimate `ρ`) change
 //! the given field of `Dfsph` in every preset's settings; `--particle-radius F` sets the
-//! contact radius (`FluidParams::particle_radius`) to `F` spacings. `--regions` prints, after each row,
+//! contact radius (`FluidParams::particle_radius`) to `F` spacings; `--courant C` sets the
+//! pipeline's adaptive Courant number (`TimeStepping::Adaptive`, default 0.4). `--regions` prints, after each row,
 //! where the compression is (see `Regions`).
 //!
 //! The scene (`rapier_sph::scenes::WavePool`): a closed pool 2.0 × 0.8 × 0.7 m (inside),
@@ -209,6 +210,8 @@ struct Args {
     hull: bool,
     /// `--regions`: print where the compression is (see [`Regions`]).
     regions: bool,
+    /// `--courant C`: the pipeline's adaptive Courant number (default 0.4, `TimeStepping`).
+    courant: Option<Real>,
 }
 
 impl Args {
@@ -296,6 +299,7 @@ impl Args {
                 .unwrap_or((Sleep::default().mean_drift, Sleep::default().max_drift)),
             hull: value("--hull").as_deref() != Some("none"),
             regions: argv.iter().any(|a| a == "--regions"),
+            courant: value("--courant").and_then(|s| s.parse().ok()),
         }
     }
 }
@@ -353,6 +357,13 @@ fn run(n: usize, preset: Preset, mode: Mode, args: &Args) -> SphResult<Row> {
         config.paddle.0 = 0.0;
     }
     let mut pool = WavePool::new(config)?;
+    if let Some(courant) = args.courant {
+        if let rapier_sph::pipeline::TimeStepping::Adaptive { courant: c, .. } =
+            &mut pool.world.pipeline.time_stepping
+        {
+            *c = courant;
+        }
+    }
     if !args.hull {
         pool.remove_hull()?;
     }
