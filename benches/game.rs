@@ -357,12 +357,11 @@ fn run(n: usize, preset: Preset, mode: Mode, args: &Args) -> SphResult<Row> {
         config.paddle.0 = 0.0;
     }
     let mut pool = WavePool::new(config)?;
-    if let Some(courant) = args.courant {
-        if let rapier_sph::pipeline::TimeStepping::Adaptive { courant: c, .. } =
+    if let Some(courant) = args.courant
+        && let rapier_sph::pipeline::TimeStepping::Adaptive { courant: c, .. } =
             &mut pool.world.pipeline.time_stepping
-        {
-            *c = courant;
-        }
+    {
+        *c = courant;
     }
     if !args.hull {
         pool.remove_hull()?;
