@@ -15,7 +15,8 @@ struct Chunk {
 }
 
 /// Flat neighbour lists: for every particle, the indices of the other particles closer than
-/// `h`, in ascending order (the particle itself is not listed).
+/// `h`, in ascending order (the particle itself is not listed). Every index is below
+/// [`Self::len`], checked when the lists are built.
 ///
 /// Stored per chunk of `CHUNK` particles (one offset array and one index array each) so
 /// the lists are built in parallel with no final copy and no allocation once warm.
@@ -749,7 +750,14 @@ impl NeighborLists {
                     #[cfg(target_arch = "x86_64")]
                     Isa::Avx2 => unsafe { scan_chunk_avx2(c, chunk, &scan, buf) },
                     _ => scan_chunk::<S, false>(c, chunk, &scan, buf),
-                })
+                });
+                // The lists' invariant, which the solvers' pair passes read their
+                // neighbours' values by without a check per pair (see `Self::len`).
+                let top = chunk.indices.iter().fold(0, |m: u32, &j| m.max(j));
+                assert!(
+                    chunk.indices.is_empty() || (top as usize) < n,
+                    "a neighbour index beyond the particles"
+                );
             });
     }
 
@@ -770,7 +778,9 @@ impl NeighborLists {
         (&chunk.offsets, &chunk.indices)
     }
 
-    /// Number of particles the lists were built for.
+    /// Number of particles the lists were built for; every listed index is below it (checked
+    /// by each build), which lets the solvers' pair passes read a neighbour's value without
+    /// a bounds check per pair.
     pub fn len(&self) -> usize {
         self.len
     }

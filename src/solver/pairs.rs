@@ -248,6 +248,17 @@ impl GradientSlice<'_> {
     #[inline(always)]
     pub(crate) fn at(&self, t: usize) -> Vec3A {
         assert!(t < self.len);
+        // SAFETY: checked just above.
+        unsafe { self.at_unchecked(t) }
+    }
+
+    /// [`Self::at`] without the check.
+    ///
+    /// # Safety
+    /// `t < self.len()`.
+    #[inline(always)]
+    pub(crate) unsafe fn at_unchecked(&self, t: usize) -> Vec3A {
+        debug_assert!(t < self.len);
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::x86_64::_mm_loadu_ps;
@@ -257,7 +268,8 @@ impl GradientSlice<'_> {
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
-            let d = &self.data[3 * t..3 * t + 3];
+            // SAFETY: as above, floats `3t..3t + 3` are inside `data`.
+            let d = unsafe { self.data.get_unchecked(3 * t..3 * t + 3) };
             Vec3A::new(d[0], d[1], d[2])
         }
     }

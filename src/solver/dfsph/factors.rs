@@ -59,6 +59,14 @@ pub(crate) fn density_and_factors<K: Kernel, S: Separation>(
     let self_term = mass * kernel.w(0.0);
     let n = positions.len();
     assert_eq!(pushed.len(), n, "one pushed velocity per particle");
+    if let Some(push) = input.push {
+        // Every neighbour index is below the lists' particle count (`NeighborLists::len`).
+        assert_eq!(
+            neighbors.len(),
+            push.pi.len(),
+            "one pressure value per particle"
+        );
+    }
     let grad_chunks = grads.chunks_mut(n);
     // Hydrostatic walls: the pairs' weights of the wall's pressure value, once per substep.
     let averaged = wall.is_some_and(|w| w.neighbour_pressure);
@@ -123,7 +131,9 @@ pub(crate) fn density_and_factors<K: Kernel, S: Separation>(
                                 true => (&weights.0[s..e], sw),
                                 false => (&[][..], 0.0),
                             };
-                            pushed[k] = v - pusher.push((nb, out), weights, push.pi, i);
+                            // SAFETY: a list of `neighbors`, built for `push.pi.len()`
+                            // particles (asserted above).
+                            pushed[k] = v - unsafe { pusher.push((nb, out), weights, push.pi, i) };
                         }
                         dens[k] = rho;
                         inv[k] = 1.0 / rho;

@@ -217,6 +217,11 @@ trait PairValues: Copy {
     fn len(&self) -> usize;
     /// The value of pair `t`.
     fn at(&self, t: usize) -> Self::T;
+    /// The value of pair `t`, without checking `t`.
+    ///
+    /// # Safety
+    /// `t < self.len()`.
+    unsafe fn at_unchecked(&self, t: usize) -> Self::T;
 }
 
 impl<T: Copy> PairValues for &[T] {
@@ -229,6 +234,11 @@ impl<T: Copy> PairValues for &[T] {
     fn at(&self, t: usize) -> T {
         self[t]
     }
+    #[inline(always)]
+    unsafe fn at_unchecked(&self, t: usize) -> T {
+        // SAFETY: the caller keeps `t < len`.
+        unsafe { *self.get_unchecked(t) }
+    }
 }
 
 impl PairValues for GradientSlice<'_> {
@@ -240,6 +250,11 @@ impl PairValues for GradientSlice<'_> {
     #[inline(always)]
     fn at(&self, t: usize) -> Vec3A {
         GradientSlice::at(self, t)
+    }
+    #[inline(always)]
+    unsafe fn at_unchecked(&self, t: usize) -> Vec3A {
+        // SAFETY: the caller keeps `t < len`.
+        unsafe { GradientSlice::at_unchecked(self, t) }
     }
 }
 
@@ -263,6 +278,42 @@ fn pair_sum<V: PairValues>(nb: &[u32], values: V, term: impl Fn(usize, V::T) -> 
     (acc[0] + acc[1]) + (acc[2] + acc[3])
 }
 
+/// [`pair_sum`] with the term given each neighbour's entry of `gathered` (`gathered[nb[t]]`)
+/// instead of its index, and neither the pair values nor the gathered entries bounds-checked
+/// per pair: the same accumulators and order, the same bits. In the solves' passes the two
+/// checks were half of the inner loop's instructions (docs/performance.md, "Roofline of the
+/// pair passes (measured)").
+///
+/// # Safety
+/// Every index in `nb` is `< gathered.len()` (true of a particle's list in a
+/// [`NeighborLists`] of `gathered.len()` particles: see [`NeighborLists::len`]).
+#[inline(always)]
+unsafe fn pair_sum_gather<V: PairValues, G: Copy>(
+    nb: &[u32],
+    values: V,
+    gathered: &[G],
+    term: impl Fn(G, V::T) -> Vec3A,
+) -> Vec3A {
+    assert_eq!(values.len(), nb.len(), "one value per pair");
+    // SAFETY (both reads below): `t < nb.len() = values.len()`, and the caller keeps every
+    // `nb[t] < gathered.len()`.
+    let get =
+        |t: usize, j: u32| unsafe { (*gathered.get_unchecked(j as usize), values.at_unchecked(t)) };
+    let mut acc = [Vec3A::ZERO; ACC];
+    let full = nb.len() / ACC * ACC;
+    for (b, j) in nb[..full].chunks_exact(ACC).enumerate() {
+        for l in 0..ACC {
+            let (x, v) = get(b * ACC + l, j[l]);
+            acc[l] += term(x, v);
+        }
+    }
+    for (l, &j) in nb[full..].iter().enumerate() {
+        let (x, v) = get(full + l, j);
+        acc[l] += term(x, v);
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3])
+}
+
 /// Pass A of an iteration: the rate of change of every particle's density under the current
 /// velocities, `Dρ_i/Dt = Σ_j m (v_i − v_j)·∇W_ij + (v_i − v_wall)·∇ρ_wall,i` (eq. 6), into
 /// `rates` and handed to `finish(i, rate)`, which returns `(π_i, error_i)`. Writes `π`; returns the per-chunk error
@@ -276,6 +327,12 @@ fn rate_pass<F: Fn(usize, Real) -> (Real, Real) + Sync>(
 ) {
     let (mass, wall) = (ctx.mass, ctx.wall);
     let predict = ctx.predict_walls.then_some(ctx.dt);
+    // Every neighbour index is below the lists' particle count (`NeighborLists::len`).
+    assert_eq!(
+        ctx.neighbors.len(),
+        velocities.len(),
+        "one velocity per particle"
+    );
     crate::par_chunks_mut!(pi, CHUNK)
         .zip(crate::par_iter_mut!(partials))
         .zip(crate::par_chunks_mut!(rates, CHUNK))
@@ -292,9 +349,13 @@ fn rate_pass<F: Fn(usize, Real) -> (Real, Real) + Sync>(
                         let i = c * CHUNK + k;
                         let vi = velocities[i];
                         let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
-                        let a = pair_sum(&indices[s..e], gc.range(s, e), |j, g| {
-                            (vi - velocities[j]) * g
-                        });
+                        // SAFETY: a list of `ctx.neighbors`, built for `velocities.len()`
+                        // particles (asserted above).
+                        let a = unsafe {
+                            pair_sum_gather(&indices[s..e], gc.range(s, e), velocities, |vj, g| {
+                                (vi - vj) * g
+                            })
+                        };
                         let mut rate = (a.x + a.y + a.z) * mass;
                         if let Some(wall) = wall {
                             let vi = Vector::from(vi);
@@ -335,8 +396,12 @@ impl Pusher<'_> {
     /// change particle `i`'s velocity over `dt` (subtracted), from its neighbours `nb`, their
     /// gradients `g` and, with hydrostatic walls, the pairs' wall weights `weights` and
     /// their sum (see [`wall_weights`]; empty slices without).
+    ///
+    /// # Safety
+    /// Every index in `nb` is `< pi.len()` (a list of a [`NeighborLists`] of `pi.len()`
+    /// particles).
     #[inline(always)]
-    fn push(
+    unsafe fn push(
         &self,
         (nb, g): (&[u32], GradientSlice<'_>),
         weights: (&[Real], Real),
@@ -345,10 +410,13 @@ impl Pusher<'_> {
     ) -> Vec3A {
         let pii = pi[i];
         let average = self.neighbour && self.wall.is_some_and(|w| w.neighbour_pressure);
-        let (f, swp) = if average && weights.1 > 0.0 {
-            pair_sum_weighted(nb, g, weights.0, pi, pii)
-        } else {
-            (pair_sum(nb, g, |j, g| g * (pii + pi[j])), 0.0)
+        // SAFETY: the caller keeps every index of `nb` below `pi.len()`.
+        let (f, swp) = unsafe {
+            if average && weights.1 > 0.0 {
+                pair_sum_weighted(nb, g, weights.0, pi, pii)
+            } else {
+                (pair_sum_gather(nb, g, pi, |pj, g| g * (pii + pj)), 0.0)
+            }
         };
         let mut dv = Vector::from(f) * (self.dt * self.mass);
         if let Some(wall) = self.wall {
@@ -368,9 +436,13 @@ impl Pusher<'_> {
 
 /// [`pair_sum`] of `g·(π_i + π_j)` (the same accumulators and order, the same bits) and, in
 /// the same loop, `Σ_t w_t·π_j` in pair order (the wall's neighbour average's numerator, see
-/// [`weighted_average`]): each neighbour's value is gathered once.
+/// [`weighted_average`]): each neighbour's value is gathered once. Unchecked per pair, as
+/// [`pair_sum_gather`].
+///
+/// # Safety
+/// Every index in `nb` is `< pi.len()`.
 #[inline(always)]
-fn pair_sum_weighted(
+unsafe fn pair_sum_weighted(
     nb: &[u32],
     g: GradientSlice<'_>,
     w: &[Real],
@@ -381,6 +453,9 @@ fn pair_sum_weighted(
         g.len() == nb.len() && w.len() == nb.len(),
         "one value per pair"
     );
+    // SAFETY (both reads below): `t < nb.len() = g.len()`, and the caller keeps every
+    // `nb[t] < pi.len()`.
+    let get = |t: usize, j: u32| unsafe { (*pi.get_unchecked(j as usize), g.at_unchecked(t)) };
     let mut acc = [Vec3A::ZERO; ACC];
     let mut swp: Real = 0.0;
     let full = nb.len() / ACC * ACC;
@@ -390,15 +465,15 @@ fn pair_sum_weighted(
         .enumerate()
     {
         for l in 0..ACC {
-            let p = pi[j[l] as usize];
-            acc[l] += g.at(b * ACC + l) * (pii + p);
+            let (p, gt) = get(b * ACC + l, j[l]);
+            acc[l] += gt * (pii + p);
             swp += wv[l] * p;
         }
     }
     let rest = nb[full..].iter().zip(&w[full..]);
     for (l, (&j, &wv)) in rest.enumerate() {
-        let p = pi[j as usize];
-        acc[l] += g.at(full + l) * (pii + p);
+        let (p, gt) = get(full + l, j);
+        acc[l] += gt * (pii + p);
         swp += wv * p;
     }
     ((acc[0] + acc[1]) + (acc[2] + acc[3]), swp)
@@ -479,6 +554,12 @@ fn apply_pressure(
         dt: ctx.dt,
         ratio: ctx.ratio,
     };
+    // Every neighbour index is below the lists' particle count (`NeighborLists::len`).
+    assert_eq!(
+        ctx.neighbors.len(),
+        pi.len(),
+        "one pressure value per particle"
+    );
     let chunk = |c: usize, out: &mut [Vec3A], a: Option<&mut [Real]>, b: Option<&mut [Real]>| {
         crate::par::wide(
             #[inline(always)]
@@ -493,7 +574,9 @@ fn apply_pressure(
                         false => (&[][..], 0.0),
                     };
                     let pairs = (&indices[s..e], gc.grad.range(s, e));
-                    *v -= pusher.push(pairs, weights, pi, c * CHUNK + k);
+                    // SAFETY: a list of `ctx.neighbors`, built for `pi.len()` particles
+                    // (asserted above).
+                    *v -= unsafe { pusher.push(pairs, weights, pi, c * CHUNK + k) };
                 }
             },
         );
