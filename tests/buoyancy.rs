@@ -72,17 +72,22 @@ fn float(
 }
 
 /// WCSPH and the water preset's default solver, DFSPH (both with walls counting in the
-/// density).
-#[test]
-fn boxes_float_at_the_right_depth_without_jitter() {
-    let mut failures = Vec::new();
-    for solver in [WCSPH, rapier_sph::Solver::dfsph()] {
-        boxes_float(solver, &mut failures);
+/// density), one test each so that the two run on the test harness's two threads side by side
+/// (`cargo test --release --test buoyancy boxes_float_at_the_right_depth` runs both).
+mod boxes_float_at_the_right_depth_without_jitter {
+    #[test]
+    fn wcsph() {
+        super::boxes_float(super::WCSPH);
     }
-    assert!(failures.is_empty(), "{failures:?}");
+
+    #[test]
+    fn dfsph() {
+        super::boxes_float(rapier_sph::Solver::dfsph());
+    }
 }
 
-fn boxes_float(solver: rapier_sph::Solver, failures: &mut Vec<String>) {
+fn boxes_float(solver: rapier_sph::Solver) {
+    let mut failures = Vec::new();
     let s = 0.04;
     let name = solver.name();
     for density in [250.0, 500.0, 750.0] {
@@ -148,6 +153,7 @@ fn boxes_float(solver: rapier_sph::Solver, failures: &mut Vec<String>) {
             f.submerged, f.bottom, f.speed
         ));
     }
+    assert!(failures.is_empty(), "{failures:?}");
 }
 
 /// The issue's criterion read strictly: the submerged *fraction* within 5 % of its own value
@@ -163,41 +169,58 @@ fn boxes_float(solver: rapier_sph::Solver, failures: &mut Vec<String>) {
 /// over the 4th second their corners move at 0.0163 and 0.0178 m/s (the water 0.0227 and
 /// 0.0253) and their fractions read 0.4977 and 0.7518, within 0.0010 of the 5th second's
 /// (0.4967, 0.7508: the same runs carried on to 5 s; a 25th of the tolerance or less).
-#[test]
-fn pbf_boxes_float_within_5_percent_of_archimedes() {
+/// One test a box, so that they run side by side on the test harness's two threads.
+mod pbf_boxes_float_within_5_percent_of_archimedes {
+    #[test]
+    fn density_250() {
+        super::pbf_box_floats(250.0, 5.0);
+    }
+
+    #[test]
+    fn density_500() {
+        super::pbf_box_floats(500.0, 4.0);
+    }
+
+    #[test]
+    fn density_750() {
+        super::pbf_box_floats(750.0, 4.0);
+    }
+}
+
+/// A box of `density` in PBF at 2.5 cm, run `seconds` and measured over the last second
+/// ([`pbf_boxes_float_within_5_percent_of_archimedes`]).
+fn pbf_box_floats(density: Real, seconds: Real) {
     let s = 0.025;
     let mut failures = Vec::new();
-    for (density, seconds) in [(250.0, 5.0), (500.0, 4.0), (750.0, 4.0)] {
-        let f = float(
-            rapier_sph::Solver::pbf(),
-            s,
-            0.72,
-            0.3,
-            0.15,
-            0.1,
-            density,
-            seconds,
-        );
-        let expected = density / 1000.0;
-        eprintln!(
-            "PBF, density {density}: submerged {:.3} (expected {expected:.2}), corners: RMS \
-             acceleration {:.3} g, RMS speed {:.4} m/s (water next to it {:.4})",
-            f.submerged,
+    let f = float(
+        rapier_sph::Solver::pbf(),
+        s,
+        0.72,
+        0.3,
+        0.15,
+        0.1,
+        density,
+        seconds,
+    );
+    let expected = density / 1000.0;
+    eprintln!(
+        "PBF, density {density}: submerged {:.3} (expected {expected:.2}), corners: RMS \
+         acceleration {:.3} g, RMS speed {:.4} m/s (water next to it {:.4})",
+        f.submerged,
+        f.shaking / 9.81,
+        f.speed,
+        f.water,
+    );
+    if (f.submerged - expected).abs() > 0.05 * expected {
+        failures.push(format!("density {density}: submerged {:.3}", f.submerged));
+    }
+    if f.shaking > 0.3 * 9.81 || f.speed > f.water {
+        failures.push(format!(
+            "density {density}: corners at {:.3} g, {:.4} m/s (water {:.4})",
             f.shaking / 9.81,
             f.speed,
-            f.water,
-        );
-        if (f.submerged - expected).abs() > 0.05 * expected {
-            failures.push(format!("density {density}: submerged {:.3}", f.submerged));
-        }
-        if f.shaking > 0.3 * 9.81 || f.speed > f.water {
-            failures.push(format!(
-                "density {density}: corners at {:.3} g, {:.4} m/s (water {:.4})",
-                f.shaking / 9.81,
-                f.speed,
-                f.water
-            ));
-        }
+            f.water
+        ));
     }
     assert!(failures.is_empty(), "{failures:?}");
 }
@@ -207,9 +230,33 @@ fn pbf_boxes_float_within_5_percent_of_archimedes() {
 /// example's 4 s, `cargo run --release --example buoyancy -- --cubes`), within 0.002 of the
 /// 3rd second's, a 25th of the 0.05 tolerance (over the 2nd second the 750 cube, still
 /// tilting, read 0.742). The 2,000 kg/m³ cube lies on the floor, fully submerged, from the
-/// 2nd second on.
-#[test]
-fn cubes_float_at_the_right_depth() {
+/// 2nd second on. One test a cube, so that they run side by side on the test harness's two
+/// threads.
+mod cubes_float_at_the_right_depth {
+    #[test]
+    fn density_250() {
+        super::cube_floats(250.0);
+    }
+
+    #[test]
+    fn density_500() {
+        super::cube_floats(500.0);
+    }
+
+    #[test]
+    fn density_750() {
+        super::cube_floats(750.0);
+    }
+
+    #[test]
+    fn density_2000() {
+        super::cube_sinks(2000.0);
+    }
+}
+
+/// A cube of `density` (250, 500 or 750 kg/m³) floats at the depth Archimedes gives
+/// ([`cubes_float_at_the_right_depth`]).
+fn cube_floats(density: Real) {
     // Cubes of 16 cm at 2.5 cm resolution in a 0.5 m tank holding 0.3 m of water. Cubes of
     // these densities float tilted (see the module docs): the submerged fraction is that of
     // the volume, whatever the tilt (Archimedes). Tilted, the 750 kg/m³ cube reaches deep: edge
@@ -219,32 +266,35 @@ fn cubes_float_at_the_right_depth() {
     // it sinks to 0.855).
     let s = 0.025;
     let mut failures = Vec::new();
-    for density in [250.0, 500.0, 750.0] {
-        let f = float(WCSPH, s, 0.5, 0.3, 0.08, 0.08, density, 3.0);
-        let expected = density / 1000.0;
-        eprintln!(
-            "density {density}: submerged {:.3} (expected {expected:.2}; {:.3} to {:.3} over \
-             the last second), corners: RMS acceleration {:.3} g, RMS speed {:.4} m/s",
-            f.submerged,
-            f.range.0,
-            f.range.1,
-            f.shaking / 9.81,
-            f.speed
-        );
-        if (f.submerged - expected).abs() > 0.05 {
-            failures.push(format!(
-                "density {density}: {:.3} vs {expected}",
-                f.submerged
-            ));
-        }
-    }
-    let f = float(WCSPH, s, 0.5, 0.3, 0.08, 0.08, 2000.0, 3.0);
+    let f = float(WCSPH, s, 0.5, 0.3, 0.08, 0.08, density, 3.0);
+    let expected = density / 1000.0;
     eprintln!(
-        "density 2000: submerged {:.3}, corners: RMS speed {:.4} m/s",
+        "density {density}: submerged {:.3} (expected {expected:.2}; {:.3} to {:.3} over \
+         the last second), corners: RMS acceleration {:.3} g, RMS speed {:.4} m/s",
+        f.submerged,
+        f.range.0,
+        f.range.1,
+        f.shaking / 9.81,
+        f.speed
+    );
+    if (f.submerged - expected).abs() > 0.05 {
+        failures.push(format!(
+            "density {density}: {:.3} vs {expected}",
+            f.submerged
+        ));
+    }
+    assert!(failures.is_empty(), "{failures:?}");
+}
+
+/// A cube of `density` (2,000 kg/m³) sinks: fully submerged over the 3rd second
+/// ([`cubes_float_at_the_right_depth`]).
+fn cube_sinks(density: Real) {
+    let f = float(WCSPH, 0.025, 0.5, 0.3, 0.08, 0.08, density, 3.0);
+    eprintln!(
+        "density {density}: submerged {:.3}, corners: RMS speed {:.4} m/s",
         f.submerged, f.speed
     );
     assert!(f.submerged > 0.99, "the heavy box floats");
-    assert!(failures.is_empty(), "{failures:?}");
 }
 
 /// Dense bodies (5,000 kg/m³; 7,850, steel) dropped in water sink, land on the floor and
@@ -257,73 +307,85 @@ fn cubes_float_at_the_right_depth() {
 /// can lower their density), the pressure would throw the box: a 5,000 kg/m³ box reached
 /// 100 m (DFSPH; PBF from 3,000 kg/m³), total energy 339 J → 263,000 J in one frame. Such
 /// particles are left out of the solves (`WallWorkspace::pinched`). Figures: the eprintln
-/// lines (`-- --nocapture`).
-#[test]
-fn dense_boxes_land_and_rest_without_gaining_energy() {
+/// lines (`-- --nocapture`). One test a solver, so that they run side by side on the test
+/// harness's two threads.
+mod dense_boxes_land_and_rest_without_gaining_energy {
+    #[test]
+    fn wcsph() {
+        super::dense_boxes_land(super::WCSPH);
+    }
+
+    #[test]
+    fn dfsph() {
+        super::dense_boxes_land(rapier_sph::Solver::dfsph());
+    }
+
+    #[test]
+    fn pbf() {
+        super::dense_boxes_land(rapier_sph::Solver::pbf());
+    }
+}
+
+/// [`dense_boxes_land_and_rest_without_gaining_energy`] with `solver`.
+fn dense_boxes_land(solver: rapier_sph::Solver) {
     let s = 0.04;
     let mut failures = Vec::new();
-    for solver in [
-        WCSPH,
-        rapier_sph::Solver::dfsph(),
-        rapier_sph::Solver::pbf(),
-    ] {
-        for density in [5000.0, 7850.0] {
-            let name = solver.name();
-            let mut scene = FloatingBox::new(FloatingBoxConfig {
-                spacing: s,
-                tank: 0.72,
-                depth: 0.3,
-                half_width: 0.15,
-                half_height: 0.1,
-                density,
-                solver,
+    for density in [5000.0, 7850.0] {
+        let name = solver.name();
+        let mut scene = FloatingBox::new(FloatingBoxConfig {
+            spacing: s,
+            tank: 0.72,
+            depth: 0.3,
+            half_width: 0.15,
+            half_height: 0.1,
+            density,
+            solver,
+        })
+        .unwrap();
+        let (fluid, body) = (scene.fluid, scene.body);
+        let n0 = scene.world.fluids[fluid].len();
+        let energy = |world: &rapier_sph::FluidWorld| {
+            let b = &world.physics.bodies[body];
+            let w = &world.fluids[fluid];
+            let g = world.physics.gravity.length() as f64;
+            let m = w.params().particle_mass as f64;
+            let water: f64 = w.positions().iter().map(|x| m * g * x.y as f64).sum();
+            w.kinetic_energy() as f64
+                + water
+                + b.kinetic_energy() as f64
+                + b.mass() as f64 * g * b.center_of_mass().y as f64
+        };
+        let e0 = energy(&scene.world);
+        let mut e_max = e0;
+        let f = scene
+            .run(2.5, |_, world| {
+                assert_eq!(world.fluids[fluid].len(), n0, "particles lost");
+                e_max = e_max.max(energy(world));
+                Ok(())
             })
             .unwrap();
-            let (fluid, body) = (scene.fluid, scene.body);
-            let n0 = scene.world.fluids[fluid].len();
-            let energy = |world: &rapier_sph::FluidWorld| {
-                let b = &world.physics.bodies[body];
-                let w = &world.fluids[fluid];
-                let g = world.physics.gravity.length() as f64;
-                let m = w.params().particle_mass as f64;
-                let water: f64 = w.positions().iter().map(|x| m * g * x.y as f64).sum();
-                w.kinetic_energy() as f64
-                    + water
-                    + b.kinetic_energy() as f64
-                    + b.mass() as f64 * g * b.center_of_mass().y as f64
-            };
-            let e0 = energy(&scene.world);
-            let mut e_max = e0;
-            let f = scene
-                .run(2.5, |_, world| {
-                    assert_eq!(world.fluids[fluid].len(), n0, "particles lost");
-                    e_max = e_max.max(energy(world));
-                    Ok(())
-                })
-                .unwrap();
-            eprintln!(
-                "{name}, density {density}: lowest corner at {:.4} m, submerged {:.3}, corners' \
-                 RMS speed {:.4} m/s (water next to it {:.4}); energy at most {:.2} J against \
-                 {:.2} J at the start",
-                f.bottom, f.submerged, f.speed, f.water, e_max, e0
-            );
-            // At rest on the floor: as for the 2,000 kg/m³ box above (at most one layer of
-            // particles under it, slower than the water next to it).
-            if f.submerged < 0.999 || f.bottom > 1.25 * s || f.speed > f.water {
-                failures.push(format!(
-                    "{name}, density {density}: submerged {:.3}, bottom at {:.4} m, speed {:.4} \
-                     m/s",
-                    f.submerged, f.bottom, f.speed
-                ));
-            }
-            // Nothing drives the water or the box: the energy can only fall. Allowance: 1 %
-            // of the start's (the lattice the water starts from settles, and its small
-            // compression returns some energy; the floating boxes above gain at most 0.4 %).
-            if e_max > 1.01 * e0 {
-                failures.push(format!(
-                    "{name}, density {density}: energy rose to {e_max:.2} J from {e0:.2} J"
-                ));
-            }
+        eprintln!(
+            "{name}, density {density}: lowest corner at {:.4} m, submerged {:.3}, corners' \
+             RMS speed {:.4} m/s (water next to it {:.4}); energy at most {:.2} J against \
+             {:.2} J at the start",
+            f.bottom, f.submerged, f.speed, f.water, e_max, e0
+        );
+        // At rest on the floor: as for the 2,000 kg/m³ box above (at most one layer of
+        // particles under it, slower than the water next to it).
+        if f.submerged < 0.999 || f.bottom > 1.25 * s || f.speed > f.water {
+            failures.push(format!(
+                "{name}, density {density}: submerged {:.3}, bottom at {:.4} m, speed {:.4} \
+                 m/s",
+                f.submerged, f.bottom, f.speed
+            ));
+        }
+        // Nothing drives the water or the box: the energy can only fall. Allowance: 1 %
+        // of the start's (the lattice the water starts from settles, and its small
+        // compression returns some energy; the floating boxes above gain at most 0.4 %).
+        if e_max > 1.01 * e0 {
+            failures.push(format!(
+                "{name}, density {density}: energy rose to {e_max:.2} J from {e0:.2} J"
+            ));
         }
     }
     assert!(failures.is_empty(), "{failures:?}");

@@ -101,26 +101,40 @@ fn oil_on_water_stays_layered_with_the_hydrostatic_bottom_pressure() {
 /// (measured DFSPH −0.7 %). WCSPH with the paper's forces is not asserted there: Müller's
 /// pressure force is half the pressure gradient, so its pressures read twice the
 /// hydrostatic ones (+121 % with two waters in this tank, +117 % with the 1:10 pair).
-#[test]
-fn water_under_a_ten_times_lighter_liquid_runs_stable() {
-    for (solver, wcsph) in [
-        (Solver::dfsph(), WcsphPressure::Paper),
-        (Solver::Wcsph, WcsphPressure::Paper),
-        (Solver::Wcsph, WcsphPressure::Adami),
-    ] {
-        let mut t = tank_with(solver, wcsph, 100.0, LayeredStart::Layered);
-        let bottom = run(&mut t, 2.0);
-        assert_kept(&t);
-        let name = format!("{} ({wcsph:?})", solver.name());
-        println!("{name}: bottom pressure {bottom:+.4}");
-        let e = t.measured_interface() - t.interface_height;
-        assert!(e.abs() <= 0.5 * SPACING, "{name}: interface off by {e}");
-        if matches!(solver, Solver::Dfsph(_)) || wcsph == WcsphPressure::Adami {
-            assert!(
-                bottom.abs() <= 0.02,
-                "{name}: bottom pressure error {bottom:+.4}"
-            );
-        }
+/// One test a solver, so that they run side by side on the test harness's two threads.
+mod water_under_a_ten_times_lighter_liquid_runs_stable {
+    use super::{Solver, WcsphPressure};
+
+    #[test]
+    fn dfsph() {
+        super::water_under_light_liquid(Solver::dfsph(), WcsphPressure::Paper);
+    }
+
+    #[test]
+    fn wcsph() {
+        super::water_under_light_liquid(Solver::Wcsph, WcsphPressure::Paper);
+    }
+
+    #[test]
+    fn wcsph_adami_walls() {
+        super::water_under_light_liquid(Solver::Wcsph, WcsphPressure::Adami);
+    }
+}
+
+/// [`water_under_a_ten_times_lighter_liquid_runs_stable`] with `solver` and `wcsph`.
+fn water_under_light_liquid(solver: Solver, wcsph: WcsphPressure) {
+    let mut t = tank_with(solver, wcsph, 100.0, LayeredStart::Layered);
+    let bottom = run(&mut t, 2.0);
+    assert_kept(&t);
+    let name = format!("{} ({wcsph:?})", solver.name());
+    println!("{name}: bottom pressure {bottom:+.4}");
+    let e = t.measured_interface() - t.interface_height;
+    assert!(e.abs() <= 0.5 * SPACING, "{name}: interface off by {e}");
+    if matches!(solver, Solver::Dfsph(_)) || wcsph == WcsphPressure::Adami {
+        assert!(
+            bottom.abs() <= 0.02,
+            "{name}: bottom pressure error {bottom:+.4}"
+        );
     }
 }
 
@@ -233,41 +247,54 @@ fn momentum_and_mass_are_conserved_across_fluids() {
 ///
 /// WCSPH, whose pressures in this tank are twice the hydrostatic ones (the paper's pressure
 /// force; see above), holds more of them: its interface settles at 0.136 m, 64 % of the way from the
-/// start's 0.200 m; asserted: more than half the way, and staying.
-#[test]
-fn oil_and_water_side_by_side_stratify_and_stay_stratified() {
-    for solver in [Solver::dfsph(), Solver::Wcsph] {
-        let mut t = tank(solver, 800.0, LayeredStart::SideBySide, 0.5);
-        let start = t.measured_interface();
-        run(&mut t, 2.0);
-        let settled = t.measured_interface();
-        run(&mut t, 1.0);
-        assert_kept(&t);
-        let end = t.measured_interface();
-        let name = solver.name();
-        assert!(
-            (end - settled).abs() <= 0.1 * SPACING,
-            "{name}: {settled} -> {end}"
-        );
-        if matches!(solver, Solver::Wcsph) {
-            let half = 0.5 * (start + t.interface_height);
-            assert!(end < half, "{name}: interface at {end} from {start}");
-            continue;
-        }
-        assert!(
-            (end - t.interface_height).abs() <= SPACING,
-            "{name}: interface at {end}"
-        );
-        let oil = &t.world.fluids[t.light];
-        let below = oil
-            .positions()
-            .iter()
-            .filter(|x| x.y < t.interface_height - SPACING);
-        assert!(
-            below.count() * 10 <= oil.len(),
-            "{name}: oil left in the water"
-        );
+/// start's 0.200 m; asserted: more than half the way, and staying. One test a solver, so
+/// that they run side by side on the test harness's two threads.
+mod oil_and_water_side_by_side_stratify_and_stay_stratified {
+    use super::Solver;
+
+    #[test]
+    fn dfsph() {
+        super::side_by_side_stratify(Solver::dfsph());
     }
+
+    #[test]
+    fn wcsph() {
+        super::side_by_side_stratify(Solver::Wcsph);
+    }
+}
+
+/// [`oil_and_water_side_by_side_stratify_and_stay_stratified`] with `solver`.
+fn side_by_side_stratify(solver: Solver) {
+    let mut t = tank(solver, 800.0, LayeredStart::SideBySide, 0.5);
+    let start = t.measured_interface();
+    run(&mut t, 2.0);
+    let settled = t.measured_interface();
+    run(&mut t, 1.0);
+    assert_kept(&t);
+    let end = t.measured_interface();
+    let name = solver.name();
+    assert!(
+        (end - settled).abs() <= 0.1 * SPACING,
+        "{name}: {settled} -> {end}"
+    );
+    if matches!(solver, Solver::Wcsph) {
+        let half = 0.5 * (start + t.interface_height);
+        assert!(end < half, "{name}: interface at {end} from {start}");
+        return;
+    }
+    assert!(
+        (end - t.interface_height).abs() <= SPACING,
+        "{name}: interface at {end}"
+    );
+    let oil = &t.world.fluids[t.light];
+    let below = oil
+        .positions()
+        .iter()
+        .filter(|x| x.y < t.interface_height - SPACING);
+    assert!(
+        below.count() * 10 <= oil.len(),
+        "{name}: oil left in the water"
+    );
 }
 
 /// Results are bitwise identical with 1, 2 and 3 threads, DFSPH, PBF and Clavet (the groups'
@@ -663,22 +690,39 @@ fn bottom_errors(solver: Solver, light: Real, walls: bool) -> (Real, Real) {
 /// Clavet +65.7 ± 2.9 % → +61.6 ± 4.2 %. With the per-particle inverse masses left out of the
 /// position corrections and of Clavet's split (each liquid moved as the reference, a
 /// deliberate bug) this test fails for each: the oil's mean read +34.0 % (one liquid
-/// +18.7 %), +9.2 % (−1.5 %) and +84.5 % (+64.1 %).
-#[test]
-fn pbf_and_clavet_keep_oil_on_water_with_their_own_hydrostatic_error() {
-    for (name, solver, walls) in position_based() {
-        let (single, s1) = bottom_errors(solver, 1000.0, walls);
-        let (oil, s2) = bottom_errors(solver, 800.0, walls);
-        let tolerance = 1.0 / 64.0 + 3.0 * ((s1 * s1 + s2 * s2) / 3.0).sqrt();
-        println!(
-            "{name}: bottom pressure one liquid {single:+.4} ± {s1:.4}, oil on water \
-             {oil:+.4} ± {s2:.4}; tolerance {tolerance:.4}"
-        );
-        assert!(
-            (oil - single).abs() <= tolerance,
-            "{name}: bottom pressure error {oil:+.4}, one liquid {single:+.4}"
-        );
+/// +18.7 %), +9.2 % (−1.5 %) and +84.5 % (+64.1 %). One test a solver ([`position_based`]'s
+/// three), so that they run side by side on the test harness's two threads.
+mod pbf_and_clavet_keep_oil_on_water_with_their_own_hydrostatic_error {
+    #[test]
+    fn pbf() {
+        super::keep_oil_on_water(super::position_based()[0]);
     }
+
+    #[test]
+    fn pbf_hydrostatic_walls() {
+        super::keep_oil_on_water(super::position_based()[1]);
+    }
+
+    #[test]
+    fn clavet() {
+        super::keep_oil_on_water(super::position_based()[2]);
+    }
+}
+
+/// [`pbf_and_clavet_keep_oil_on_water_with_their_own_hydrostatic_error`] with one of
+/// [`position_based`]'s solvers.
+fn keep_oil_on_water((name, solver, walls): (&str, Solver, bool)) {
+    let (single, s1) = bottom_errors(solver, 1000.0, walls);
+    let (oil, s2) = bottom_errors(solver, 800.0, walls);
+    let tolerance = 1.0 / 64.0 + 3.0 * ((s1 * s1 + s2 * s2) / 3.0).sqrt();
+    println!(
+        "{name}: bottom pressure one liquid {single:+.4} ± {s1:.4}, oil on water \
+         {oil:+.4} ± {s2:.4}; tolerance {tolerance:.4}"
+    );
+    assert!(
+        (oil - single).abs() <= tolerance,
+        "{name}: bottom pressure error {oil:+.4}, one liquid {single:+.4}"
+    );
 }
 
 /// Water under a liquid ten times lighter ([`MAX_DENSITY_RATIO`]), PBF and Clavet: stable
@@ -689,35 +733,52 @@ fn pbf_and_clavet_keep_oil_on_water_with_their_own_hydrostatic_error() {
 /// 0.9928 (PBF), 1.0002 (hydrostatic walls), 0.9969 (Clavet); the interface −0.08, −0.01
 /// and −0.20 spacings off; the bottom pressure against the two layers' weight +17.6 %,
 /// −3.4 % and +67.3 %, as with one liquid (above). With the inverse masses left out (the
-/// deliberate bug above) the bottom pressures read +126 %, +85 % and +215 %.
-#[test]
-fn pbf_and_clavet_hold_water_under_a_ten_times_lighter_liquid() {
-    for (name, solver, walls) in position_based() {
-        let mut t = tank_walls(solver, 100.0, walls);
-        let e0 = energy(&t);
-        let mut worst: f64 = 0.0;
-        let (mut sum, mut count) = (0.0, 0);
-        for k in 0..120 {
-            let report = t.world.step().unwrap();
-            assert_eq!(report.non_finite, 0, "{name}, frame {k}: {report:?}");
-            assert_eq!(report.quarantined, 0, "{name}, frame {k}");
-            worst = worst.max(energy(&t) / e0);
-            if k >= 60 {
-                sum += t.bottom_pressure_error();
-                count += 1;
-            }
-        }
-        assert_kept(&t);
-        let e = t.measured_interface() - t.interface_height;
-        println!(
-            "{name}: largest E/E0 {worst:.6}, interface off by {:+.3} spacings, \
-             bottom pressure {:+.4}",
-            e / SPACING,
-            sum / count as Real
-        );
-        assert!(e.abs() <= 0.5 * SPACING, "{name}: interface off by {e}");
-        assert!(worst <= 1.05, "{name}: energy grew to {worst} E0");
+/// deliberate bug above) the bottom pressures read +126 %, +85 % and +215 %. One test a
+/// solver, so that they run side by side on the test harness's two threads.
+mod pbf_and_clavet_hold_water_under_a_ten_times_lighter_liquid {
+    #[test]
+    fn pbf() {
+        super::hold_water_under_light_liquid(super::position_based()[0]);
     }
+
+    #[test]
+    fn pbf_hydrostatic_walls() {
+        super::hold_water_under_light_liquid(super::position_based()[1]);
+    }
+
+    #[test]
+    fn clavet() {
+        super::hold_water_under_light_liquid(super::position_based()[2]);
+    }
+}
+
+/// [`pbf_and_clavet_hold_water_under_a_ten_times_lighter_liquid`] with one of
+/// [`position_based`]'s solvers.
+fn hold_water_under_light_liquid((name, solver, walls): (&str, Solver, bool)) {
+    let mut t = tank_walls(solver, 100.0, walls);
+    let e0 = energy(&t);
+    let mut worst: f64 = 0.0;
+    let (mut sum, mut count) = (0.0, 0);
+    for k in 0..120 {
+        let report = t.world.step().unwrap();
+        assert_eq!(report.non_finite, 0, "{name}, frame {k}: {report:?}");
+        assert_eq!(report.quarantined, 0, "{name}, frame {k}");
+        worst = worst.max(energy(&t) / e0);
+        if k >= 60 {
+            sum += t.bottom_pressure_error();
+            count += 1;
+        }
+    }
+    assert_kept(&t);
+    let e = t.measured_interface() - t.interface_height;
+    println!(
+        "{name}: largest E/E0 {worst:.6}, interface off by {:+.3} spacings, \
+         bottom pressure {:+.4}",
+        e / SPACING,
+        sum / count as Real
+    );
+    assert!(e.abs() <= 0.5 * SPACING, "{name}: interface off by {e}");
+    assert!(worst <= 1.05, "{name}: energy grew to {worst} E0");
 }
 
 /// PBF's and Clavet's settings must be the same across a group, and Clavet's springs are

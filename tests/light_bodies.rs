@@ -159,20 +159,51 @@ fn check(cases: &[(Solver, Real)]) {
     assert!(failures.is_empty(), "failed: {failures:?}");
 }
 
-#[test]
-fn light_bodies_pop_up_and_float() {
-    let mut cases = Vec::new();
-    for solver in [
+/// The solvers the drop tests run, in the order of their per-solver tests.
+fn solvers() -> [Solver; 4] {
+    [
         Solver::Wcsph,
         Solver::dfsph(),
         Solver::clavet(),
         Solver::Pbf(Pbf::default()),
-    ] {
-        for density in [10.0, 50.0] {
-            cases.push((solver, density));
+    ]
+}
+
+/// `#[test] fn wcsph`, `dfsph`, `clavet`, `pbf` calling `$check` with the solver's index in
+/// [`solvers`].
+macro_rules! per_solver {
+    ($check:path) => {
+        #[test]
+        fn wcsph() {
+            $check(0);
         }
-    }
-    check(&cases);
+
+        #[test]
+        fn dfsph() {
+            $check(1);
+        }
+
+        #[test]
+        fn clavet() {
+            $check(2);
+        }
+
+        #[test]
+        fn pbf() {
+            $check(3);
+        }
+    };
+}
+
+/// One test a solver ([`solvers`]), so that they run side by side on the test harness's two
+/// threads.
+mod light_bodies_pop_up_and_float {
+    per_solver!(super::pop_up_and_float);
+}
+
+fn pop_up_and_float(solver: usize) {
+    let solver = solvers()[solver];
+    check(&[(solver, 10.0), (solver, 50.0)]);
 }
 
 /// At 1 kg/m³ (a balloon: the box weighs 4 g, a particle 64 g) the body is lighter than any
@@ -189,28 +220,18 @@ fn very_light_bodies_float() {
     ]);
 }
 
-/// Every solver with the heavy densities (2,000 and 20,000 kg/m³: stone, tungsten).
-fn heavy_cases() -> Vec<(Solver, Real)> {
-    let mut cases = Vec::new();
-    for solver in [
-        Solver::Wcsph,
-        Solver::dfsph(),
-        Solver::clavet(),
-        Solver::Pbf(Pbf::default()),
-    ] {
-        for density in [2_000.0, 20_000.0] {
-            cases.push((solver, density));
-        }
-    }
-    cases
-}
-
-/// The outcomes of [`drop_heavy`] over [`heavy_cases`], which both heavy-body tests read:
-/// dropped once and shared (the harness runs the tests in one process; a test asking while
-/// the other drops them waits, `OnceLock::get_or_init`).
-fn heavy_outcomes() -> &'static [(String, Outcome)] {
-    static OUTCOMES: std::sync::OnceLock<Vec<(String, Outcome)>> = std::sync::OnceLock::new();
-    OUTCOMES.get_or_init(|| drop_heavy(&heavy_cases()))
+/// The outcomes of [`drop_heavy`] for the `solver`-th of [`solvers`] with the heavy
+/// densities (2,000 and 20,000 kg/m³: stone, tungsten), which both heavy-body tests read:
+/// dropped once a solver and shared (the harness runs the tests in one process; a test asking
+/// while another drops them waits, `OnceLock::get_or_init`). One test a solver, so that the
+/// solvers drop side by side on the test harness's two threads.
+fn heavy_outcomes(solver: usize) -> &'static [(String, Outcome)] {
+    use std::sync::OnceLock;
+    static OUTCOMES: [OnceLock<Vec<(String, Outcome)>>; 4] = [const { OnceLock::new() }; 4];
+    OUTCOMES[solver].get_or_init(|| {
+        let s = solvers()[solver];
+        drop_heavy(&[(s, 2_000.0), (s, 20_000.0)])
+    })
 }
 
 /// Drops 16 cm boxes much heavier than water (`cases`: solver and density) in the same tank;
@@ -244,10 +265,13 @@ fn drop_heavy(cases: &[(Solver, Real)]) -> Vec<(String, Outcome)> {
 /// Heavy boxes sink without being thrown: the bounds of the module docs (which hold for any
 /// body: one denser than water falls no faster than in free fall), no particle out of the
 /// tank or quarantined, the substep cap never hit.
-#[test]
-fn heavy_bodies_sink_without_being_thrown() {
+mod heavy_bodies_sink_without_being_thrown {
+    per_solver!(super::sink_without_being_thrown);
+}
+
+fn sink_without_being_thrown(solver: usize) {
     let (body_bound, water_bound) = speed_bounds(0.24, 0.05);
-    let failures: Vec<String> = heavy_outcomes()
+    let failures: Vec<String> = heavy_outcomes(solver)
         .iter()
         .filter(|(_, o)| {
             !(o.body_speed <= body_bound
@@ -279,10 +303,13 @@ fn heavy_bodies_sink_without_being_thrown() {
 /// rested on two layers (0.0801 m) while its cohesive relaxation held the whole fluid 9–13 %
 /// under its rest density, with a tension and a near pressure that cancelled (a soft solid:
 /// see the next test and "Cohesion" in `solver::clavet`).
-#[test]
-fn heavy_bodies_rest_on_the_floor_with_no_particle_inside() {
+mod heavy_bodies_rest_on_the_floor_with_no_particle_inside {
+    per_solver!(super::rest_on_the_floor);
+}
+
+fn rest_on_the_floor(solver: usize) {
     let spacing = 0.04;
-    let failures: Vec<String> = heavy_outcomes()
+    let failures: Vec<String> = heavy_outcomes(solver)
         .iter()
         .filter(|(_, o)| {
             !(o.inside == 0 && o.lowest <= 1.25 * spacing && o.lowest >= -0.25 * spacing)
