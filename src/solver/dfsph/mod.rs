@@ -209,14 +209,13 @@ impl<'a> WarmPush<'a> {
     }
 }
 
-/// A particle's values per pair (pair `t` at `at(t)`): a slice, or the pair gradients.
+/// A particle's values per pair (pair `t` at `at_unchecked(t)`): a slice, or the pair
+/// gradients.
 trait PairValues: Copy {
     /// The value of one pair.
     type T: Copy;
     /// Number of pairs.
     fn len(&self) -> usize;
-    /// The value of pair `t`.
-    fn at(&self, t: usize) -> Self::T;
     /// The value of pair `t`, without checking `t`.
     ///
     /// # Safety
@@ -229,10 +228,6 @@ impl<T: Copy> PairValues for &[T] {
     #[inline(always)]
     fn len(&self) -> usize {
         <[T]>::len(self)
-    }
-    #[inline(always)]
-    fn at(&self, t: usize) -> T {
-        self[t]
     }
     #[inline(always)]
     unsafe fn at_unchecked(&self, t: usize) -> T {
@@ -248,57 +243,65 @@ impl PairValues for GradientSlice<'_> {
         GradientSlice::len(self)
     }
     #[inline(always)]
-    fn at(&self, t: usize) -> Vec3A {
-        GradientSlice::at(self, t)
-    }
-    #[inline(always)]
     unsafe fn at_unchecked(&self, t: usize) -> Vec3A {
         // SAFETY: the caller keeps `t < len`.
         unsafe { GradientSlice::at_unchecked(self, t) }
     }
 }
 
-/// `Σ_t term(nb[t], values[t])` over a particle's pairs, pair `t` into accumulator
-/// `t % ACC`, summed as `(a0 + a1) + (a2 + a3)`: independent add chains, and a fixed order,
-/// so the result depends on the data only. The terms run over 16-byte vectors (one packed
-/// operation per component-wise step); only their `x, y, z` lanes are meaningful.
-#[inline(always)]
-fn pair_sum<V: PairValues>(nb: &[u32], values: V, term: impl Fn(usize, V::T) -> Vec3A) -> Vec3A {
-    assert_eq!(values.len(), nb.len(), "one value per pair");
-    let mut acc = [Vec3A::ZERO; ACC];
-    let full = nb.len() / ACC * ACC;
-    for (b, j) in nb[..full].chunks_exact(ACC).enumerate() {
-        for l in 0..ACC {
-            acc[l] += term(j[l] as usize, values.at(b * ACC + l));
-        }
-    }
-    for (l, &j) in nb[full..].iter().enumerate() {
-        acc[l] += term(j as usize, values.at(full + l));
-    }
-    (acc[0] + acc[1]) + (acc[2] + acc[3])
+/// What a pair pass reads of each neighbour `j`: one array's entry `a[j]`, or two arrays'
+/// `(a[j], b[j])`.
+trait Gather: Copy {
+    /// The entries of one neighbour.
+    type T: Copy;
+    /// The neighbour's entries, unchecked.
+    ///
+    /// # Safety
+    /// `j` is below the length of every array gathered from.
+    unsafe fn get(&self, j: usize) -> Self::T;
 }
 
-/// [`pair_sum`] with the term given each neighbour's entry of `gathered` (`gathered[nb[t]]`)
-/// instead of its index, and neither the pair values nor the gathered entries bounds-checked
-/// per pair: the same accumulators and order, the same bits. In the solves' passes the two
-/// checks were half of the inner loop's instructions (docs/performance.md, "Roofline of the
-/// pair passes (measured)").
+impl<T: Copy> Gather for &[T] {
+    type T = T;
+    #[inline(always)]
+    unsafe fn get(&self, j: usize) -> T {
+        // SAFETY: the caller keeps `j < len`.
+        unsafe { *self.get_unchecked(j) }
+    }
+}
+
+impl<A: Copy, B: Copy> Gather for (&[A], &[B]) {
+    type T = (A, B);
+    #[inline(always)]
+    unsafe fn get(&self, j: usize) -> (A, B) {
+        // SAFETY: the caller keeps `j` below both lengths.
+        unsafe { (*self.0.get_unchecked(j), *self.1.get_unchecked(j)) }
+    }
+}
+
+/// `Σ_t term(gathered[nb[t]], values[t])` over a particle's pairs, pair `t` into accumulator
+/// `t % ACC`, summed as `(a0 + a1) + (a2 + a3)`: independent add chains, and a fixed order,
+/// so the result depends on the data only. The terms run over 16-byte vectors (one packed
+/// operation per component-wise step); only their `x, y, z` lanes are meaningful. Neither
+/// the pair values nor the gathered entries are bounds-checked per pair: in the solves'
+/// passes the two checks were half of the inner loop's instructions (docs/performance.md,
+/// "Roofline of the pair passes (measured)").
 ///
 /// # Safety
-/// Every index in `nb` is `< gathered.len()` (true of a particle's list in a
-/// [`NeighborLists`] of `gathered.len()` particles: see [`NeighborLists::len`]).
+/// Every index in `nb` is below the length of every array `gathered` reads (true of a
+/// particle's list in a [`NeighborLists`] of that many particles: see
+/// [`NeighborLists::len`]).
 #[inline(always)]
-unsafe fn pair_sum_gather<V: PairValues, G: Copy>(
+unsafe fn pair_sum_gather<V: PairValues, G: Gather>(
     nb: &[u32],
     values: V,
-    gathered: &[G],
-    term: impl Fn(G, V::T) -> Vec3A,
+    gathered: G,
+    term: impl Fn(G::T, V::T) -> Vec3A,
 ) -> Vec3A {
     assert_eq!(values.len(), nb.len(), "one value per pair");
     // SAFETY (both reads below): `t < nb.len() = values.len()`, and the caller keeps every
-    // `nb[t] < gathered.len()`.
-    let get =
-        |t: usize, j: u32| unsafe { (*gathered.get_unchecked(j as usize), values.at_unchecked(t)) };
+    // `nb[t]` below the gathered arrays' lengths.
+    let get = |t: usize, j: u32| unsafe { (gathered.get(j as usize), values.at_unchecked(t)) };
     let mut acc = [Vec3A::ZERO; ACC];
     let full = nb.len() / ACC * ACC;
     for (b, j) in nb[..full].chunks_exact(ACC).enumerate() {
@@ -434,10 +437,10 @@ impl Pusher<'_> {
     }
 }
 
-/// [`pair_sum`] of `g·(π_i + π_j)` (the same accumulators and order, the same bits) and, in
-/// the same loop, `Σ_t w_t·π_j` in pair order (the wall's neighbour average's numerator, see
-/// [`weighted_average`]): each neighbour's value is gathered once. Unchecked per pair, as
-/// [`pair_sum_gather`].
+/// [`pair_sum_gather`] of `g·(π_i + π_j)` (the same accumulators and order, the same bits)
+/// and, in the same loop, `Σ_t w_t·π_j` in pair order (the wall's neighbour average's
+/// numerator, see [`weighted_average`]): each neighbour's value is gathered once. Unchecked
+/// per pair, as [`pair_sum_gather`].
 ///
 /// # Safety
 /// Every index in `nb` is `< pi.len()`.
@@ -608,7 +611,8 @@ fn apply_pressure(
 /// [`crate::forces::viscosity::add_accelerations`]) to `accelerations`,
 /// `a_i += ε m/ρ_i Σ_j (v_j − v_i)/ρ_j ∇²W_v(|x_i − x_j|)` (`em` = `ε·m`), from the
 /// Laplacians stored by [`density_and_factors`] (with viscosity) in `pairs`: a gather of
-/// velocities and densities, with no distance or kernel evaluated; limited where the explicit
+/// velocities and densities (unchecked per pair, as [`pair_sum_gather`]; the lists' length
+/// asserted once), with no distance or kernel evaluated; limited where the explicit
 /// update over the substep `dt` would overshoot (`forces::viscosity`, "The explicit limit").
 /// `wide` is scratch for a 16-byte copy of the velocities. Returns how many particles were
 /// limited.
@@ -623,6 +627,11 @@ pub(crate) fn viscosity(
     wide.clear();
     wide.extend(velocities.iter().map(|&v| Vec3A::from(v)));
     let wv: &[Vec3A] = wide;
+    // Every neighbour index is below the lists' particle count (`NeighborLists::len`).
+    assert!(
+        neighbors.len() == wv.len() && inv_densities.len() == wv.len(),
+        "one velocity and one density per particle"
+    );
     let largest = AtomicMax::default();
     crate::par_chunks_mut!(accelerations, CHUNK)
         .enumerate()
@@ -637,12 +646,18 @@ pub(crate) fn viscosity(
                         let i = c * CHUNK + k;
                         let vi = wv[i];
                         let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
-                        let f = pair_sum(&indices[s..e], &lap[s..e], |j, lap| {
-                            (wv[j] - vi) * (lap * inv_densities[j])
-                        });
+                        let (nb, lap) = (&indices[s..e], &lap[s..e]);
+                        // SAFETY: a list of `neighbors`, built for `wv.len()` =
+                        // `inv_densities.len()` particles (asserted above).
+                        let f = unsafe {
+                            pair_sum_gather(nb, lap, (wv, inv_densities), |(vj, ij), lap| {
+                                (vj - vi) * (lap * ij)
+                            })
+                        };
                         *a += Vector::from(f) * (em * inv_densities[i]);
-                        let w: Real = (indices[s..e].iter().zip(&lap[s..e]))
-                            .map(|(&j, &l)| l * inv_densities[j as usize])
+                        // SAFETY: as above.
+                        let w: Real = (nb.iter().zip(lap))
+                            .map(|(&j, &l)| l * unsafe { *inv_densities.get_unchecked(j as usize) })
                             .sum();
                         most = most.max(w * inv_densities[i]);
                     }
