@@ -15,6 +15,7 @@ use crate::params::FluidParams;
 use crate::solver::context::StepContext;
 use crate::solver::{SolverState, WallReaction};
 use crate::{density, forces, integrate};
+use rapier3d::geometry::ColliderSet;
 
 /// What the frame hands each substep.
 #[derive(Copy, Clone)]
@@ -196,18 +197,30 @@ fn relax_coupling<'c>(
         return None;
     }
     let back = input.back.0;
+    // Every body the relaxation's rounds can reach: each moves a particle at most
+    // `RELAX_MAX_MOVE` spacings.
+    let reach = rounds as Real * super::relax::RELAX_MAX_MOVE * fluid.params().particle_spacing;
     report.timed(Stage::Contact, || {
-        let p = fluid.params();
-        let (lo, hi) = integrate::bounds(fluid.positions());
-        // Every body the relaxation's rounds can reach: each moves a particle at most
-        // `RELAX_MAX_MOVE` spacings.
-        let reach = rounds as Real * super::relax::RELAX_MAX_MOVE * p.particle_spacing;
-        let margin = p.smoothing_length + p.particle_radius + reach;
-        let fluid_box = parry3d::bounding_volume::Aabb::new(lo, hi);
-        coupling.begin_substep(scene.colliders, &fluid_box, margin, back, back);
+        coupling_near(fluid, scene.colliders, reach, (back, back), coupling);
         coupling.keep_kinematic();
     });
     (!coupling.table().is_empty()).then_some(coupling)
+}
+
+/// Starts `coupling`'s substep with the bodies within `reach` of the fluid's box, grown by
+/// the support and the contact radius: the bodies a particle can meet in the substep.
+fn coupling_near(
+    fluid: &Fluid,
+    colliders: &ColliderSet,
+    reach: Real,
+    (back0, back1): (Real, Real),
+    coupling: &mut Coupling,
+) {
+    let p = fluid.params();
+    let (lo, hi) = integrate::bounds(fluid.positions());
+    let margin = p.smoothing_length + p.particle_radius + reach;
+    let fluid_box = parry3d::bounding_volume::Aabb::new(lo, hi);
+    coupling.begin_substep(colliders, &fluid_box, margin, back0, back1);
 }
 
 /// The neighbour search (sort, cells, lists); a solver that predicts positions has its
@@ -344,11 +357,7 @@ fn begin_coupling<'c>(
     let (dt, back) = (input.dt, input.back);
     let v = ws.max_speed + input.gravity.length() * dt;
     report.timed(Stage::Contact, || {
-        let p = fluid.params();
-        let (lo, hi) = integrate::bounds(fluid.positions());
-        let margin = p.smoothing_length + p.particle_radius + 2.0 * v * dt;
-        let fluid_box = parry3d::bounding_volume::Aabb::new(lo, hi);
-        coupling.begin_substep(scene.colliders, &fluid_box, margin, back.0, back.1);
+        coupling_near(fluid, scene.colliders, 2.0 * v * dt, back, coupling)
     });
     Some(coupling)
 }
