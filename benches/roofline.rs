@@ -22,7 +22,21 @@
 //!    (their pairs, about 14 KB, and the values they gather fit a 48 KB L1), replayed by
 //!    each thread for as many pairs in all as a whole pass: the passes' cost without memory
 //!    traffic, what the arithmetic, the loads and the dependent add chains cost (sorted lists
-//!    only).
+//!    only);
+//! 5. the two passes, in memory and in L1, with each pair's gradient as a 4-byte **factor** on
+//!    the separation, `∇W_ij = (x_i − x_j)·c_ij`, the neighbour's position gathered (16 bytes,
+//!    `Vec3A`) and the separation recomputed in the pass: 8 bytes streamed a pair (index and
+//!    factor) instead of 16, a few more instructions. The gradient is formed as `r·c` with the
+//!    same `r` and `c`, so the factor passes give the packed passes' results bit for bit
+//!    (checked pair by pair when the data is built, and on both passes' outputs before
+//!    timing). They read the position unchecked (every index is checked once against the
+//!    positions when built) and the factor as the packed passes read the gradient, so they
+//!    pay as many checks a pair as the packed passes (two, or none with `--unchecked`).
+//!
+//! The passes' copies read each pair's gradient (or factor) and the neighbour's velocity or
+//! pressure value with a bounds check, as the crate did when the bench was written; with
+//! `--unchecked` without, as the crate's passes now do (each index checked once against the
+//! particle count when the lists are built).
 //!
 //! ```text
 //! cargo bench --bench roofline                     # all sizes, 1 and 2 threads
@@ -31,6 +45,7 @@
 //! cargo bench --bench roofline -- --only rate --particles 20000 --threads 1 --passes 20
 //!                                                  # one kernel, fixed passes, no table
 //!                                                  # (for `valgrind --tool=callgrind`)
+//! cargo bench --bench roofline -- --unchecked      # the passes without bounds checks
 //! ```
 //!
 //! The particles are a cubic lattice of spacing `s` jittered by up to ±0.15 `s` per axis (a
@@ -44,9 +59,9 @@
 //! least 4 ms, timed in CPU time of the pool's threads (a preempted thread does not count).
 //! The first table gives each kernel's fastest sample and median over the rounds in CPU ns
 //! per pair; the second the medians of ratios taken within a round (in-memory pass ÷ in-L1
-//! pass, 16-byte ÷ packed gradients, stream ÷ pass), which hold when the machine's speed
-//! changes between rounds. The first line gives the core's clock while running, from a chain
-//! of dependent multiplications.
+//! pass, 16-byte ÷ packed gradients, stream ÷ pass, factor ÷ packed), which hold when the
+//! machine's speed changes between rounds. The first line gives the core's clock while
+//! running, from a chain of dependent multiplications.
 
 use rapier_sph::math::{Real, Vector};
 use rapier_sph::neighbors::{NeighborGrid, NeighborLists};
@@ -75,6 +90,7 @@ fn main() {
         })
     };
     let quick = args.iter().any(|a| a == "--quick");
+    let unchecked = args.iter().any(|a| a == "--unchecked");
     let sizes = list("--particles", &[2_500, 10_200, 20_000]);
     let threads = list("--threads", &[1, 2]);
     let rounds: usize = value("--rounds").map_or(if quick { 7 } else { 21 }, |v| {
@@ -83,7 +99,7 @@ fn main() {
     if let Some(kernel) = value("--only") {
         let passes: usize = value("--passes").map_or(10, |v| v.parse().expect("an integer"));
         let shuffled = args.iter().any(|a| a == "--shuffled");
-        only(&kernel, sizes[0], threads[0], passes, shuffled);
+        only(&kernel, sizes[0], threads[0], passes, shuffled, unchecked);
         return;
     }
     println!(
@@ -91,6 +107,14 @@ fn main() {
         std::env::consts::ARCH,
         isa_name(),
         cpu_name()
+    );
+    println!(
+        "the passes read each pair's gradient (or factor) and the neighbour's value {}",
+        if unchecked {
+            "unchecked, as the crate's passes do (--unchecked)"
+        } else {
+            "with a bounds check each"
+        }
     );
     if let Some(ghz) = clock_ghz() {
         println!(
@@ -104,13 +128,14 @@ fn main() {
     );
     println!();
     println!(
-        "| particles | neighbours | pair data (MB) | order | threads | stream (GB/s) | gather | rate | rate, 16-byte gradients | push | rate in L1 | push in L1 | rate + push, wall |"
+        "| particles | neighbours | pair data (MB) | order | threads | stream (GB/s) | gather | rate | rate, 16-byte gradients | push | rate in L1 | push in L1 | rate, factor | push, factor | rate in L1, factor | push in L1, factor | rate + push, wall |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut ratios = Vec::new();
     for &n in &sizes {
         for shuffled in [false, true] {
-            let data = Data::new(n, shuffled);
+            let mut data = Data::new(n, shuffled);
+            data.unchecked = unchecked;
             let pools: Vec<_> = threads
                 .iter()
                 .map(|&t| {
@@ -121,6 +146,8 @@ fn main() {
                 })
                 .collect();
             let mut state = State::new(&data);
+            check_factor_passes::<false>(&data, &mut state);
+            check_factor_passes::<true>(&data, &mut state);
             // wall[thread case][kernel], cpu[..][..]: ns per pair.
             let mut wall = vec![vec![Vec::new(); Kernel::ALL.len()]; threads.len()];
             let mut cpu = wall.clone();
@@ -129,7 +156,15 @@ fn main() {
                     for (k, &kernel) in Kernel::ALL.iter().enumerate() {
                         // In L1 is measured on the sorted lists only (shuffled, the values
                         // the replayed particles gather are spread over the whole array).
-                        if shuffled && matches!(kernel, Kernel::RateL1 | Kernel::PushL1) {
+                        if shuffled
+                            && matches!(
+                                kernel,
+                                Kernel::RateL1
+                                    | Kernel::PushL1
+                                    | Kernel::RateFactorL1
+                                    | Kernel::PushFactorL1
+                            )
+                        {
                             continue;
                         }
                         let (w, c) = time(pool, kernel, &data, &mut state);
@@ -157,7 +192,7 @@ fn main() {
                 };
                 let (slo, smed) = s[Kernel::Stream as usize];
                 println!(
-                    "| {} | {:.1} | {:.1} | {} | {} | {:.0} / {:.0} | {} | {} | {} | {} | {} | {} | {:.2} |",
+                    "| {} | {:.1} | {:.1} | {} | {} | {:.0} / {:.0} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} |",
                     n_label(data.n),
                     pairs / data.n as f64,
                     pairs * 16.0 / 1e6,
@@ -171,6 +206,10 @@ fn main() {
                     cell(Kernel::Push),
                     cell(Kernel::RateL1),
                     cell(Kernel::PushL1),
+                    cell(Kernel::RateFactor),
+                    cell(Kernel::PushFactor),
+                    cell(Kernel::RateFactorL1),
+                    cell(Kernel::PushFactorL1),
                     w[Kernel::Rate as usize].0 + w[Kernel::Push as usize].0,
                 );
             }
@@ -181,16 +220,17 @@ fn main() {
     println!(
         "ratios of CPU times taken in the same round (a change of the machine's speed between rounds \
          cancels), median [25th–75th percentile] over the rounds; stream ÷ pass: the fraction of the \
-         stream's bandwidth a pass streams its 16 bytes a pair at"
+         stream's bandwidth a pass streams its 16 bytes a pair at; factor: the gradient as a 4-byte \
+         factor on the separation recomputed from the gathered positions"
     );
     println!();
     println!(
-        "| particles | order | threads | rate ÷ rate in L1 | push ÷ push in L1 | rate with 16-byte gradients ÷ rate | stream ÷ rate | stream ÷ push |"
+        "| particles | order | threads | rate ÷ rate in L1 | push ÷ push in L1 | rate with 16-byte gradients ÷ rate | stream ÷ rate | stream ÷ push | rate, factor ÷ rate | push, factor ÷ push | in L1: rate, factor ÷ rate | in L1: push, factor ÷ push |"
     );
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     for r in &ratios {
         println!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             n_label(r.n),
             if r.shuffled { "shuffled" } else { "sorted" },
             r.threads,
@@ -198,7 +238,11 @@ fn main() {
             r.push_l1,
             r.rate16,
             r.stream_rate,
-            r.stream_push
+            r.stream_push,
+            r.rate_factor,
+            r.push_factor,
+            r.rate_factor_l1,
+            r.push_factor_l1
         );
     }
 }
@@ -213,6 +257,10 @@ struct Ratios {
     rate16: String,
     stream_rate: String,
     stream_push: String,
+    rate_factor: String,
+    push_factor: String,
+    rate_factor_l1: String,
+    push_factor_l1: String,
 }
 
 impl Ratios {
@@ -237,6 +285,10 @@ impl Ratios {
             rate16: ratio(Kernel::Rate16, Kernel::Rate),
             stream_rate: ratio(Kernel::Stream, Kernel::Rate),
             stream_push: ratio(Kernel::Stream, Kernel::Push),
+            rate_factor: ratio(Kernel::RateFactor, Kernel::Rate),
+            push_factor: ratio(Kernel::PushFactor, Kernel::Push),
+            rate_factor_l1: ratio(Kernel::RateFactorL1, Kernel::RateL1),
+            push_factor_l1: ratio(Kernel::PushFactorL1, Kernel::PushL1),
         }
     }
 }
@@ -244,12 +296,13 @@ impl Ratios {
 /// `--only KERNEL`: `passes` passes of one kernel and nothing timed (for instruction counts:
 /// run it with 0 and with N passes under `valgrind --tool=callgrind` and divide the
 /// difference of the counts by N times the pairs it prints).
-fn only(kernel: &str, n: usize, threads: usize, passes: usize, shuffled: bool) {
+fn only(kernel: &str, n: usize, threads: usize, passes: usize, shuffled: bool, unchecked: bool) {
     let kernel = *Kernel::ALL
         .iter()
         .find(|k| k.name() == kernel)
         .unwrap_or_else(|| panic!("--only takes one of {:?}", Kernel::ALL.map(|k| k.name())));
-    let data = Data::new(n, shuffled);
+    let mut data = Data::new(n, shuffled);
+    data.unchecked = unchecked;
     let mut state = State::new(&data);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -298,10 +351,14 @@ enum Kernel {
     Push,
     RateL1,
     PushL1,
+    RateFactor,
+    PushFactor,
+    RateFactorL1,
+    PushFactorL1,
 }
 
 impl Kernel {
-    const ALL: [Kernel; 7] = [
+    const ALL: [Kernel; 11] = [
         Kernel::Stream,
         Kernel::Gather,
         Kernel::Rate,
@@ -309,6 +366,10 @@ impl Kernel {
         Kernel::Push,
         Kernel::RateL1,
         Kernel::PushL1,
+        Kernel::RateFactor,
+        Kernel::PushFactor,
+        Kernel::RateFactorL1,
+        Kernel::PushFactorL1,
     ];
 
     fn name(self) -> &'static str {
@@ -320,6 +381,10 @@ impl Kernel {
             Kernel::Push => "push",
             Kernel::RateL1 => "rate-l1",
             Kernel::PushL1 => "push-l1",
+            Kernel::RateFactor => "rate-factor",
+            Kernel::PushFactor => "push-factor",
+            Kernel::RateFactorL1 => "rate-factor-l1",
+            Kernel::PushFactorL1 => "push-factor-l1",
         }
     }
 }
@@ -379,16 +444,30 @@ fn thread_cpu_seconds() -> f64 {
     }
 }
 
-/// One pass of `kernel` over every pair (the in-L1 kernels: over as many pairs, replayed).
+/// One pass of `kernel` over every pair (the in-L1 kernels: over as many pairs, replayed),
+/// the passes' reads checked or, with `data.unchecked`, not.
 fn run(kernel: Kernel, data: &Data, state: &mut State) {
+    if data.unchecked {
+        run_as::<true>(kernel, data, state)
+    } else {
+        run_as::<false>(kernel, data, state)
+    }
+}
+
+/// [`run`], the passes' reads unchecked if `U`.
+fn run_as<const U: bool>(kernel: Kernel, data: &Data, state: &mut State) {
     match kernel {
         Kernel::Stream => state.sink = stream(&data.stream),
         Kernel::Gather => state.sink = gather(data, &state.velocities),
-        Kernel::Rate => rate::<false>(data, state),
-        Kernel::Rate16 => rate::<true>(data, state),
-        Kernel::Push => push(data, state),
-        Kernel::RateL1 => state.sink = in_l1(data, state, false),
-        Kernel::PushL1 => state.sink = in_l1(data, state, true),
+        Kernel::Rate => rate::<PACKED, U>(data, state),
+        Kernel::Rate16 => rate::<WIDE16, U>(data, state),
+        Kernel::Push => push::<PACKED, U>(data, state),
+        Kernel::RateL1 => state.sink = in_l1::<PACKED, U>(data, state, false),
+        Kernel::PushL1 => state.sink = in_l1::<PACKED, U>(data, state, true),
+        Kernel::RateFactor => rate::<FACTOR, U>(data, state),
+        Kernel::PushFactor => push::<FACTOR, U>(data, state),
+        Kernel::RateFactorL1 => state.sink = in_l1::<FACTOR, U>(data, state, false),
+        Kernel::PushFactorL1 => state.sink = in_l1::<FACTOR, U>(data, state, true),
     }
 }
 
@@ -403,6 +482,10 @@ struct Data {
     /// Pairs of the first [`L1_PARTICLES`] particles of the middle chunk (the in-L1 kernels'
     /// unit of work).
     l1_pairs: usize,
+    /// The particles' positions, 16 bytes each, for the factor passes' separations.
+    positions: Vec<Vec3A>,
+    /// The passes read the pair's slot and the neighbour's value unchecked (`--unchecked`).
+    unchecked: bool,
 }
 
 /// A chunk's lists (`offsets`: one more than its particles) and gradients (`3·pairs + 1`
@@ -413,6 +496,8 @@ struct Chunk {
     grad: Vec<Real>,
     /// The same gradients 16 bytes each (as the crate stored them before packing).
     grad16: Vec<Vec3A>,
+    /// The same gradients as factors on the separation, `∇W_ij = (x_i − x_j)·c_ij`.
+    factor: Vec<Real>,
 }
 
 impl Data {
@@ -466,8 +551,8 @@ impl Data {
         let mut chunks = Vec::new();
         let mut pairs = 0;
         for c in 0..n.div_ceil(CHUNK) {
-            let (mut offsets, mut indices, mut grad, mut grad16) =
-                (vec![0u32], Vec::new(), Vec::new(), Vec::new());
+            let (mut offsets, mut indices, mut grad, mut grad16, mut factor) =
+                (vec![0u32], Vec::new(), Vec::new(), Vec::new(), Vec::new());
             for &o in &order[c * CHUNK..((c + 1) * CHUNK).min(n)] {
                 let xi = sorted[o as usize];
                 for &j in lists.of(o as usize) {
@@ -477,9 +562,11 @@ impl Data {
                     let r = xi - position(j as usize);
                     let d = r.length().max(1e-6);
                     let q = 1.0 - d / h;
-                    let g = r * (-q * q / d);
+                    let c = -q * q / d;
+                    let g = r * c;
                     grad.extend([g.x, g.y, g.z]);
                     grad16.push(Vec3A::from(g));
+                    factor.push(c);
                 }
                 offsets.push(indices.len() as u32);
             }
@@ -490,16 +577,63 @@ impl Data {
                 indices,
                 grad,
                 grad16,
+                factor,
             });
         }
         let middle = &chunks[chunks.len() / 2];
         let l1_pairs = middle.offsets[L1_PARTICLES.min(middle.offsets.len() - 1)] as usize;
-        Data {
+        let positions: Vec<Vec3A> = (0..n).map(|t| Vec3A::from(position(t))).collect();
+        // The factor passes read positions unchecked: every index must be below `n`.
+        assert!(
+            chunks
+                .iter()
+                .flat_map(|c| &c.indices)
+                .all(|&j| (j as usize) < n),
+            "a neighbour index beyond the particles"
+        );
+        let data = Data {
             n,
             pairs,
             chunks,
             stream: (0..4 * pairs).map(|k| (k % 7) as f32).collect(),
             l1_pairs,
+            positions,
+            unchecked: false,
+        };
+        data.check_factor_gradients();
+        data
+    }
+
+    /// Particle `i`'s pairs `s..e` of chunk `c` as factors (see [`FactorSlice`]).
+    #[inline(always)]
+    fn factors(&self, c: usize, i: usize, s: usize, e: usize) -> FactorSlice<'_> {
+        FactorSlice {
+            c: &self.chunks[c].factor[s..e],
+            xi: self.positions[i],
+            positions: &self.positions,
+        }
+    }
+
+    /// Every pair's gradient recomputed from its factor and the positions has the stored
+    /// gradient's bits (the factor passes compute what the packed ones do).
+    fn check_factor_gradients(&self) {
+        for (c, chunk) in self.chunks.iter().enumerate() {
+            for k in 0..chunk.offsets.len() - 1 {
+                let i = c * CHUNK + k;
+                let (s, e) = (chunk.offsets[k] as usize, chunk.offsets[k + 1] as usize);
+                let f = self.factors(c, i, s, e);
+                let g = GradientSlice::new(&chunk.grad, s, e);
+                for t in 0..e - s {
+                    let j = chunk.indices[s + t] as usize;
+                    let (a, b) = (f.at(t, j, false), g.at(t));
+                    assert!(
+                        a.x.to_bits() == b.x.to_bits()
+                            && a.y.to_bits() == b.y.to_bits()
+                            && a.z.to_bits() == b.z.to_bits(),
+                        "pair {t} of particle {i}: {a} from the factor, {b} stored"
+                    );
+                }
+            }
         }
     }
 }
@@ -628,12 +762,51 @@ impl<'a> GradientSlice<'a> {
             Vec3A::new(d[0], d[1], d[2])
         }
     }
+
+    /// [`Self::at`] without the check (the crate's `GradientSlice::at_unchecked`).
+    ///
+    /// # Safety
+    /// `t < self.len`.
+    #[inline(always)]
+    unsafe fn at_unchecked(&self, t: usize) -> Vec3A {
+        debug_assert!(t < self.len);
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::_mm_loadu_ps;
+            // SAFETY: as in `at`, with `t < len` from the caller.
+            Vec3A::from(unsafe { _mm_loadu_ps(self.data.as_ptr().add(3 * t)) })
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            // SAFETY: as above, floats `3t..3t + 3` are inside `data`.
+            let d = unsafe { self.data.get_unchecked(3 * t..3 * t + 3) };
+            Vec3A::new(d[0], d[1], d[2])
+        }
+    }
 }
 
-/// The pair values a pass streams: the packed gradients, or 16-byte ones.
+/// `a[j]`, checked unless `unchecked` (a constant where the passes call it, so each
+/// instantiation has one of the two).
+///
+/// # Safety
+/// With `unchecked`, `j < a.len()`.
+#[inline(always)]
+unsafe fn get<T: Copy>(a: &[T], j: usize, unchecked: bool) -> T {
+    if unchecked {
+        debug_assert!(j < a.len());
+        // SAFETY: the caller's.
+        unsafe { *a.get_unchecked(j) }
+    } else {
+        a[j]
+    }
+}
+
+/// Where a pass gets pair `t`'s gradient from (`j`: the pair's neighbour): the packed
+/// gradients, 16-byte ones, or a factor on the separation recomputed from the positions;
+/// `unchecked`: pair `t`'s slot read without a bounds check (the caller's `t < len()`).
 trait PairValues {
     fn len(&self) -> usize;
-    fn at(&self, t: usize) -> Vec3A;
+    fn at(&self, t: usize, j: usize, unchecked: bool) -> Vec3A;
 }
 
 impl PairValues for GradientSlice<'_> {
@@ -642,8 +815,13 @@ impl PairValues for GradientSlice<'_> {
         self.len
     }
     #[inline(always)]
-    fn at(&self, t: usize) -> Vec3A {
-        GradientSlice::at(self, t)
+    fn at(&self, t: usize, _: usize, unchecked: bool) -> Vec3A {
+        if unchecked {
+            // SAFETY: `pair_sum` reads `t < len` only.
+            unsafe { GradientSlice::at_unchecked(self, t) }
+        } else {
+            GradientSlice::at(self, t)
+        }
     }
 }
 
@@ -653,25 +831,62 @@ impl PairValues for &[Vec3A] {
         <[Vec3A]>::len(self)
     }
     #[inline(always)]
-    fn at(&self, t: usize) -> Vec3A {
+    fn at(&self, t: usize, _: usize, _: bool) -> Vec3A {
         self[t]
+    }
+}
+
+/// A particle's pair gradients as 4-byte factors on the separation: `∇W_ij = (x_i − x_j)·c_ij`,
+/// the neighbour's position gathered (16 bytes, `Vec3A`) and the separation recomputed in the
+/// pass. The same bits as the stored gradient when that was formed as `r·c` with the same `r`
+/// and `c` (checked by `Data::check_factor_gradients` pair by pair and
+/// by [`check_factor_passes`] on the passes' results).
+#[derive(Copy, Clone)]
+struct FactorSlice<'a> {
+    c: &'a [Real],
+    xi: Vec3A,
+    positions: &'a [Vec3A],
+}
+
+impl PairValues for FactorSlice<'_> {
+    #[inline(always)]
+    fn len(&self) -> usize {
+        self.c.len()
+    }
+    /// The factor checked as the packed gradient's slot is ([`GradientSlice::at`]), unless
+    /// `unchecked`; the position always unchecked: [`Data::new`] asserts once that every
+    /// index is below the number of positions (as the crate's passes assert once for the
+    /// arrays they gather from), so the factor loop pays as many checks per pair as the
+    /// packed one (the factor's slot and the neighbour's velocity or pressure value, or none).
+    #[inline(always)]
+    fn at(&self, t: usize, j: usize, unchecked: bool) -> Vec3A {
+        // SAFETY: every neighbour index is below `positions.len()` (asserted in `Data::new`);
+        // with `unchecked`, `pair_sum` reads `t < len` only.
+        let (xj, c) = unsafe { (get(self.positions, j, true), get(self.c, t, unchecked)) };
+        (self.xi - xj) * c
     }
 }
 
 /// `Σ_t term(nb[t], g[t])`, pair `t` into accumulator `t % ACC`, summed as `(a0 + a1) + (a2 +
 /// a3)` (the crate's `solver::dfsph::pair_sum`).
 #[inline(always)]
-fn pair_sum(nb: &[u32], g: impl PairValues, term: impl Fn(usize, Vec3A) -> Vec3A) -> Vec3A {
+fn pair_sum(
+    nb: &[u32],
+    g: impl PairValues,
+    unchecked: bool,
+    term: impl Fn(usize, Vec3A) -> Vec3A,
+) -> Vec3A {
     assert_eq!(g.len(), nb.len(), "one value per pair");
     let mut acc = [Vec3A::ZERO; ACC];
     let full = nb.len() / ACC * ACC;
     for (b, j) in nb[..full].chunks_exact(ACC).enumerate() {
         for l in 0..ACC {
-            acc[l] += term(j[l] as usize, g.at(b * ACC + l));
+            let j = j[l] as usize;
+            acc[l] += term(j, g.at(b * ACC + l, j, unchecked));
         }
     }
     for (l, &j) in nb[full..].iter().enumerate() {
-        acc[l] += term(j as usize, g.at(full + l));
+        acc[l] += term(j as usize, g.at(full + l, j as usize, unchecked));
     }
     (acc[0] + acc[1]) + (acc[2] + acc[3])
 }
@@ -681,10 +896,19 @@ const MASS: Real = 0.125;
 const DT: Real = 0.005;
 const RHO0: Real = 1000.0;
 
+/// Where the passes read their pair gradients: packed (12 bytes a pair), 16 bytes wide, or as
+/// a 4-byte factor on the separation recomputed from the gathered positions.
+const PACKED: u8 = 0;
+const WIDE16: u8 = 1;
+const FACTOR: u8 = 2;
+
 /// DFSPH's rate pass over every chunk (the crate's `rate_pass` with the density solve's
-/// one-sided finish), in parallel over the chunks; `WIDE16`: reading 16-byte gradients
-/// (`Vec3A`, 20 bytes a pair with the index) instead of the packed 12-byte ones.
-fn rate<const WIDE16: bool>(data: &Data, state: &mut State) {
+/// one-sided finish), in parallel over the chunks; `G`: where it reads the gradients
+/// ([`PACKED`]; [`WIDE16`], 20 bytes a pair with the index; [`FACTOR`], 8 bytes a pair with
+/// the index and a gathered position); `U`: the pair's slot and the neighbour's value read
+/// without a bounds check, as the crate's passes now read them (every index was checked
+/// against the particle count when the data was built).
+fn rate<const G: u8, const U: bool>(data: &Data, state: &mut State) {
     let State {
         velocities,
         densities,
@@ -702,7 +926,7 @@ fn rate<const WIDE16: bool>(data: &Data, state: &mut State) {
         .for_each(|(c, ((pi, partial), rates))| {
             *partial = wide(
                 #[inline(always)]
-                || rate_chunk::<WIDE16>(&data.chunks[c], c, arrays, (pi, rates)),
+                || rate_chunk::<G, U>(data, c, arrays, (pi, rates)),
             );
         });
 }
@@ -711,13 +935,15 @@ fn rate<const WIDE16: bool>(data: &Data, state: &mut State) {
 /// v_j)·∇W_ij` into `rates`, the pressure increment into `pi`; returns the chunk's error sum
 /// and largest error.
 #[inline(always)]
-fn rate_chunk<const WIDE16: bool>(
-    chunk: &Chunk,
+fn rate_chunk<const G: u8, const U: bool>(
+    data: &Data,
     c: usize,
     (velocities, densities, alpha): (&[Vec3A], &[Real], &[Real]),
     (pi, rates): (&mut [Real], &mut [Real]),
 ) -> (f64, Real) {
     let inv_dt2 = 1.0 / (DT * DT);
+    assert_eq!(velocities.len(), data.n, "a velocity per particle");
+    let chunk = &data.chunks[c];
     let (offsets, indices) = (&chunk.offsets, &chunk.indices);
     let mut err_sum = 0.0f64;
     let mut err_max: Real = 0.0;
@@ -725,11 +951,13 @@ fn rate_chunk<const WIDE16: bool>(
         let i = c * CHUNK + k;
         let vi = velocities[i];
         let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
-        let term = |j: usize, g: Vec3A| (vi - velocities[j]) * g;
-        let a = if WIDE16 {
-            pair_sum(&indices[s..e], &chunk.grad16[s..e], term)
-        } else {
-            pair_sum(&indices[s..e], GradientSlice::new(&chunk.grad, s, e), term)
+        // SAFETY: every index is below `data.n` (`Data::new`), the velocities' length.
+        let term = |j: usize, g: Vec3A| (vi - unsafe { get(velocities, j, U) }) * g;
+        let nb = &indices[s..e];
+        let a = match G {
+            WIDE16 => pair_sum(nb, &chunk.grad16[s..e], U, term),
+            FACTOR => pair_sum(nb, data.factors(c, i, s, e), U, term),
+            _ => pair_sum(nb, GradientSlice::new(&chunk.grad, s, e), U, term),
         };
         let rate = (a.x + a.y + a.z) * MASS;
         let excess = (densities[i] + DT * rate - RHO0).max(0.0);
@@ -741,13 +969,47 @@ fn rate_chunk<const WIDE16: bool>(
     (err_sum, err_max)
 }
 
+/// The factor passes' results against the packed passes' from the same state, bit for bit
+/// (the rate pass's rates and pressure values, the push's velocities and summed pressure);
+/// the state is left as it was.
+fn check_factor_passes<const U: bool>(data: &Data, state: &mut State) {
+    let bits = |v: &[Real]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let vbits = |v: &[Vec3A]| {
+        v.iter()
+            .flat_map(|x| [x.x.to_bits(), x.y.to_bits(), x.z.to_bits()])
+            .collect::<Vec<_>>()
+    };
+    let (pi0, v0, w0) = (
+        state.pi.clone(),
+        state.velocities.clone(),
+        state.warm.clone(),
+    );
+    rate::<PACKED, U>(data, state);
+    let packed = (bits(&state.rates), bits(&state.pi));
+    rate::<FACTOR, U>(data, state);
+    assert!(
+        packed == (bits(&state.rates), bits(&state.pi)),
+        "the factor rate pass differs from the packed one"
+    );
+    push::<PACKED, U>(data, state);
+    let packed = (vbits(&state.velocities), bits(&state.warm));
+    (state.velocities, state.warm) = (v0.clone(), w0.clone());
+    push::<FACTOR, U>(data, state);
+    assert!(
+        packed == (vbits(&state.velocities), bits(&state.warm)),
+        "the factor push differs from the packed one"
+    );
+    (state.pi, state.velocities, state.warm) = (pi0, v0, w0);
+}
+
 /// Tiny pressure values' scale on the push: the velocities stay finite however many passes
 /// run (the cost does not depend on the values).
 const PUSH_SCALE: Real = DT * MASS * 1e-12;
 
 /// DFSPH's push pass over every chunk (the crate's `apply_pressure` without walls), in
-/// parallel over the chunks.
-fn push(data: &Data, state: &mut State) {
+/// parallel over the chunks; `G`: where it reads the gradients ([`PACKED`] or [`FACTOR`]);
+/// `U` as for [`rate`].
+fn push<const G: u8, const U: bool>(data: &Data, state: &mut State) {
     let State {
         velocities,
         pi,
@@ -762,7 +1024,7 @@ fn push(data: &Data, state: &mut State) {
         .for_each(|(c, (out, warm))| {
             wide(
                 #[inline(always)]
-                || push_chunk(&data.chunks[c], c, pi, (out, warm)),
+                || push_chunk::<G, U>(data, c, pi, (out, warm)),
             );
         });
 }
@@ -770,17 +1032,27 @@ fn push(data: &Data, state: &mut State) {
 /// The push pass over the particles of chunk `c` that `out` holds: `v_i −= dt·m·Σ_j (π_i +
 /// π_j) ∇W_ij`, and the solve's summed pressure `warm += π`.
 #[inline(always)]
-fn push_chunk(chunk: &Chunk, c: usize, pi: &[Real], (out, warm): (&mut [Vec3A], &mut [Real])) {
+fn push_chunk<const G: u8, const U: bool>(
+    data: &Data,
+    c: usize,
+    pi: &[Real],
+    (out, warm): (&mut [Vec3A], &mut [Real]),
+) {
+    assert_eq!(pi.len(), data.n, "a pressure value per particle");
+    let chunk = &data.chunks[c];
     let (offsets, indices) = (&chunk.offsets, &chunk.indices);
     for (k, v) in out.iter_mut().enumerate() {
         let i = c * CHUNK + k;
         let pii = pi[i];
         let (s, e) = (offsets[k] as usize, offsets[k + 1] as usize);
-        let f = pair_sum(
-            &indices[s..e],
-            GradientSlice::new(&chunk.grad, s, e),
-            |j, g| g * (pii + pi[j]),
-        );
+        // SAFETY: every index is below `data.n` (`Data::new`), the pressure values' length.
+        let term = |j: usize, g: Vec3A| g * (pii + unsafe { get(pi, j, U) });
+        let nb = &indices[s..e];
+        let f = if G == FACTOR {
+            pair_sum(nb, data.factors(c, i, s, e), U, term)
+        } else {
+            pair_sum(nb, GradientSlice::new(&chunk.grad, s, e), U, term)
+        };
         let dv = Vector::from(f) * PUSH_SCALE;
         *v -= Vec3A::from(dv);
     }
@@ -793,9 +1065,8 @@ fn push_chunk(chunk: &Chunk, c: usize, pi: &[Real], (out, warm): (&mut [Vec3A], 
 /// The rate pass (`push == false`) or the push pass in L1: each thread replays the first
 /// [`L1_PARTICLES`] particles of the middle chunk (a bulk one) into buffers of its own, for
 /// as many pairs in all as a whole pass visits.
-fn in_l1(data: &Data, state: &State, push: bool) -> f64 {
+fn in_l1<const G: u8, const U: bool>(data: &Data, state: &State, push: bool) -> f64 {
     let c = data.chunks.len() / 2;
-    let chunk = &data.chunks[c];
     let threads = rayon::current_num_threads();
     let replays = data.pairs.div_ceil(data.l1_pairs * threads);
     let arrays = (
@@ -815,11 +1086,16 @@ fn in_l1(data: &Data, state: &State, push: bool) -> f64 {
                     let mut sum = 0.0;
                     for _ in 0..replays {
                         // Opaque inputs: no replay can reuse the last one's work.
-                        let (chunk, arrays) = black_box((chunk, arrays));
+                        let (data, arrays) = black_box((data, arrays));
                         if push {
-                            push_chunk(chunk, c, black_box(&state.pi), (&mut out, &mut rates));
+                            push_chunk::<G, U>(
+                                data,
+                                c,
+                                black_box(&state.pi),
+                                (&mut out, &mut rates),
+                            );
                         } else {
-                            sum += rate_chunk::<false>(chunk, c, arrays, (&mut pi, &mut rates)).0;
+                            sum += rate_chunk::<G, U>(data, c, arrays, (&mut pi, &mut rates)).0;
                         }
                         black_box((&mut out, &mut pi, &mut rates));
                     }
