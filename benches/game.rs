@@ -22,10 +22,10 @@
 //!
 //! `--preset water`, `--preset game` or `--preset water,game` (default) picks the presets,
 //! `--modes` the rows (default `moving,still,asleep`). The DFSPH flags (`--warm-start`,
-//! `--min-iterations`, `--hydrostatic-walls`, `--full-warm-start`, `--max-density-error`,
-//! `--gravity-substep`, which takes `inf` to lift DFSPH's gravity bound on the substep,
-//! `--predict-walls`, `--carry-density-error`, `--chebyshev`, which takes `none` or the
-//! spectral radius estimate `ρ`) change
+//! `--min-iterations`, `--min-divergence-iterations`, `--hydrostatic-walls`,
+//! `--full-warm-start`, `--max-density-error`, `--gravity-substep`, which takes `inf` to
+//! lift DFSPH's gravity bound on the substep, `--predict-walls`, `--carry-density-error`,
+//! `--chebyshev`, which takes `none` or the spectral radius estimate `ρ`) change
 //! the given field of `Dfsph` in every preset's settings; `--particle-radius F` sets the
 //! contact radius (`FluidParams::particle_radius`) to `F` spacings; `--courant C` sets the
 //! pipeline's adaptive Courant number (`TimeStepping::Adaptive`, default 0.4). `--regions` prints, after each row,
@@ -227,6 +227,9 @@ impl Args {
             }
             if let Some(m) = value("--min-iterations").and_then(|s| s.parse().ok()) {
                 dfsph.min_iterations = m;
+            }
+            if let Some(m) = value("--min-divergence-iterations").and_then(|s| s.parse().ok()) {
+                dfsph.min_divergence_iterations = m;
             }
             if let Some(h) = value("--hydrostatic-walls").and_then(|s| s.parse().ok()) {
                 dfsph.hydrostatic_walls = h;
