@@ -108,8 +108,8 @@ fn main() {
 }
 
 /// The salva scene's DFSPH settings: the defaults, or with `--full-warm-start`,
-/// `--carry-density-error` (with the full warm start it needs), `--warm-start F` and
-/// `--chebyshev RHO` (with the full warm start it needs).
+/// `--carry-density-error` (with the full warm start it needs), `--warm-start F`,
+/// `--chebyshev RHO` (with the full warm start it needs) and `--min-divergence-iterations N`.
 fn salva_solver(args: &[String]) -> rapier_sph::Dfsph {
     let has = |flag: &str| args.iter().any(|a| a == flag);
     let mut d = rapier_sph::Dfsph::default();
@@ -123,6 +123,14 @@ fn salva_solver(args: &[String]) -> rapier_sph::Dfsph {
     if let Some(w) = args.windows(2).find(|w| w[0] == "--chebyshev") {
         d.full_warm_start = true;
         d.chebyshev = Some(w[1].parse().expect("--chebyshev takes a spectral radius"));
+    }
+    if let Some(w) = args
+        .windows(2)
+        .find(|w| w[0] == "--min-divergence-iterations")
+    {
+        d.min_divergence_iterations = w[1]
+            .parse()
+            .expect("--min-divergence-iterations takes a count");
     }
     d
 }

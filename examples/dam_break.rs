@@ -91,6 +91,10 @@ struct Args {
     /// estimate (`Dfsph::chebyshev`; implies --full-warm-start).
     #[arg(long, value_name = "RHO")]
     chebyshev: Option<f32>,
+    /// DFSPH only: divergence iterations always run (`Dfsph::min_divergence_iterations`;
+    /// default 1; at 0 the solve stops as soon as its warm start meets its target).
+    #[arg(long, value_name = "N")]
+    min_divergence_iterations: Option<u32>,
     /// Akinci's surface tension `γ` (`FluidParamsBuilder::surface_tension`; default 0, off).
     #[arg(long)]
     surface_tension: Option<f32>,
@@ -203,12 +207,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if (args.hydrostatic_walls.is_some()
         || args.full_warm_start
         || args.carry_density_error
-        || args.chebyshev.is_some())
+        || args.chebyshev.is_some()
+        || args.min_divergence_iterations.is_some())
         && !dfsph
     {
         return Err(
-            "--hydrostatic-walls, --full-warm-start, --carry-density-error and \
-                    --chebyshev are DFSPH settings: add --solver dfsph"
+            "--hydrostatic-walls, --full-warm-start, --carry-density-error, --chebyshev \
+                    and --min-divergence-iterations are DFSPH settings: add --solver dfsph"
                 .into(),
         );
     }
@@ -234,6 +239,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 || args.chebyshev.is_some(),
             carry_density_error: args.carry_density_error,
             chebyshev: args.chebyshev,
+            min_divergence_iterations: args
+                .min_divergence_iterations
+                .unwrap_or(defaults.min_divergence_iterations),
             ..defaults
         }));
     }
