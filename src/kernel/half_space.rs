@@ -154,17 +154,37 @@ impl HalfSpaceTable {
     /// a NaN distance.
     #[inline]
     fn lookup(&self, d: Real, v: &[Real]) -> (Real, Real) {
-        if self.phi.is_empty() {
+        let Some((k, t)) = self.interval(d) else {
             return (0.0, 0.0);
+        };
+        let lerp = |v: &[Real]| v[k] + (v[k + 1] - v[k]) * t;
+        (lerp(&self.phi), lerp(v))
+    }
+
+    /// The interval `k` of `d` and the position `t ∈ [0, 1]` in it; `None` for an empty
+    /// table or a NaN distance.
+    #[inline(always)]
+    fn interval(&self, d: Real) -> Option<(usize, Real)> {
+        if self.phi.is_empty() {
+            return None;
         }
         let x = ((d + self.h) * self.inv_step).clamp(0.0, INTERVALS as Real);
         if x.is_nan() {
-            return (0.0, 0.0);
+            return None;
         }
         let k = (x as usize).min(INTERVALS - 1);
-        let t = x - k as Real;
+        Some((k, x - k as Real))
+    }
+
+    /// `(Φ(d), A(d), M(d))`: [`Self::eval`] and [`Self::eval_moment`] in one look-up (the
+    /// same values to the last bit, the interval found once).
+    #[inline]
+    pub fn eval_with_moment(&self, d: Real) -> (Real, Real, Real) {
+        let Some((k, t)) = self.interval(d) else {
+            return (0.0, 0.0, 0.0);
+        };
         let lerp = |v: &[Real]| v[k] + (v[k + 1] - v[k]) * t;
-        (lerp(&self.phi), lerp(v))
+        (lerp(&self.phi), lerp(&self.area), lerp(&self.moment))
     }
 
     /// `(Φ(d), M(d))`: the wall's share of the kernel's first moment. The moment
@@ -234,6 +254,35 @@ mod tests {
             assert!(v <= last);
             last = v;
         }
+    }
+
+    /// The one-look-up `eval_with_moment` gives `eval` and `eval_moment` to the last bit,
+    /// across the table, at its ends, beyond them and for a NaN distance.
+    #[test]
+    fn eval_with_moment_matches_the_separate_lookups() {
+        let h: Real = 0.075;
+        let t = HalfSpaceTable::new::<CubicSpline>(h, 0.5 * h);
+        let mut ds: Vec<Real> = (-1200..=1200).map(|k| k as Real * 1e-3 * h).collect();
+        ds.extend([
+            -h,
+            h,
+            0.0,
+            -0.0,
+            Real::NAN,
+            Real::INFINITY,
+            Real::NEG_INFINITY,
+        ]);
+        for d in ds {
+            let (phi, area, moment) = t.eval_with_moment(d);
+            let (phi1, area1) = t.eval(d);
+            let (phi2, moment2) = t.eval_moment(d);
+            assert_eq!(phi.to_bits(), phi1.to_bits(), "Φ at {d}");
+            assert_eq!(phi.to_bits(), phi2.to_bits(), "Φ at {d}");
+            assert_eq!(area.to_bits(), area1.to_bits(), "A at {d}");
+            assert_eq!(moment.to_bits(), moment2.to_bits(), "M at {d}");
+        }
+        let empty = HalfSpaceTable::default();
+        assert_eq!(empty.eval_with_moment(0.0), (0.0, 0.0, 0.0));
     }
 
     #[test]

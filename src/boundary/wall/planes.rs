@@ -37,6 +37,14 @@ impl WallPlanes {
     /// `count` of a particle with more walls near than [`MAX_PLANES`].
     pub const OVERFLOW: u8 = u8::MAX;
 
+    /// No wall kept (the same as `default()`).
+    pub const EMPTY: WallPlanes = WallPlanes {
+        distance: [0.0; MAX_PLANES],
+        normal: [Vector::ZERO; MAX_PLANES],
+        speed: [0.0; MAX_PLANES],
+        count: 0,
+    };
+
     /// Adds a wall (or marks the particle as having too many).
     #[inline(always)]
     pub fn push(&mut self, distance: Real, normal: Vector, speed: Real) {

@@ -8,8 +8,10 @@ use crate::boundary::ContactWorkspace;
 use crate::boundary::bodies::{MovingCollider, entry_of};
 use crate::boundary::forces::{ParticleShares, Share, WallSink, Watch};
 use crate::kernel::HalfSpaceTable;
-use crate::math::{Real, Vector};
+use crate::math::{Pose, Real, Vector};
 use crate::neighbors::{NeighborGrid, NeighborLists};
+use rapier3d::dynamics::RigidBody;
+use rapier3d::geometry::{Collider, ColliderHandle};
 
 /// What [`WallWorkspace::update`](super::WallWorkspace::update) reads for every particle.
 pub(super) struct Terms<'a> {
@@ -56,32 +58,117 @@ struct Sum {
     planes: WallPlanes,
 }
 
-impl Terms<'_> {
-    /// The wall terms of sorted particle `i`; each wall's own terms go to `sink` as they are
-    /// united (`()`: nowhere; see `boundary::forces`).
+impl Sum {
+    /// No wall: what a particle without candidates gets.
+    const ZERO: Sum = Sum {
+        u: 0.0,
+        g: Vector::ZERO,
+        m: 0.0,
+        hs: Vector::ZERO,
+        gc: Vector::ZERO,
+        hc: Vector::ZERO,
+        main: (0.0, u32::MAX, Vector::ZERO),
+        ls: 0.0,
+        lv: Vector::ZERO,
+        lc: 0.0,
+        lvc: Vector::ZERO,
+        planes: WallPlanes::EMPTY,
+    };
+
+    /// Back to [`Sum::ZERO`] field by field (a whole-struct assignment copied its 200 bytes
+    /// with `memcpy` for every particle); the planes only when they are kept (`planes`):
+    /// otherwise nothing writes them and they stay empty.
     #[inline(always)]
-    fn particle<W: WallSink>(&self, i: usize, sink: &mut W) -> Sum {
-        let x = self.positions[i];
-        let mut s = Sum {
-            u: 0.0,
-            g: Vector::ZERO,
-            m: 0.0,
-            hs: Vector::ZERO,
-            gc: Vector::ZERO,
-            hc: Vector::ZERO,
-            main: (0.0, u32::MAX, Vector::ZERO),
-            ls: 0.0,
-            lv: Vector::ZERO,
-            lc: 0.0,
-            lvc: Vector::ZERO,
-            planes: WallPlanes::default(),
-        };
-        let (_, colliders, _) = self.query.scene;
-        for &handle in self.candidates.of_cell(self.grid.cell_of(i)) {
-            if let Some(co) = colliders.get(handle) {
-                sink.begin(handle);
-                self.add_wall(&mut s, co, entry_of(self.table, handle), x, sink);
+    fn reset(&mut self, planes: bool) {
+        self.u = 0.0;
+        self.g = Vector::ZERO;
+        self.m = 0.0;
+        self.hs = Vector::ZERO;
+        self.gc = Vector::ZERO;
+        self.hc = Vector::ZERO;
+        self.main = (0.0, u32::MAX, Vector::ZERO);
+        self.ls = 0.0;
+        self.lv = Vector::ZERO;
+        self.lc = 0.0;
+        self.lvc = Vector::ZERO;
+        if planes {
+            self.planes = WallPlanes::EMPTY;
+        }
+    }
+}
+
+/// A candidate collider of one cell with what the wall terms read of it besides its shape,
+/// looked up once per cell instead of once per particle (the particles are sorted by cell):
+/// the collider, its coupling-table entry, the pose it stands at, and, outside the table,
+/// the non-fixed body it moves with.
+#[derive(Copy, Clone)]
+struct Wall<'a> {
+    handle: ColliderHandle,
+    co: &'a Collider,
+    found: Option<(u32, &'a MovingCollider)>,
+    pose: &'a Pose,
+    body: Option<&'a RigidBody>,
+}
+
+/// The resolved candidates ([`Wall`]) of the cell last asked for.
+#[derive(Default)]
+struct CellWalls<'a> {
+    cell: Option<u32>,
+    walls: Vec<Wall<'a>>,
+}
+
+impl<'a> CellWalls<'a> {
+    /// The resolved candidates of sorted particle `i`'s cell, in the candidates' order
+    /// (colliders no longer in the set left out).
+    #[inline(always)]
+    fn of(&mut self, t: &Terms<'a>, i: usize) -> &[Wall<'a>] {
+        let cell = t.grid.cell_of(i);
+        if self.cell != Some(cell) {
+            self.cell = Some(cell);
+            self.walls.clear();
+            let (_, colliders, bodies) = t.query.scene;
+            for &handle in t.candidates.of_cell(cell) {
+                let Some(co) = colliders.get(handle) else {
+                    continue;
+                };
+                let found = entry_of(t.table, handle);
+                // A moving body stands at its pose of the substep's start, or of its end for
+                // positions predicted to the end.
+                let pose = match found {
+                    Some((_, m)) if m.moving && t.query.predicted => &m.stop,
+                    Some((_, m)) if m.moving => &m.start,
+                    _ => co.position(),
+                };
+                let body = match found {
+                    Some(_) => None,
+                    None => co
+                        .parent()
+                        .and_then(|b| bodies.get(b))
+                        .filter(|b| !b.is_fixed()),
+                };
+                self.walls.push(Wall {
+                    handle,
+                    co,
+                    found,
+                    pose,
+                    body,
+                });
             }
+        }
+        &self.walls
+    }
+}
+
+impl<'a> Terms<'a> {
+    /// The wall terms of sorted particle `i`, whose cell's candidates are `walls`, into `s`
+    /// (which must be [`Sum::ZERO`], or reset to it); each wall's own terms go to `sink` as
+    /// they are united (`()`: nowhere; see `boundary::forces`).
+    #[inline(always)]
+    fn particle<W: WallSink>(&self, i: usize, walls: &[Wall<'a>], s: &mut Sum, sink: &mut W) {
+        let x = self.positions[i];
+        for w in walls {
+            sink.begin(w.handle);
+            self.add_wall(s, w, x, sink);
         }
         if self.hydro && s.g != Vector::ZERO {
             // The neighbours' pressure is carried back to the particle by the hydrostatic
@@ -95,42 +182,26 @@ impl Terms<'_> {
                 s.hc += s.gc * c;
             }
         }
-        s
     }
 
-    /// Adds collider `co` (coupling-table entry `found`, if any) to the terms `s` of the
-    /// particle at `x`.
+    /// Adds wall `w` to the terms `s` of the particle at `x`.
     #[inline(always)]
-    fn add_wall<W: WallSink>(
-        &self,
-        s: &mut Sum,
-        co: &rapier3d::geometry::Collider,
-        found: Option<(u32, &MovingCollider)>,
-        x: Vector,
-        sink: &mut W,
-    ) {
-        let (h, predicted) = (self.query.params.smoothing_length, self.query.predicted);
+    fn add_wall<W: WallSink>(&self, s: &mut Sum, w: &Wall<'_>, x: Vector, sink: &mut W) {
+        let h = self.query.params.smoothing_length;
         let (full_d, full_f) = self.full;
-        // A moving body stands at its pose of the substep's start, or of its end for
-        // positions predicted to the end.
-        let entry = found.map(|(_, m)| m);
-        let pose = match entry {
-            Some(m) if m.moving && predicted => &m.stop,
-            Some(m) if m.moving => &m.start,
-            _ => co.position(),
-        };
-        let Some((d, normal, point)) = surface_near(co, pose, x, h) else {
+        let found = w.found;
+        let Some((d, normal, point)) = surface_near(w.co, w.pose, x, h) else {
             return;
         };
         if self.query.planes {
             // Every wall within the support, also one the particle does not reach yet.
-            let speed = self
-                .wall_velocity(co, entry, point)
-                .map_or(0.0, |v| v.dot(normal));
+            let speed = self.wall_velocity(w, point).map_or(0.0, |v| v.dot(normal));
             s.planes.push(d, normal, speed);
         }
         let (phi, _) = self.td.eval(d);
-        let (_, area) = self.tf.eval(d);
+        // The force kernel's three values in one look-up (the moment is read with the
+        // hydrostatic terms only).
+        let (phi_f, area, mom) = self.tf.eval_with_moment(d);
         let a = (phi / full_d).min(1.0);
         let lk = if self.query.viscous {
             self.lap.half_space_integral(d) * (1.0 - s.u)
@@ -140,14 +211,13 @@ impl Terms<'_> {
         if a <= 0.0 && area <= 0.0 && lk <= 0.0 {
             return;
         }
-        let wall_velocity = self.wall_velocity(co, entry, point);
+        let wall_velocity = self.wall_velocity(w, point);
         // ∇Φ = −A(d)·n (into the wall), in units of the whole kernel.
         let ga = -normal * (area / full_f);
         let gk = ga * (1.0 - s.u);
         let mut hk = Vector::ZERO;
         if self.hydro {
             let gravity = self.gravity;
-            let (phi_f, mom) = self.tf.eval_moment(d);
             let gn = normal * normal.dot(gravity);
             hk = -(gn * mom + (gravity - gn) * phi_f) * (1.0 - s.u);
             s.hs = s.hs * (1.0 - a) + hk;
@@ -183,24 +253,14 @@ impl Terms<'_> {
         }
     }
 
-    /// The wall's velocity at its closest point `point` (static: none).
+    /// Wall `w`'s velocity at its closest point `point` (static: none).
     #[inline(always)]
-    fn wall_velocity(
-        &self,
-        co: &rapier3d::geometry::Collider,
-        entry: Option<&MovingCollider>,
-        point: Vector,
-    ) -> Option<Vector> {
-        let (_, _, bodies) = self.query.scene;
-        match entry {
-            Some(mc) if mc.moving && self.query.predicted => Some(mc.velocity_at_stop(point)),
-            Some(mc) if mc.moving => Some(mc.velocity_at_start(point)),
+    fn wall_velocity(&self, w: &Wall<'_>, point: Vector) -> Option<Vector> {
+        match w.found {
+            Some((_, mc)) if mc.moving && self.query.predicted => Some(mc.velocity_at_stop(point)),
+            Some((_, mc)) if mc.moving => Some(mc.velocity_at_start(point)),
             Some(_) => None,
-            None => co
-                .parent()
-                .and_then(|b| bodies.get(b))
-                .filter(|b| !b.is_fixed())
-                .map(|b| b.velocity_at_point(point)),
+            None => w.body.map(|b| b.velocity_at_point(point)),
         }
     }
 
@@ -238,21 +298,39 @@ impl Terms<'_> {
 /// The wall terms of the particles of one chunk (`first`: its first particle) into its
 /// rows; with `watch`, the watched colliders' shares too, into the chunk's own buffer `out`
 /// (so the shares stay in particle order). Returns how many particles have a wall near.
+///
+/// A cell's candidates are resolved once for its particles (see [`CellWalls`]); a particle
+/// whose cell has none gets the rows of [`Sum::ZERO`] without the walls' loop. The counts
+/// that led here are in docs/performance.md ("The walls' stage, counted").
 #[inline]
-pub(super) fn update_chunk(
+pub(super) fn update_chunk<'a>(
     first: usize,
     mut rows: Rows<'_>,
-    terms: &Terms<'_>,
+    terms: &Terms<'a>,
     watch: Option<&Watch>,
     out: &mut Vec<Share>,
 ) -> usize {
+    let mut cells = CellWalls::default();
+    let mut s = Sum::ZERO;
     let Some(watch) = watch else {
         return (0..rows.density.len())
-            .map(|k| rows.set(k, terms, &terms.particle(first + k, &mut ())))
+            .map(|k| {
+                let walls = cells.of(terms, first + k);
+                if walls.is_empty() {
+                    return rows.set(k, terms, &Sum::ZERO);
+                }
+                s.reset(terms.query.planes);
+                terms.particle(first + k, walls, &mut s, &mut ());
+                rows.set(k, terms, &s)
+            })
             .sum::<usize>();
     };
     (0..rows.density.len())
         .map(|k| {
+            let walls = cells.of(terms, first + k);
+            if walls.is_empty() {
+                return rows.set(k, terms, &Sum::ZERO);
+            }
             let mut sink = ParticleShares {
                 watch,
                 particle: (first + k) as u32,
@@ -260,7 +338,9 @@ pub(super) fn update_chunk(
                 out: &mut *out,
                 current: None,
             };
-            rows.set(k, terms, &terms.particle(first + k, &mut sink))
+            s.reset(terms.query.planes);
+            terms.particle(first + k, walls, &mut s, &mut sink);
+            rows.set(k, terms, &s)
         })
         .sum::<usize>()
 }
