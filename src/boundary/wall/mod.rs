@@ -57,7 +57,7 @@ mod planes;
 mod terms;
 pub(crate) use planes::WallPlanes;
 pub(crate) use terms::surface_near;
-use terms::{Rows, Terms, clavet_walls, update_chunk};
+use terms::{Rows, Terms, WallSlot, clavet_walls, update_chunk};
 
 /// What the wall stage reads besides the particles: the fluid's parameters, what its solver
 /// asks for, and the rapier side.
@@ -203,6 +203,9 @@ pub struct WallWorkspace {
     /// Per chunk of particles, each particle's walls as planes (empty unless
     /// [`WallQuery::planes`]; see [`Self::predicted_density`]).
     pub(crate) plane_chunks: Vec<Vec<WallPlanes>>,
+    /// Per chunk of particles, the candidates of the cell being updated, resolved once for
+    /// the cell's particles (kept between updates: a warm step allocates nothing).
+    cell_walls: Vec<Vec<WallSlot>>,
     /// `ρ0` times the density kernel's full integral: the walls' density of a coverage of 1.
     plane_density: Real,
 }
@@ -400,6 +403,8 @@ impl WallWorkspace {
         }
         self.plane_chunks
             .resize_with(positions.len().div_ceil(CHUNK), Vec::new);
+        self.cell_walls
+            .resize_with(positions.len().div_ceil(CHUNK), Vec::new);
         if !self.candidates.any() || !query.planes {
             self.plane_chunks.iter_mut().for_each(Vec::clear);
         }
@@ -437,10 +442,10 @@ impl WallWorkspace {
             .zip(crate::par_chunks_mut!(self.viscous_velocity, CHUNK))
             .zip(crate::par_iter_mut!(self.share_chunks[..]))
             .zip(crate::par_iter_mut!(self.plane_chunks[..]))
+            .zip(crate::par_iter_mut!(self.cell_walls[..]))
             .enumerate()
-            .map(
-                |(
-                    c,
+            .map(|(c, tuple)| {
+                let (
                     (
                         (
                             (
@@ -457,24 +462,24 @@ impl WallWorkspace {
                         ),
                         planes,
                     ),
-                )| {
-                    if query.planes {
-                        planes.resize(density.len(), WallPlanes::default());
-                    }
-                    let rows = Rows {
-                        density,
-                        gradient,
-                        motion,
-                        coverage,
-                        coupled,
-                        hydrostatic,
-                        viscous,
-                        viscous_velocity,
-                        planes,
-                    };
-                    update_chunk(c * CHUNK, rows, &terms, watch, out)
-                },
-            )
+                    slots,
+                ) = tuple;
+                if query.planes {
+                    planes.resize(density.len(), WallPlanes::default());
+                }
+                let rows = Rows {
+                    density,
+                    gradient,
+                    motion,
+                    coverage,
+                    coupled,
+                    hydrostatic,
+                    viscous,
+                    viscous_velocity,
+                    planes,
+                };
+                update_chunk(c * CHUNK, rows, &terms, watch, (out, slots))
+            })
             .sum();
         self.near = near;
         near
@@ -636,6 +641,11 @@ impl WallWorkspace {
                 .share_chunks
                 .iter()
                 .map(|c| c.capacity() * std::mem::size_of::<Share>() + 24)
+                .sum::<usize>()
+            + self
+                .cell_walls
+                .iter()
+                .map(|c| c.capacity() * std::mem::size_of::<WallSlot>() + 24)
                 .sum::<usize>()
     }
 }

@@ -10,7 +10,7 @@ use crate::boundary::forces::{ParticleShares, Share, WallSink, Watch};
 use crate::kernel::HalfSpaceTable;
 use crate::math::{Pose, Real, Vector};
 use crate::neighbors::{NeighborGrid, NeighborLists};
-use rapier3d::dynamics::RigidBody;
+use rapier3d::dynamics::{RigidBody, RigidBodyHandle};
 use rapier3d::geometry::{Collider, ColliderHandle};
 
 /// What [`WallWorkspace::update`](super::WallWorkspace::update) reads for every particle.
@@ -110,22 +110,39 @@ struct Wall<'a> {
     body: Option<&'a RigidBody>,
 }
 
-/// The resolved candidates ([`Wall`]) of the cell last asked for.
-#[derive(Default)]
-struct CellWalls<'a> {
-    cell: Option<u32>,
-    walls: Vec<Wall<'a>>,
+/// What [`Wall`] holds, by handle and index, so that it outlives one update: each chunk of
+/// particles keeps its buffer of these between updates (`WallWorkspace::cell_walls`), and a
+/// warm step allocates nothing for them. The collider and the body are looked up by handle
+/// again per particle (an arena index); the tree search, the table's binary search and the
+/// pose's choice are not repeated.
+#[derive(Copy, Clone, Debug)]
+pub(crate) struct WallSlot {
+    handle: ColliderHandle,
+    entry: Option<u32>,
+    pose: Pose,
+    body: Option<RigidBodyHandle>,
 }
 
-impl<'a> CellWalls<'a> {
+/// The resolved candidates ([`WallSlot`]) of the cell last asked for, in a chunk's buffer.
+struct CellWalls<'b> {
+    cell: Option<u32>,
+    slots: &'b mut Vec<WallSlot>,
+}
+
+impl<'b> CellWalls<'b> {
+    fn new(slots: &'b mut Vec<WallSlot>) -> Self {
+        slots.clear();
+        Self { cell: None, slots }
+    }
+
     /// The resolved candidates of sorted particle `i`'s cell, in the candidates' order
     /// (colliders no longer in the set left out).
     #[inline(always)]
-    fn of(&mut self, t: &Terms<'a>, i: usize) -> &[Wall<'a>] {
+    fn of(&mut self, t: &Terms<'_>, i: usize) -> &[WallSlot] {
         let cell = t.grid.cell_of(i);
         if self.cell != Some(cell) {
             self.cell = Some(cell);
-            self.walls.clear();
+            self.slots.clear();
             let (_, colliders, bodies) = t.query.scene;
             for &handle in t.candidates.of_cell(cell) {
                 let Some(co) = colliders.get(handle) else {
@@ -135,27 +152,25 @@ impl<'a> CellWalls<'a> {
                 // A moving body stands at its pose of the substep's start, or of its end for
                 // positions predicted to the end.
                 let pose = match found {
-                    Some((_, m)) if m.moving && t.query.predicted => &m.stop,
-                    Some((_, m)) if m.moving => &m.start,
-                    _ => co.position(),
+                    Some((_, m)) if m.moving && t.query.predicted => m.stop,
+                    Some((_, m)) if m.moving => m.start,
+                    _ => *co.position(),
                 };
                 let body = match found {
                     Some(_) => None,
                     None => co
                         .parent()
-                        .and_then(|b| bodies.get(b))
-                        .filter(|b| !b.is_fixed()),
+                        .filter(|&b| bodies.get(b).is_some_and(|b| !b.is_fixed())),
                 };
-                self.walls.push(Wall {
+                self.slots.push(WallSlot {
                     handle,
-                    co,
-                    found,
+                    entry: found.map(|(k, _)| k),
                     pose,
                     body,
                 });
             }
         }
-        &self.walls
+        self.slots
     }
 }
 
@@ -164,11 +179,23 @@ impl<'a> Terms<'a> {
     /// (which must be [`Sum::ZERO`], or reset to it); each wall's own terms go to `sink` as
     /// they are united (`()`: nowhere; see `boundary::forces`).
     #[inline(always)]
-    fn particle<W: WallSink>(&self, i: usize, walls: &[Wall<'a>], s: &mut Sum, sink: &mut W) {
+    fn particle<W: WallSink>(&self, i: usize, walls: &[WallSlot], s: &mut Sum, sink: &mut W) {
         let x = self.positions[i];
-        for w in walls {
+        let (_, colliders, bodies) = self.query.scene;
+        for slot in walls {
+            // Found when the cell's candidates were resolved, in this update.
+            let Some(co) = colliders.get(slot.handle) else {
+                continue;
+            };
+            let w = Wall {
+                handle: slot.handle,
+                co,
+                found: slot.entry.map(|k| (k, &self.table[k as usize])),
+                pose: &slot.pose,
+                body: slot.body.and_then(|b| bodies.get(b)),
+            };
             sink.begin(w.handle);
-            self.add_wall(s, w, x, sink);
+            self.add_wall(s, &w, x, sink);
         }
         if self.hydro && s.g != Vector::ZERO {
             // The neighbours' pressure is carried back to the particle by the hydrostatic
@@ -303,14 +330,14 @@ impl<'a> Terms<'a> {
 /// whose cell has none gets the rows of [`Sum::ZERO`] without the walls' loop. The counts
 /// that led here are in docs/performance.md ("The walls' stage, counted").
 #[inline]
-pub(super) fn update_chunk<'a>(
+pub(super) fn update_chunk(
     first: usize,
     mut rows: Rows<'_>,
-    terms: &Terms<'a>,
+    terms: &Terms<'_>,
     watch: Option<&Watch>,
-    out: &mut Vec<Share>,
+    (out, slots): (&mut Vec<Share>, &mut Vec<WallSlot>),
 ) -> usize {
-    let mut cells = CellWalls::default();
+    let mut cells = CellWalls::new(slots);
     let mut s = Sum::ZERO;
     let Some(watch) = watch else {
         return (0..rows.density.len())
