@@ -97,10 +97,9 @@ impl Sum {
     }
 }
 
-/// A candidate collider of one cell with what the wall terms read of it besides its shape,
-/// looked up once per cell instead of once per particle (the particles are sorted by cell):
-/// the collider, its coupling-table entry, the pose it stands at, and, outside the table,
-/// the non-fixed body it moves with.
+/// A candidate collider with what the wall terms read of it besides its shape: the
+/// collider, its coupling-table entry, the pose it stands at, and, outside the table, the
+/// non-fixed body it moves with (made per particle from its cell's [`WallSlot`]).
 #[derive(Copy, Clone)]
 struct Wall<'a> {
     handle: ColliderHandle,
@@ -110,7 +109,8 @@ struct Wall<'a> {
     body: Option<&'a RigidBody>,
 }
 
-/// What [`Wall`] holds, by handle and index, so that it outlives one update: each chunk of
+/// What [`Wall`] holds, by handle and index, resolved once per cell instead of once per
+/// particle (the particles are sorted by cell), and so that it outlives one update: each chunk of
 /// particles keeps its buffer of these between updates (`WallWorkspace::cell_walls`), and a
 /// warm step allocates nothing for them. The collider and the body are looked up by handle
 /// again per particle (an arena index); the tree search, the table's binary search and the
